@@ -1,0 +1,3 @@
+from stlplan.cli import main
+
+main()

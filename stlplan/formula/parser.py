@@ -1,0 +1,201 @@
+"""Text to formula tree (lark) and formula tree back to text."""
+
+from __future__ import annotations
+
+from functools import cache
+from importlib import resources
+
+from lark import Lark, Token, Transformer, v_args
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, VisitError
+
+from stlplan.errors import FormulaError
+from stlplan.formula.tree import (
+    Always,
+    And,
+    Distance,
+    Eventually,
+    Formula,
+    InRegion,
+    Interval,
+    Linear,
+    Not,
+    Or,
+    Predicate,
+    Term,
+    Until,
+    negate,
+)
+
+RESERVED = frozenset({"G", "F", "U", "in", "dist", "x"})
+
+
+@cache
+def _lark() -> Lark:
+    text = resources.files("stlplan.formula").joinpath("grammar.lark").read_text()
+    return Lark(text, parser="lalr", lexer="contextual", propagate_positions=False)
+
+
+@v_args(inline=True)
+class _ToTree(Transformer):  # type: ignore[type-arg]
+    """Calls the tree constructors bottom-up; ``!`` is pushed down to atoms."""
+
+    def disjunction(self, *items: Formula) -> Formula:
+        return Or(tuple(items))
+
+    def conjunction(self, *items: Formula) -> Formula:
+        return And(tuple(items))
+
+    def until(self, left: Formula, _op: Token, interval: Interval, right: Formula) -> Formula:
+        return Until(interval, left, right)
+
+    def negation(self, _op: Token, child: Formula) -> Formula:
+        return negate(child)
+
+    def always(self, _op: Token, interval: Interval, child: Formula) -> Formula:
+        return Always(interval, child)
+
+    def eventually(self, _op: Token, interval: Interval, child: Formula) -> Formula:
+        return Eventually(interval, child)
+
+    def interval(self, lo: Token, hi: Token) -> Interval:
+        return Interval(int(lo), int(hi))
+
+    def in_region(self, role: Token, region: Token) -> Formula:
+        return InRegion(_role(role), str(region))
+
+    def distance(self, left: Token, right: Token, op: Token, radius: float) -> Formula:
+        if radius < 0:
+            raise FormulaError(f"distance bound must be >= 0, found {_num(radius)}")
+        return Distance(_role(left), _role(right), _cmp(op), radius)
+
+    def linear(self, terms: tuple[Term, ...], op: Token, bound: float) -> Formula:
+        return Linear(terms, _cmp(op), bound)
+
+    def linear_sum(self, *items: Token | Term) -> tuple[Term, ...]:
+        signs: list[str] = ["+"] if isinstance(items[0], Term) else []
+        terms: list[Term] = []
+        for item in items:
+            if isinstance(item, Term):
+                negative = signs[len(terms)] == "-"
+                terms.append(Term(-item.coef, item.role, item.component) if negative else item)
+            else:
+                signs.append(str(item))
+        return tuple(terms)
+
+    def term(self, *items: Token) -> Term:
+        coef = float(items[0]) if len(items) == 3 else 1.0
+        return Term(coef, _role(items[-2]), int(items[-1]))
+
+    def number(self, *items: Token) -> float:
+        value = float(items[-1])
+        return -value if len(items) == 2 and items[0] == "-" else value
+
+
+def _role(token: object) -> str:
+    name = str(token)
+    if name in RESERVED:
+        raise FormulaError(f"'{name}' is a reserved word and cannot name a role")
+    return name
+
+
+def _cmp(token: Token) -> str:  # narrowed by the grammar to '<=' or '>='
+    return "<=" if str(token) == "<=" else ">="
+
+
+def parse(text: str, *, source: str | None = None, where: str | None = None) -> Formula:
+    """Parse ``text`` into a formula tree.
+
+    Raises
+    ------
+    FormulaError
+        With the line and column of a syntax error and a caret under it.
+    """
+    try:
+        return _ToTree().transform(_lark().parse(text))  # type: ignore[no-any-return]
+    except VisitError as exc:
+        if isinstance(exc.orig_exc, FormulaError):
+            raise FormulaError(exc.orig_exc.message, source=source, where=where) from None
+        raise
+    except FormulaError as exc:
+        raise FormulaError(exc.message, source=source, where=where) from None
+    except UnexpectedInput as exc:
+        raise FormulaError(_syntax_message(text, exc), source=source, where=where) from None
+
+
+def _syntax_message(text: str, exc: UnexpectedInput) -> str:
+    line, column = max(exc.line, 1), max(exc.column, 1)
+    token = getattr(exc, "token", None)
+    if isinstance(exc, UnexpectedEOF) or (token is not None and token.type == "$END"):
+        lines = text.splitlines() or [""]
+        line, column = len(lines), len(lines[-1]) + 1
+        found = "end of formula"
+    elif isinstance(exc, UnexpectedCharacters):
+        found = f"character {text[exc.pos_in_stream]!r}"
+    else:
+        found = repr(str(token))
+    expected = sorted(getattr(exc, "expected", None) or getattr(exc, "allowed", None) or [])
+    hint = f"; expected one of: {', '.join(_pretty(e) for e in expected)}" if expected else ""
+    source_line = (text.splitlines() or [""])[line - 1] if text else ""
+    caret = " " * (column - 1) + "^"
+    return f"formula syntax error at line {line}, column {column}: unexpected {found}{hint}\n  {source_line}\n  {caret}"
+
+
+_TERMINAL_TEXT = {
+    "LPAR": "'('", "RPAR": "')'", "COMMA": "','", "LSQB": "'['", "RSQB": "']'",
+    "NOT": "'!'", "ALWAYS": "'G'", "EVENTUALLY": "'F'", "UNTIL": "'U'", "AMPERSAND": "'&'",
+    "VBAR": "'|'", "STAR": "'*'", "DOT": "'.'", "SIGN": "'+' or '-'",
+    "COMPARISON": "'<=' or '>='", "UNSIGNED": "a number", "INT": "an integer", "NAME": "a name",
+    "IN": "'in'", "DIST": "'dist'", "X": "'x'", "$END": "end of formula",
+}
+
+
+def _pretty(terminal: str) -> str:
+    return _TERMINAL_TEXT.get(terminal, terminal)
+
+
+def _num(value: float) -> str:
+    return str(int(value)) if float(value).is_integer() and abs(value) < 1e15 else repr(float(value))
+
+
+def _terms_text(terms: tuple[Term, ...]) -> str:
+    parts = []
+    for i, t in enumerate(terms):
+        sign = "-" if t.coef < 0 else "+"
+        mag = abs(t.coef)
+        body = f"{t.role}.x[{t.component}]" if mag == 1 else f"{_num(mag)}*{t.role}.x[{t.component}]"
+        parts.append(("-" if sign == "-" else "") + body if i == 0 else f" {sign} {body}")
+    return "".join(parts)
+
+
+def _wrap(formula: Formula) -> str:
+    text = to_text(formula)
+    return f"({text})" if isinstance(formula, (And, Or, Until)) else text
+
+
+def to_text(formula: Formula) -> str:
+    """Print ``formula`` in the grammar's syntax; ``parse(to_text(f)) == f`` for parser trees."""
+    if isinstance(formula, InRegion):
+        return f"in({formula.role}, {formula.region})"
+    if isinstance(formula, Distance):
+        return f"dist({formula.left}, {formula.right}) {formula.op} {_num(formula.radius)}"
+    if isinstance(formula, Linear):
+        return f"{_terms_text(formula.terms)} {formula.op} {_num(formula.bound)}"
+    if isinstance(formula, Predicate):
+        return f"{_terms_text(formula.terms)} >= {_num(formula.bound)}"
+    if isinstance(formula, Not):
+        return f"!{_wrap_atom(formula.atom)}"
+    if isinstance(formula, And):
+        return " & ".join(_wrap(c) for c in formula.children)
+    if isinstance(formula, Or):
+        return " | ".join(_wrap(c) for c in formula.children)
+    if isinstance(formula, Always):
+        return f"G[{formula.interval.lo},{formula.interval.hi}] {_wrap(formula.child)}"
+    if isinstance(formula, Eventually):
+        return f"F[{formula.interval.lo},{formula.interval.hi}] {_wrap(formula.child)}"
+    i = formula.interval
+    return f"{_wrap(formula.left)} U[{i.lo},{i.hi}] {_wrap(formula.right)}"
+
+
+def _wrap_atom(atom: Formula) -> str:
+    text = to_text(atom)
+    return text if isinstance(atom, InRegion) else f"({text})"

@@ -1,0 +1,196 @@
+"""The formula tree: immutable nodes for the inner logic of tasks.
+
+Surface atoms (``in``, ``dist``, linear inequalities) come from the parser; ``lower`` in
+:mod:`stlplan.formula.normal` turns them into :class:`Predicate` half-spaces, the only atom the
+encoder and the monitor see. Negation is written on atoms only; :func:`negate` pushes it there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal, Union
+
+from stlplan.errors import FormulaError
+
+Comparison = Literal["<=", ">="]
+
+
+@dataclass(frozen=True)
+class Interval:
+    """Inclusive integer step interval ``[lo, hi]`` with ``0 <= lo <= hi``."""
+
+    lo: int
+    hi: int
+
+    def __post_init__(self) -> None:
+        if self.lo < 0 or self.hi < self.lo:
+            raise FormulaError(f"interval [{self.lo},{self.hi}] must satisfy 0 <= lo <= hi")
+
+
+@dataclass(frozen=True)
+class InRegion:
+    """``in(role, region)``: the role's position lies in the named region."""
+
+    role: str
+    region: str
+
+
+@dataclass(frozen=True)
+class Distance:
+    """``dist(left, right) <= radius`` (or ``>=``), infinity norm on positions."""
+
+    left: str
+    right: str
+    op: Comparison
+    radius: float
+
+
+@dataclass(frozen=True)
+class Term:
+    """``coef * role.x[component]``: one term of a linear inequality."""
+
+    coef: float
+    role: str
+    component: int
+
+
+@dataclass(frozen=True)
+class Linear:
+    """``sum(terms) <= bound`` (or ``>=``) over role state components."""
+
+    terms: tuple[Term, ...]
+    op: Comparison
+    bound: float
+
+
+@dataclass(frozen=True)
+class Predicate:
+    """Core half-space atom ``sum(coef * x_role[component]) - bound >= 0``.
+
+    Produced by lowering; its value is the predicate function alpha of the paper.
+    """
+
+    terms: tuple[Term, ...]
+    bound: float
+
+
+Atom = Union[InRegion, Distance, Linear, Predicate]
+
+
+@dataclass(frozen=True)
+class Not:
+    """Negation of an atom (negation is never written above an atom)."""
+
+    atom: Atom
+
+
+@dataclass(frozen=True)
+class And:
+    """Conjunction of two or more children."""
+
+    children: tuple[Formula, ...]
+
+
+@dataclass(frozen=True)
+class Or:
+    """Disjunction of two or more children."""
+
+    children: tuple[Formula, ...]
+
+
+@dataclass(frozen=True)
+class Always:
+    """``G[a,b] child``: child holds at every step of ``[k+a, k+b]``."""
+
+    interval: Interval
+    child: Formula
+
+
+@dataclass(frozen=True)
+class Eventually:
+    """``F[a,b] child``: child holds at some step of ``[k+a, k+b]``."""
+
+    interval: Interval
+    child: Formula
+
+
+@dataclass(frozen=True)
+class Until:
+    """``left U[a,b] right``: some ``k'`` in ``[k+a, k+b]`` has right, and left on ``[k, k']``."""
+
+    interval: Interval
+    left: Formula
+    right: Formula
+
+
+Formula = Union[InRegion, Distance, Linear, Predicate, Not, And, Or, Always, Eventually, Until]
+ATOM_TYPES = (InRegion, Distance, Linear, Predicate)
+
+
+def negate(formula: Formula) -> Formula:
+    """Return the negation of ``formula`` with ``!`` pushed down to the atoms."""
+    if isinstance(formula, ATOM_TYPES):
+        return Not(formula)
+    if isinstance(formula, Not):
+        return formula.atom
+    if isinstance(formula, And):
+        return Or(tuple(negate(c) for c in formula.children))
+    if isinstance(formula, Or):
+        return And(tuple(negate(c) for c in formula.children))
+    if isinstance(formula, Always):
+        return Eventually(formula.interval, negate(formula.child))
+    if isinstance(formula, Eventually):
+        return Always(formula.interval, negate(formula.child))
+    raise FormulaError("negation of an until formula is not supported; rewrite it without '!'")
+
+
+def children(formula: Formula) -> tuple[Formula, ...]:
+    """The direct subformulas of ``formula`` (empty for atoms)."""
+    if isinstance(formula, (And, Or)):
+        return formula.children
+    if isinstance(formula, (Always, Eventually)):
+        return (formula.child,)
+    if isinstance(formula, Until):
+        return (formula.left, formula.right)
+    if isinstance(formula, Not):
+        return (formula.atom,)
+    return ()
+
+
+def atoms(formula: Formula) -> tuple[Atom, ...]:
+    """Every atom of ``formula``, left to right."""
+    if isinstance(formula, ATOM_TYPES):
+        return (formula,)
+    return tuple(a for c in children(formula) for a in atoms(c))
+
+
+def atom_roles(atom: Atom) -> tuple[str, ...]:
+    """The roles an atom mentions, in order of appearance."""
+    if isinstance(atom, InRegion):
+        return (atom.role,)
+    if isinstance(atom, Distance):
+        return (atom.left, atom.right)
+    return tuple(t.role for t in atom.terms)
+
+
+def roles(formula: Formula) -> tuple[str, ...]:
+    """The roles of ``formula`` in order of first appearance, without repeats."""
+    seen: dict[str, None] = {}
+    for atom in atoms(formula):
+        for role in atom_roles(atom):
+            seen.setdefault(role, None)
+    return tuple(seen)
+
+
+def regions(formula: Formula) -> tuple[str, ...]:
+    """The region names ``formula`` refers to, without repeats."""
+    return tuple(dict.fromkeys(a.region for a in atoms(formula) if isinstance(a, InRegion)))
+
+
+def horizon(formula: Formula) -> int:
+    """Steps past ``k`` that deciding ``formula`` at ``k`` needs (0 for an atom)."""
+    if isinstance(formula, (Always, Eventually)):
+        return formula.interval.hi + horizon(formula.child)
+    if isinstance(formula, Until):
+        return formula.interval.hi + max(horizon(formula.left), horizon(formula.right))
+    return max((horizon(c) for c in children(formula)), default=0)

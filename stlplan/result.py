@@ -1,0 +1,141 @@
+"""Result types shared by the planner and the monitor: trajectories, verdicts, plans."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Literal
+
+import numpy as np
+
+Element = tuple[str, ...]
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """A team trajectory: states ``x_p(0..H)`` and inputs ``u_p(0..H-1)`` per agent."""
+
+    horizon: int
+    states: Mapping[str, np.ndarray]
+    """Agent name to an array of shape (H+1, n)."""
+    inputs: Mapping[str, np.ndarray]
+    """Agent name to an array of shape (H, m)."""
+
+    def position(self, agent: str, components: tuple[int, int]) -> np.ndarray:
+        """The agent's planar position over time, shape (H+1, 2)."""
+        return self.states[agent][:, list(components)]
+
+
+VerdictKind = Literal["task", "synchronous", "constraint", "separation", "dynamics"]
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The monitor's decision on one task, constraint or physical requirement."""
+
+    name: str
+    kind: VerdictKind
+    satisfied: bool
+    robustness: float
+    """Spatial robustness: margin by which the best group (or the constraint) holds; < 0 fails."""
+    group: tuple[Element, ...] | None = None
+    """Elements (agent names per role) of the group that satisfies the task, or the best one."""
+    rho_s: float | None = None
+    """Synchronous robustness (synchronous tasks only)."""
+    run_start: int | None = None
+    """First step of the longest synchronized run of the best group."""
+    run_length: int | None = None
+    """Number of steps of that run."""
+    detail: str = ""
+    """One line a person can read."""
+
+
+@dataclass(frozen=True)
+class MonitorReport:
+    """Every verdict on one team trajectory."""
+
+    verdicts: tuple[Verdict, ...]
+
+    @property
+    def satisfied(self) -> bool:
+        """Whether the trajectory satisfies the global specification and the physics."""
+        return all(v.satisfied for v in self.verdicts)
+
+    @property
+    def rho_s(self) -> float | None:
+        """``rho_s(Phi) = min_l rho_s(T_s^l)``; None when there is no synchronous task."""
+        values = [v.rho_s for v in self.verdicts if v.rho_s is not None]
+        return min(values) if values else None
+
+    @property
+    def spatial_robustness(self) -> float:
+        """Smallest robustness over tasks and constraints."""
+        values = [v.robustness for v in self.verdicts if v.kind != "dynamics"]
+        return min(values) if values else float("inf")
+
+    def verdict(self, name: str) -> Verdict:
+        """The verdict called ``name``."""
+        return next(v for v in self.verdicts if v.name == name)
+
+
+class PlanStatus(str, Enum):
+    """What a solve produced."""
+
+    OPTIMAL = "optimal"
+    FEASIBLE = "feasible"  # a plan, not proven optimal (time limit or interrupt)
+    INFEASIBLE = "infeasible"
+    NO_PLAN = "no_plan"  # the time limit ended the solve before any plan was found
+    ERROR = "error"
+
+    @property
+    def has_plan(self) -> bool:
+        """Whether a trajectory comes with this status."""
+        return self in (PlanStatus.OPTIMAL, PlanStatus.FEASIBLE)
+
+
+@dataclass(frozen=True)
+class ModelSize:
+    """Size of the optimization model."""
+
+    variables: int
+    binaries: int
+    constraints: int
+
+
+@dataclass(frozen=True)
+class Assignment:
+    """The group the plan uses for a task, with the synchronized run where it applies."""
+
+    task: str
+    group: tuple[Element, ...]
+    rho_s: float | None = None
+    run_start: int | None = None
+    run_length: int | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class PlanResult:
+    """The outcome of planning a mission."""
+
+    status: PlanStatus
+    message: str
+    trajectory: Trajectory | None = None
+    objective: float | None = None
+    """Objective of problem (step1): rho_s(Phi) - beta * L1 effort (+ margin term)."""
+    bound: float | None = None
+    gap: float | None = None
+    rho_s: Mapping[str, float] = field(default_factory=dict)
+    """Synchronous robustness per synchronous task, as the solver computed it."""
+    effort: float | None = None
+    """Effort of the final plan in the mission's effort norm."""
+    margin: float | None = None
+    """Spatial margin the solver enforced (or maximized)."""
+    assignments: tuple[Assignment, ...] = ()
+    model_size: ModelSize | None = None
+    build_seconds: float = 0.0
+    solve_seconds: float = 0.0
+    report: MonitorReport | None = None
+    """The independent monitor's verdicts on ``trajectory``."""
+    steps: int = 1
+    """1 or 2: whether step 2 (effort minimization) ran."""
