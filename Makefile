@@ -1,0 +1,44 @@
+# stlplan developer targets. `make help` lists them.
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+OUT    ?= out/farm
+
+.DEFAULT_GOAL := help
+.PHONY: help install farm test test-slow lint format schema clean
+
+help:  ## List the targets
+	@grep -E '^[a-zA-Z_-]+:.*?## ' $(MAKEFILE_LIST) | awk 'BEGIN {FS = ":.*?## "}; {printf "  %-12s %s\n", $$1, $$2}'
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e '.[dev]'
+	touch $(STAMP)
+
+install: $(STAMP)  ## Create .venv and install stlplan with its development tools
+
+farm: $(STAMP)  ## Solve the shipped farm mission (Case I) into out/farm
+	$(BIN)/stlplan solve missions/farm.yaml --out $(OUT)
+
+test: $(STAMP)  ## Run the test suite (without the slow solves)
+	$(BIN)/pytest -q -m "not slow"
+
+test-slow: $(STAMP)  ## Run only the slow tests (full farm solves)
+	$(BIN)/pytest -q -m slow
+
+lint: $(STAMP)  ## ruff check, ruff format --check, mypy
+	$(BIN)/ruff check stlplan tests
+	$(BIN)/ruff format --check stlplan tests
+	$(BIN)/mypy stlplan
+
+format: $(STAMP)  ## Apply ruff's formatting and safe fixes
+	$(BIN)/ruff check --fix stlplan tests
+	$(BIN)/ruff format stlplan tests
+
+schema: $(STAMP)  ## Regenerate schemas/mission.schema.json
+	$(BIN)/stlplan schema
+
+clean:  ## Remove the virtual environment, caches and outputs
+	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache .hypothesis

@@ -1,0 +1,104 @@
+"""The Python API under the command line: load, plan, check, write.
+
+Every function returns typed results and raises :class:`stlplan.errors.StlplanError` subclasses on
+bad input; nothing here prints.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from stlplan.errors import SolverError
+from stlplan.loader import load_problem
+from stlplan.monitor import check as monitor_check
+from stlplan.outputs import prepare_directory, write_all, write_json
+from stlplan.problem import Problem
+from stlplan.result import MonitorReport, PlanResult
+from stlplan.summary import summary_dict
+from stlplan.trajio import read_trajectory_csv, write_trajectory_csv
+
+RHO_TOL = 1e-6
+
+
+def validate(mission: str | Path) -> Problem:
+    """Load and check a mission file; raise on the first mistake."""
+    return load_problem(mission)
+
+
+def check(mission: str | Path | Problem, trajectory: str | Path) -> tuple[Problem, MonitorReport]:
+    """The monitor's verdicts on a trajectory CSV for a mission."""
+    problem = mission if isinstance(mission, Problem) else load_problem(mission)
+    return problem, monitor_check(problem, read_trajectory_csv(problem, Path(trajectory)))
+
+
+def _verified(problem: Problem, result: PlanResult) -> PlanResult:
+    """Attach the monitor's report; a plan the monitor rejects is an error, never an output."""
+    if result.trajectory is None:
+        return result
+    report = monitor_check(problem, result.trajectory)
+    failed = [v for v in report.verdicts if not v.satisfied]
+    if failed:
+        lines = "; ".join(f"{v.name}: {v.detail}" for v in failed)
+        raise SolverError(f"the solver's plan is rejected by the monitor ({lines})")
+    for task, rho in result.rho_s.items():
+        seen = report.verdict(task).rho_s
+        if seen is None or seen < rho - RHO_TOL:
+            raise SolverError(f"synchronous robustness of '{task}' disagrees: solver {rho}, "
+                              f"monitor {seen}")
+    return dataclasses.replace(result, report=report)
+
+
+def plan(
+    mission: str | Path | Problem,
+    progress: Callable[[Any], None] | None = None,
+    **overrides: Any,
+) -> tuple[Problem, PlanResult]:
+    """Solve a mission and verify the plan with the monitor.
+
+    ``overrides`` are :class:`stlplan.solve.PlanOptions` fields (``time_limit``, ``gap``,
+    ``threads``, ``seed``, ``encoding``, ``two_step``); None keeps the mission's value.
+    """
+    from stlplan.solve import PlanOptions, plan as solve_plan
+
+    problem = mission if isinstance(mission, Problem) else load_problem(mission)
+    options = PlanOptions.from_mission(problem.mission, **overrides)
+    result = solve_plan(problem, options, progress=progress)
+    return problem, _verified(problem, result)
+
+
+def write_plan(problem: Problem, result: PlanResult, out: str | Path,
+               options: dict[str, Any] | None = None) -> list[Path]:
+    """Write ``trajectory.csv``, ``summary.json``, ``plan.png``, ``timeline.png`` (all or none).
+
+    Without a plan, only ``summary.json`` is written.
+    """
+    from stlplan.plots import plot_plan, plot_timeline
+
+    out = Path(out)
+    summary = summary_dict(problem, result, options or {})
+    files: dict[str, Callable[[Path], None]] = {"summary.json": lambda p: write_json(summary, p)}
+    traj, report = result.trajectory, result.report
+    if traj is not None and report is not None:
+        title = f"{problem.mission.name}: {result.status.value}"
+        files["trajectory.csv"] = lambda p: write_trajectory_csv(problem, traj, p)
+        files["plan.png"] = lambda p: plot_plan(problem, traj, report, p, title=title)
+        files["timeline.png"] = lambda p: plot_timeline(problem, traj, report, p)
+    return write_all(out, files)
+
+
+def solve(
+    mission: str | Path,
+    out: str | Path | None = None,
+    progress: Callable[[Any], None] | None = None,
+    **overrides: Any,
+) -> PlanResult:
+    """Plan, verify and (with ``out``) write the plan directory; returns the verified result."""
+    if out is not None:
+        prepare_directory(Path(out))
+    problem, result = plan(mission, progress=progress, **overrides)
+    if out is not None:
+        write_plan(problem, result, out, {k: v for k, v in overrides.items() if v is not None})
+    return result

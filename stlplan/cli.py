@@ -1,0 +1,144 @@
+"""The ``stlplan`` command line: a thin shell over :mod:`stlplan.api`.
+
+Exit codes: 0 satisfied / valid; 1 a checked trajectory violates the mission; 2 usage error;
+3 bad input (mission, formula, trajectory); 4 infeasible; 5 no plan within the time limit;
+6 solver error or a plan the monitor rejects; 70 internal error; 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from enum import Enum
+from pathlib import Path
+from typing import Annotated, Any, Optional
+
+import typer
+from rich.console import Console
+
+from stlplan import api
+from stlplan.errors import StlplanError
+from stlplan.result import PlanStatus
+
+app = typer.Typer(
+    help="Plan coordinated trajectories for a heterogeneous team from global STL tasks.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+out_console = Console()
+err_console = Console(stderr=True)
+
+EXIT_VIOLATED, EXIT_INFEASIBLE, EXIT_NO_PLAN, EXIT_SOLVER = 1, 4, 5, 6
+EXIT_INTERNAL, EXIT_INTERRUPTED = 70, 130
+STATUS_EXIT = {
+    PlanStatus.OPTIMAL: 0,
+    PlanStatus.FEASIBLE: 0,
+    PlanStatus.INFEASIBLE: EXIT_INFEASIBLE,
+    PlanStatus.NO_PLAN: EXIT_NO_PLAN,
+    PlanStatus.ERROR: EXIT_SOLVER,
+}
+SCHEMA_PATH = Path("schemas") / "mission.schema.json"
+
+MissionArg = Annotated[Path, typer.Argument(help="Mission file (YAML).", show_default=False)]
+
+
+class Encoding(str, Enum):
+    """Disjunction encodings."""
+
+    log = "log"
+    standard = "standard"
+
+
+@app.command()
+def validate(mission: MissionArg) -> None:
+    """Check a mission file: schema, names, shapes, horizons and Patterns."""
+    problem = api.validate(mission)
+    groups = ", ".join(f"{t.name}: {len(t.groups)}" for t in problem.tasks)
+    out_console.print(f"[green]valid[/]: {mission} ({len(problem.agents)} agents, "
+                      f"{len(problem.tasks)} tasks, {len(problem.constraints)} constraints; "
+                      f"groups {groups or 'none'})")
+
+
+@app.command()
+def check(
+    mission: MissionArg,
+    trajectory: Annotated[Path, typer.Argument(help="Trajectory CSV (agent, k, x0.., u0..).")],
+) -> None:
+    """Judge a team trajectory with the independent monitor; exit 1 when anything fails."""
+    _, report = api.check(mission, trajectory)
+    from stlplan.render import print_report
+
+    print_report(out_console, report)
+    if not report.satisfied:
+        raise typer.Exit(EXIT_VIOLATED)
+
+
+@app.command()
+def schema(
+    out: Annotated[Path, typer.Option(help="Where to write the JSON Schema.")] = SCHEMA_PATH,
+) -> None:
+    """Write the mission file JSON Schema (for editors and validation)."""
+    from stlplan.mission import json_schema
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json_schema(), encoding="utf-8")
+    out_console.print(f"wrote {out}")
+
+
+@app.command()
+def solve(
+    mission: MissionArg,
+    out: Annotated[Path, typer.Option(help="Output directory.")] = Path("out"),
+    time_limit: Annotated[Optional[float], typer.Option(help="Seconds per solve (default: mission's).", min=0.001)] = None,
+    gap: Annotated[Optional[float], typer.Option(help="Relative optimality gap (default: mission's).", min=0.0)] = None,
+    threads: Annotated[Optional[int], typer.Option(help="HiGHS threads (default: mission's or HiGHS').", min=1)] = None,
+    seed: Annotated[Optional[int], typer.Option(help="HiGHS random seed.", min=0)] = None,
+    one_step: Annotated[bool, typer.Option("--one-step", help="Skip step 2 (effort minimization with decisions fixed).")] = False,
+    encoding: Annotated[Optional[Encoding], typer.Option(help="Disjunction encoding.")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="Print only the one-line result.")] = False,
+) -> None:
+    """Plan a mission: solve the MILP, verify with the monitor, write CSV, JSON and plots."""
+    from stlplan.progress import ProgressLine
+    from stlplan.render import print_plan
+
+    overrides: dict[str, Any] = dict(
+        time_limit=time_limit, gap=gap, threads=threads, seed=seed,
+        encoding=None if encoding is None else encoding.value, two_step=False if one_step else None,
+    )
+    with ProgressLine(err_console, enabled=not quiet) as line:
+        result = api.solve(mission, out=out, progress=line.update, **overrides)
+    if not quiet:
+        print_plan(out_console, result)
+    code = STATUS_EXIT[result.status]
+    verdict = "satisfied" if code == 0 else result.status.value
+    target = err_console if code else out_console
+    target.print(f"{verdict}: {result.message}; outputs in {out}")
+    raise typer.Exit(code)
+
+
+def main() -> None:
+    """Console entry point: run the app and turn errors into messages and exit codes."""
+    try:
+        app(standalone_mode=False)
+    except StlplanError as exc:
+        err_console.print(f"[red]error[/]: {exc}", highlight=False, markup=True)
+        sys.exit(exc.exit_code)
+    except typer.Exit as exc:
+        sys.exit(exc.exit_code)
+    except KeyboardInterrupt:
+        err_console.print("interrupted")
+        sys.exit(EXIT_INTERRUPTED)
+    except Exception as exc:  # noqa: BLE001 - the edge of the program
+        import click
+
+        if isinstance(exc, click.ClickException):
+            exc.show()
+            sys.exit(exc.exit_code)
+        if isinstance(exc, click.exceptions.Abort):
+            sys.exit(EXIT_INTERRUPTED)
+        if os.environ.get("STLPLAN_DEBUG"):
+            raise
+        err_console.print(f"[red]internal error[/]: {type(exc).__name__}: {exc} (set "
+                          "STLPLAN_DEBUG=1 for a traceback)")
+        sys.exit(EXIT_INTERNAL)

@@ -1,0 +1,79 @@
+"""Human-readable rendering of verdicts and plans for the terminal (rich)."""
+
+from __future__ import annotations
+
+from rich.console import Console
+from rich.table import Table
+
+from stlplan.result import MonitorReport, PlanResult, Verdict
+
+
+def _num(value: float | None, digits: int = 3) -> str:
+    if value is None:
+        return "-"
+    return f"{value:.{digits}g}" if abs(value) < 1e4 else f"{value:.3e}"
+
+
+def _group(v: Verdict) -> str:
+    if not v.group:
+        return ""
+    return " ".join("(" + ", ".join(e) + ")" for e in v.group)
+
+
+def _sync(v: Verdict) -> str:
+    if v.rho_s is None:
+        return ""
+    run = f"run {v.run_length} from {v.run_start}" if v.run_length else "no run"
+    return f"rho_s = {_num(v.rho_s)}, {run}"
+
+
+def verdict_table(report: MonitorReport, title: str = "Monitor") -> Table:
+    """One row per task, constraint and physical check."""
+    table = Table(title=title, title_justify="left", header_style="bold")
+    for column in ("name", "kind", "verdict", "robustness", "agents", "synchronization"):
+        table.add_column(column, overflow="fold")
+    for v in report.verdicts:
+        mark = "[green]ok[/]" if v.satisfied else "[red]FAIL[/]"
+        table.add_row(v.name, v.kind, mark, _num(v.robustness), _group(v), _sync(v))
+    return table
+
+
+def print_report(console: Console, report: MonitorReport) -> None:
+    """The per-task table and a one-line verdict."""
+    console.print(verdict_table(report))
+    failed = [v for v in report.verdicts if not v.satisfied]
+    if failed:
+        console.print(f"[red]not satisfied[/]: {len(failed)} of {len(report.verdicts)} checks fail")
+        for v in failed:
+            console.print(f"  {v.name}: {v.detail}")
+    else:
+        rho = "" if report.rho_s is None else f", rho_s(Phi) = {_num(report.rho_s)}"
+        console.print(f"[green]satisfied[/]: every task and constraint holds{rho}, spatial "
+                      f"robustness {_num(report.spatial_robustness)}")
+
+
+def print_plan(console: Console, result: PlanResult) -> None:
+    """Status, objective, synchronous robustness, effort, assignments, sizes and times."""
+    status = result.status.value
+    if result.status.value == "feasible":
+        status += f" (not proven optimal, gap {_num(result.gap)})"
+    console.print(f"[bold]status[/]     {status}: {result.message}")
+    if result.objective is not None:
+        console.print(f"[bold]objective[/]  {_num(result.objective, 6)} (step 1; bound "
+                      f"{_num(result.bound, 6)})")
+    if result.effort is not None:
+        console.print(f"[bold]effort[/]     {_num(result.effort, 6)} after step {result.steps}")
+    for a in result.assignments:
+        run = "" if a.run_length is None else (
+            f"  synchronized steps {a.run_start}-{a.run_start + a.run_length - 1} "
+            f"(run {a.run_length}, rho_s = {_num(a.rho_s)})" if a.run_start is not None else "")
+        console.print(f"[bold]task[/]       {a.task}: " + " ".join(
+            "(" + ", ".join(e) + ")" for e in a.group) + run)
+    size = result.model_size
+    if size is not None:
+        console.print(f"[bold]model[/]      {size.variables} variables ({size.binaries} binary), "
+                      f"{size.constraints} constraints")
+    console.print(f"[bold]time[/]       build {result.build_seconds:.2f} s, solve "
+                  f"{result.solve_seconds:.2f} s")
+    if result.report is not None:
+        print_report(console, result.report)
