@@ -102,3 +102,55 @@ def solve(
     if out is not None:
         write_plan(problem, result, out, {k: v for k, v in overrides.items() if v is not None})
     return result
+
+
+def sweep(
+    missions: list[str | Path],
+    runs: int,
+    seed: int = 0,
+    out: str | Path = "out/sweep",
+    workers: int | None = None,
+    scheduler: str | None = None,
+    resume: bool = False,
+    on_record: Callable[[dict[str, Any]], None] | None = None,
+    on_start: Callable[[int], None] | None = None,
+    **overrides: Any,
+) -> list[dict[str, Any]]:
+    """Solve every mission from ``runs`` random initial states; returns the summary rows.
+
+    Records go to ``out/runs.jsonl`` as runs finish; the table is written as ``table.csv`` and
+    ``table.md`` and the time distribution as ``solve-times.png``.
+    """
+    import os
+
+    from stlplan.sweep import report
+    from stlplan.sweep.runner import RunSpec, execute, pending, read_records
+
+    out = Path(out)
+    prepare_directory(out)
+    workers = workers or max(1, min(os.cpu_count() or 1, runs * len(missions)))
+    if workers > 1 or scheduler:
+        overrides.setdefault("threads", 1)
+    specs = []
+    for path in missions:
+        problem = load_problem(path)  # fail early on a bad mission
+        if problem.mission.sweep is None:
+            from stlplan.errors import MissionError
+
+            raise MissionError("a sweep needs 'sweep: {initial_region: NAME}'", source=str(path))
+        text = Path(path).read_text(encoding="utf-8")
+        clean = {k: v for k, v in overrides.items() if v is not None}
+        specs += [RunSpec(Path(path).stem, text, str(path), i, seed, clean) for i in range(runs)]
+    todo = pending(specs, out, resume)
+    if on_start is not None:
+        on_start(len(todo))
+    execute(todo, out, workers, scheduler, on_record)
+    wanted = {(s.mission_key, s.run, s.seed) for s in specs}
+    records = [r for r in read_records(out) if (r["mission"], r["run"], r["seed"]) in wanted]
+    rows = report.summarize(records)
+    write_all(out, {
+        "table.csv": lambda p: p.write_text(report.to_csv(rows), encoding="utf-8"),
+        "table.md": lambda p: p.write_text(report.to_markdown(rows), encoding="utf-8"),
+        "solve-times.png": lambda p: report.plot_times(records, p),
+    })
+    return rows

@@ -117,6 +117,29 @@ def solve(
     raise typer.Exit(code)
 
 
+@app.command()
+def sweep(
+    missions: Annotated[list[Path], typer.Argument(help="Mission files (YAML).", show_default=False)],
+    runs: Annotated[int, typer.Option(help="Random initial states per mission.", min=1)] = 30,
+    seed: Annotated[int, typer.Option(help="Seed: run i of seed S always gets the same state.", min=0)] = 0,
+    workers: Annotated[Optional[int], typer.Option(help="Local worker processes (default: cores).", min=1)] = None,
+    scheduler: Annotated[Optional[str], typer.Option(help="Dask scheduler address, e.g. tcp://host:8786.")] = None,
+    out: Annotated[Path, typer.Option(help="Output directory.")] = Path("out/sweep"),
+    time_limit: Annotated[Optional[float], typer.Option(help="Seconds per solve.", min=0.001)] = None,
+    resume: Annotated[bool, typer.Option("--resume", help="Skip runs already in OUT/runs.jsonl.")] = False,
+) -> None:
+    """Solve missions from random initial states; print and write the paper's Table 3."""
+    from stlplan.sweep.progress import SweepProgress
+
+    with SweepProgress(err_console) as bar:
+        rows = api.sweep(list(missions), runs, seed, out, workers, scheduler, resume,
+                         on_record=bar.advance, on_start=bar.start, time_limit=time_limit)
+    from stlplan.sweep.progress import print_table
+
+    print_table(out_console, rows)
+    out_console.print(f"records in {out / 'runs.jsonl'}; table in {out / 'table.md'}")
+
+
 def main() -> None:
     """Console entry point: run the app and turn errors into messages and exit codes."""
     try:

@@ -19,13 +19,12 @@ Semantics (DESIGN.md section 2; ``tol`` is the tolerance on every ``>= 0`` test)
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from stlplan.errors import TrajectoryError
-from stlplan.monitor_dynamics import dynamics_verdict
-from stlplan.problem import ConstraintModel, Problem, TaskModel
+from stlplan.problem import AgentModel, ConstraintModel, Problem, TaskModel
 from stlplan.result import Element, MonitorReport, Trajectory, Verdict
 from stlplan.robustness import robustness
 
@@ -56,15 +55,16 @@ def check(problem: Problem, trajectory: Trajectory, tol: float = 1e-6) -> Monito
     if problem.separation is not None:
         verdicts.append(_separation_verdict(problem, trajectory, problem.separation, tol))
     for agent in problem.agents:
-        verdicts.append(dynamics_verdict(agent, trajectory, tol))
+        verdicts.append(_dynamics_verdict(agent, trajectory, tol))
     return MonitorReport(tuple(verdicts))
 
 
 def _check_shapes(problem: Problem, trajectory: Trajectory) -> None:
     H = problem.horizon
     if trajectory.horizon != H:
-        raise TrajectoryError(f"trajectory horizon {trajectory.horizon} differs from the "
-                              f"mission's horizon {H}")
+        raise TrajectoryError(
+            f"trajectory horizon {trajectory.horizon} differs from the mission's horizon {H}"
+        )
     for agent in problem.agents:
         if agent.name not in trajectory.states or agent.name not in trajectory.inputs:
             raise TrajectoryError(f"trajectory has no states or inputs for agent '{agent.name}'")
@@ -76,9 +76,7 @@ def _check_shapes(problem: Problem, trajectory: Trajectory) -> None:
             )
 
 
-def element_robustness(
-    problem: Problem, trajectory: Trajectory, task: TaskModel
-) -> np.ndarray:
+def element_robustness(problem: Problem, trajectory: Trajectory, task: TaskModel) -> np.ndarray:
     """``rho_e(k)`` for every element ``e`` of ``task`` (rows) and evaluable step ``k`` (columns)."""
     rows = []
     for element in task.elements:
@@ -107,10 +105,14 @@ def _task_verdict(problem: Problem, trajectory: Trajectory, task: TaskModel, tol
     value = float(group_rho[best])
     satisfied = bool(value >= -tol)
     text = _group_text(task, task.groups[best])
-    detail = (f"group {text} holds with margin {value:.3g}" if satisfied
-              else f"no group satisfies: best {text} reaches {value:.3g}")
-    return Verdict(task.name, "task", satisfied, value, _group_elements(task, task.groups[best]),
-                   detail=detail)
+    detail = (
+        f"group {text} holds with margin {value:.3g}"
+        if satisfied
+        else f"no group satisfies: best {text} reaches {value:.3g}"
+    )
+    return Verdict(
+        task.name, "task", satisfied, value, _group_elements(task, task.groups[best]), detail=detail
+    )
 
 
 def run_lengths(holds: np.ndarray) -> np.ndarray:
@@ -139,31 +141,32 @@ def _synchronous_verdict(task: TaskModel, rho: np.ndarray, tol: float) -> Verdic
     for i, start in enumerate(starts):
         if start + d < steps:
             spatial[:, i] = np.min(per_group[:, :, start : start + d + 1], axis=(1, 2))
-    # ties: longest run, then earliest start, then best spatial robustness
-    order = np.lexsort((-np.nan_to_num(spatial, nan=-np.inf), starts[None, :] + 0 * run, -run),
-                       axis=None) if False else None
-    j, i = _best_start(run, spatial)
+    j, i = _best_start(run, spatial, starts)
     rho_s = int(run[j, i]) - 1 - d
-    spatial_rho = float(np.nanmax(spatial)) if not np.all(np.isnan(spatial)) else float("nan")
-    del order
+    spatial_rho = float(np.max(np.nan_to_num(spatial, nan=-np.inf)))
     return Verdict(
-        task.name, "synchronous", rho_s >= 0, spatial_rho, _group_elements(task, task.groups[j]),
-        rho_s=float(rho_s), run_start=int(starts[i]), run_length=int(run[j, i]),
+        task.name,
+        "synchronous",
+        rho_s >= 0,
+        spatial_rho,
+        _group_elements(task, task.groups[j]),
+        rho_s=float(rho_s),
+        run_start=int(starts[i]),
+        run_length=int(run[j, i]),
         detail=_synchronous_detail(task, j, int(starts[i]), int(run[j, i]), rho_s),
     )
 
 
-def _best_start(run: np.ndarray, spatial: np.ndarray) -> tuple[int, int]:
-    """Group and start index: largest run, then earliest start, then best spatial robustness."""
-    best: tuple[int, int] = (0, 0)
-    key = (-1, 0, -np.inf)
-    for i in range(run.shape[1]):
-        for j in range(run.shape[0]):
-            s = spatial[j, i] if not np.isnan(spatial[j, i]) else -np.inf
-            candidate = (int(run[j, i]), -i, float(s))
-            if candidate > key:
-                key, best = candidate, (j, i)
-    return best
+def _best_start(run: np.ndarray, spatial: np.ndarray, starts: np.ndarray) -> tuple[int, int]:
+    """Group ``j`` and start index ``i`` with the longest run, then earliest start, then best
+    spatial robustness (then the first group)."""
+    flat_run = run.ravel()
+    flat_start = np.broadcast_to(starts[None, :], run.shape).ravel()
+    flat_spatial = np.nan_to_num(spatial, nan=-np.inf).ravel()
+    # np.lexsort sorts by the last key first; index 0 is the best candidate
+    best = int(np.lexsort((-flat_spatial, flat_start, -flat_run))[0])
+    j, i = np.unravel_index(best, run.shape)
+    return int(j), int(i)
 
 
 def _synchronous_detail(task: TaskModel, j: int, start: int, length: int, rho_s: int) -> str:
@@ -171,13 +174,19 @@ def _synchronous_detail(task: TaskModel, j: int, start: int, length: int, rho_s:
     need = task.sync.d + 1
     text = _group_text(task, task.groups[j])
     if rho_s >= 0:
-        return (f"group {text} holds phi together for {length} steps from step {start} "
-                f"(needs {need}): rho_s = {rho_s}")
+        return (
+            f"group {text} holds phi together for {length} steps from step {start} "
+            f"(needs {need}): rho_s = {rho_s}"
+        )
     if length == 0:
-        return (f"no group holds phi together at any start in [{task.sync.a}, {task.sync.b}] "
-                f"(needs {need} steps): rho_s = {rho_s}")
-    return (f"no group holds phi together for {need} steps: best {text} for {length} from step "
-            f"{start}, rho_s = {rho_s}")
+        return (
+            f"no group holds phi together at any start in [{task.sync.a}, {task.sync.b}] "
+            f"(needs {need} steps): rho_s = {rho_s}"
+        )
+    return (
+        f"no group holds phi together for {need} steps: best {text} for {length} from step "
+        f"{start}, rho_s = {rho_s}"
+    )
 
 
 def _binding_text(binding: dict[str, str]) -> str:
@@ -222,6 +231,99 @@ def _separation_verdict(
     value = float(gap[p, q, k])
     satisfied = bool(value >= -tol)
     pair = f"{agents[p].name} and {agents[q].name} at step {k}"
-    detail = (f"every pair keeps {separation:g} apart; closest {pair} with margin {value:.3g}"
-              if satisfied else f"{pair} are closer than {separation:g} by {-value:.3g}")
+    detail = (
+        f"every pair keeps {separation:g} apart; closest {pair} with margin {value:.3g}"
+        if satisfied
+        else f"{pair} are closer than {separation:g} by {-value:.3g}"
+    )
     return Verdict(name, "separation", satisfied, value, detail=detail)
+
+
+Violation = tuple[int, int, int, float, str]
+"""``(step, check order, component, size, message)`` of one dynamics violation."""
+
+
+def _violations(
+    steps: np.ndarray,
+    order: int,
+    error: np.ndarray,
+    allowed: np.ndarray,
+    describe: Callable[[int, int], str],
+) -> list[Violation]:
+    """Entries ``(r, i)`` whose ``error`` exceeds ``allowed`` (NaN counts as a violation).
+
+    ``steps[r]`` is row ``r``'s step; ``describe(r, i)`` says what was found and expected.
+    """
+    out: list[Violation] = []
+    for r, i in np.argwhere(~(error <= allowed)):
+        size = float(error[r, i]) if np.isfinite(error[r, i]) else float("inf")
+        out.append((int(steps[r]), order, int(i), size, describe(int(r), int(i))))
+    return out
+
+
+def _bound_violations(
+    values: np.ndarray, lo: np.ndarray, hi: np.ndarray, symbol: str, order: int, tol: float
+) -> list[Violation]:
+    # lo - tol * max(1, |lo|, |hi|) <= v <= hi + tol * max(1, |lo|, |hi|)
+    excess = np.maximum(np.maximum(lo - values, values - hi), 0.0)
+    allowed = np.broadcast_to(
+        tol * np.maximum(1.0, np.maximum(np.abs(lo), np.abs(hi))), values.shape
+    )
+    return _violations(
+        np.arange(len(values)),
+        order,
+        excess,
+        allowed,
+        lambda r, i: f"{symbol}[{i}] = {values[r, i]:.6g}, expected within [{lo[i]:g}, {hi[i]:g}]",
+    )
+
+
+def _dynamics_violations(
+    agent: AgentModel, x: np.ndarray, u: np.ndarray, tol: float
+) -> list[Violation]:
+    """Violations of ``x(0) = x_init``, ``x(k+1) = A x(k) + B u(k)`` and the bounds.
+
+    The equalities allow ``tol * max(1, |x_init|)`` and ``tol * (1 + |A| |x(k)| + |B| |u(k)|)``
+    (the scale of the terms summed), the bounds ``tol * max(1, |bound|)``.
+    """
+    init = agent.initial_state
+    found = []
+    found += _violations(
+        np.zeros(1, dtype=int),
+        0,
+        np.abs(x[:1] - init),
+        tol * np.maximum(1.0, np.abs(init))[None],
+        lambda r, i: f"x[{i}] = {x[0, i]:.6g}, expected the initial state {init[i]:.6g}",
+    )
+    expected = x[:-1] @ agent.A.T + u @ agent.B.T
+    scale = 1.0 + np.abs(x[:-1]) @ np.abs(agent.A).T + np.abs(u) @ np.abs(agent.B).T
+    found += _violations(
+        np.arange(1, len(x)),
+        1,
+        np.abs(x[1:] - expected),
+        tol * scale,
+        lambda r, i: f"x[{i}] = {x[r + 1, i]:.6g}, expected A x(k) + B u(k) = {expected[r, i]:.6g}",
+    )
+    found += _bound_violations(x, agent.state_lo, agent.state_hi, "x", 2, tol)
+    found += _bound_violations(u, agent.input_lo, agent.input_hi, "u", 3, tol)
+    return found
+
+
+def _dynamics_verdict(agent: AgentModel, trajectory: Trajectory, tol: float) -> Verdict:
+    # robustness = -(largest violation) or 0 when every equation and bound holds within tol
+    name = f"dynamics {agent.name}"
+    x = np.asarray(trajectory.states[agent.name], dtype=float)
+    u = np.asarray(trajectory.inputs[agent.name], dtype=float)
+    found = _dynamics_violations(agent, x, u, tol)
+    if not found:
+        detail = (
+            f"{agent.name}: initial state, x(k+1) = A x(k) + B u(k) and bounds hold for "
+            f"steps 0..{trajectory.horizon}"
+        )
+        return Verdict(name, "dynamics", True, 0.0, detail=detail)
+    step, _, _, _, text = min(found)
+    worst = max(v[3] for v in found)
+    more = f" ({len(found)} violations in all)" if len(found) > 1 else ""
+    return Verdict(
+        name, "dynamics", False, -worst, detail=f"{agent.name} step {step}: {text}{more}"
+    )

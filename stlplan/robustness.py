@@ -76,7 +76,10 @@ def _predicate(node: Formula, signals: Signals, horizon: int) -> np.ndarray:
     assert isinstance(node, Predicate)
     value = np.full(horizon + 1, -float(node.bound))
     for term in node.terms:
-        value = value + term.coef * np.asarray(signals[term.role], dtype=float)[: horizon + 1, term.component]
+        value = (
+            value
+            + term.coef * np.asarray(signals[term.role], dtype=float)[: horizon + 1, term.component]
+        )
     return value
 
 

@@ -1,0 +1,148 @@
+"""Running a sweep: one full solve per (mission, run), records appended as runs finish.
+
+Runs execute in a local process pool, or on a Dask distributed cluster when a scheduler address is
+given. Each record is one JSON line in ``runs.jsonl``; an interrupted sweep loses at most the runs
+in flight, and ``resume`` skips the runs already recorded.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from stlplan.errors import StlplanError, UsageError
+
+RECORDS = "runs.jsonl"
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One solve of a sweep: which mission (as text, so remote workers need no files), run, seed."""
+
+    mission_key: str
+    mission_text: str
+    source: str
+    run: int
+    seed: int
+    overrides: dict[str, Any] = field(default_factory=dict)
+
+
+def run_one(spec: RunSpec) -> dict[str, Any]:
+    """Draw the run's initial state, plan and verify; never raises for a failed solve."""
+    from stlplan.api import plan
+    from stlplan.loader import problem_from_text
+    from stlplan.problem import build_problem
+    from stlplan.sweep.initial import draw_positions, with_initial_positions
+
+    record: dict[str, Any] = {"mission": spec.mission_key, "run": spec.run, "seed": spec.seed}
+    started = time.monotonic()
+    try:
+        base = problem_from_text(spec.mission_text, spec.source).mission
+        positions = draw_positions(base, spec.seed, spec.run)
+        record["initial_positions"] = {a.name: [float(v) for v in z]
+                                       for a, z in zip(base.agents, positions)}
+        problem = build_problem(with_initial_positions(base, positions), source=spec.source)
+        _, result = plan(problem, **spec.overrides)
+    except StlplanError as exc:
+        record.update(status="error", message=str(exc), wall_seconds=time.monotonic() - started)
+        return record
+    report = result.report
+    size = result.model_size
+    record.update(
+        status=result.status.value,
+        message=result.message,
+        objective=result.objective,
+        gap=result.gap,
+        rho_s=None if report is None else report.rho_s,
+        runs={v.name: [v.run_start, v.run_length] for v in (report.verdicts if report else ())
+              if v.rho_s is not None},
+        effort=result.effort,
+        monitor_satisfied=None if report is None else report.satisfied,
+        variables=None if size is None else size.variables,
+        binaries=None if size is None else size.binaries,
+        constraints=None if size is None else size.constraints,
+        build_seconds=result.build_seconds,
+        solve_seconds=result.solve_seconds,
+        wall_seconds=time.monotonic() - started,
+    )
+    return record
+
+
+def read_records(out: Path) -> list[dict[str, Any]]:
+    """Records written so far (a torn last line, from a hard stop, is ignored)."""
+    path = out / RECORDS
+    if not path.exists():
+        return []
+    records = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        try:
+            records.append(json.loads(line))
+        except json.JSONDecodeError:
+            continue
+    return records
+
+
+def pending(specs: Sequence[RunSpec], out: Path, resume: bool) -> list[RunSpec]:
+    """The specs still to run; refuses to mix with an earlier sweep unless ``resume``."""
+    done = {(r["mission"], r["run"], r["seed"]) for r in read_records(out)}
+    if done and not resume:
+        raise UsageError(f"{out / RECORDS} already holds {len(done)} runs; pass --resume to "
+                         "continue that sweep or choose another --out")
+    return [s for s in specs if (s.mission_key, s.run, s.seed) not in done]
+
+
+def _append(out: Path, record: dict[str, Any]) -> None:
+    with open(out / RECORDS, "a", encoding="utf-8") as handle:
+        handle.write(json.dumps(record) + "\n")
+        handle.flush()
+        os.fsync(handle.fileno())
+
+
+def _local(specs: Sequence[RunSpec], workers: int) -> Iterator[dict[str, Any]]:
+    if workers <= 1:
+        yield from (run_one(s) for s in specs)
+        return
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        futures = [pool.submit(run_one, s) for s in specs]
+        try:
+            for future in as_completed(futures):
+                yield future.result()
+        finally:
+            for future in futures:
+                future.cancel()
+
+
+def _dask(specs: Sequence[RunSpec], scheduler: str) -> Iterator[dict[str, Any]]:
+    from distributed import Client
+    from distributed import as_completed as dask_completed
+
+    try:
+        client = Client(scheduler, timeout="20s")
+    except OSError as exc:
+        raise UsageError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+    with client:
+        futures = client.map(run_one, list(specs), pure=False)
+        for future in dask_completed(futures):
+            yield future.result()
+
+
+def execute(
+    specs: Sequence[RunSpec],
+    out: Path,
+    workers: int,
+    scheduler: str | None = None,
+    on_record: Callable[[dict[str, Any]], None] | None = None,
+) -> None:
+    """Run ``specs`` and append each record to ``out/runs.jsonl`` as it finishes."""
+    out.mkdir(parents=True, exist_ok=True)
+    stream = _dask(specs, scheduler) if scheduler else _local(specs, workers)
+    for record in stream:
+        _append(out, record)
+        if on_record is not None:
+            on_record(record)

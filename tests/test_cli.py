@@ -1,0 +1,128 @@
+"""The command line through typer's CliRunner: outputs, exit codes, nothing half-written."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from stlplan.cli import app
+from tests.conftest import MISSIONS
+
+runner = CliRunner()
+
+
+def _run(*args: str) -> tuple[int, str]:
+    from stlplan import cli
+
+    try:
+        result = runner.invoke(app, list(args), standalone_mode=False, catch_exceptions=True)
+    except SystemExit as exc:  # pragma: no cover - typer.Exit is raised as SystemExit
+        return int(exc.code or 0), ""
+    exc = result.exception
+    if exc is None:
+        return 0, result.output
+    if isinstance(exc, cli.typer.Exit):
+        return exc.exit_code, result.output
+    if isinstance(exc, cli.StlplanError):
+        return exc.exit_code, str(exc)
+    raise exc
+
+
+def test_validate_every_shipped_mission() -> None:
+    for path in sorted(MISSIONS.glob("*.yaml")):
+        code, output = _run("validate", str(path))
+        assert code == 0, output
+        assert "valid" in output
+
+
+def test_validate_reports_bad_file_with_exit_3(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\nhorizon: [1\n", encoding="utf-8")
+    code, message = _run("validate", str(bad))
+    assert code == 3
+    assert "bad.yaml" in message and "line" in message
+
+
+def test_missing_mission_is_bad_input(tmp_path: Path) -> None:
+    code, message = _run("validate", str(tmp_path / "nope.yaml"))
+    assert code == 3
+    assert "no such file" in message
+
+
+def test_schema_command_writes_the_schema(tmp_path: Path) -> None:
+    target = tmp_path / "s.json"
+    code, _ = _run("schema", "--out", str(target))
+    assert code == 0
+    assert json.loads(target.read_text())["title"] == "Mission"
+
+
+def test_solve_writes_every_output_and_check_accepts_it(tmp_path: Path) -> None:
+    out = tmp_path / "plan"
+    code, output = _run("solve", str(MISSIONS / "sync-pair.yaml"), "--out", str(out), "-q")
+    assert code == 0, output
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["plan.png", "summary.json", "timeline.png", "trajectory.csv"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "optimal"
+    assert summary["monitor"]["satisfied"] is True
+    code, output = _run("check", str(MISSIONS / "sync-pair.yaml"), str(out / "trajectory.csv"))
+    assert code == 0, output
+
+
+def test_check_exits_1_on_a_violating_trajectory(tmp_path: Path) -> None:
+    out = tmp_path / "plan"
+    code, _ = _run("solve", str(MISSIONS / "sync-pair.yaml"), "--out", str(out), "-q")
+    assert code == 0
+    rows = (out / "trajectory.csv").read_text().splitlines()
+    header, body = rows[0], rows[1:]
+    # Freeze every agent at its initial state: no input, position never changes.
+    frozen = []
+    for row in body:
+        cells = row.split(",")
+        first = next(r for r in body if r.split(",")[0] == cells[0]).split(",")
+        n_state = sum(1 for c in header.split(",") if c.startswith("x"))
+        state = first[2 : 2 + n_state]
+        inputs = ["0" if c != "" else "" for c in cells[2 + n_state :]]
+        frozen.append(",".join(cells[:2] + state + inputs))
+    bad = tmp_path / "frozen.csv"
+    bad.write_text("\n".join([header, *frozen]) + "\n")
+    code, output = _run("check", str(MISSIONS / "sync-pair.yaml"), str(bad))
+    assert code == 1
+    assert "FAIL" in output
+
+
+def test_unwritable_output_fails_before_solving(tmp_path: Path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    code, message = _run("solve", str(MISSIONS / "sync-pair.yaml"), "--out", str(blocker / "sub"))
+    assert code == 2
+    assert "output directory" in message
+
+
+def test_infeasible_mission_exits_4_and_writes_only_the_summary(tmp_path: Path) -> None:
+    text = (MISSIONS / "sync-pair.yaml").read_text()
+    # An input bound of zero: no agent can move, so the goal cannot be reached.
+    import yaml
+
+    data = yaml.safe_load(text)
+    for dyn in data["dynamics"].values():
+        dyn["input_bounds"] = [[0, 0] for _ in dyn["input_bounds"]]
+    path = tmp_path / "stuck.yaml"
+    path.write_text(yaml.safe_dump(data))
+    out = tmp_path / "plan"
+    code, _ = _run("solve", str(path), "--out", str(out), "-q")
+    assert code == 4
+    assert sorted(p.name for p in out.iterdir()) == ["summary.json"]
+    assert json.loads((out / "summary.json").read_text())["status"] == "infeasible"
+
+
+@pytest.mark.parametrize("flag", ["--one-step", "--encoding=standard"])
+def test_solve_options(tmp_path: Path, flag: str) -> None:
+    out = tmp_path / "plan"
+    code, output = _run("solve", str(MISSIONS / "sync-pair.yaml"), "--out", str(out), "-q", flag)
+    assert code == 0, output
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["steps"] == (1 if flag == "--one-step" else 2)

@@ -1,0 +1,214 @@
+"""Trajectory CSV: exact round trip, atomic writes, and one clear error per mistake."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from stlplan.errors import TrajectoryError
+from stlplan.mission import Mission
+from stlplan.problem import Problem, build_problem
+from stlplan.result import Trajectory
+from stlplan.trajio import read_trajectory_csv, write_trajectory_csv
+
+H = 3
+
+
+def make_problem() -> Problem:
+    """A double integrator ``ground`` (n = 4, m = 2) and a planar point ``dot`` (n = 2, m = 1)."""
+    ground = {
+        "A": [[1, 0, 1, 0], [0, 1, 0, 1], [0, 0, 1, 0], [0, 0, 0, 1]],
+        "B": [[0.5, 0], [0, 0.5], [1, 0], [0, 1]],
+        "state_bounds": [[0, 7], [0, 5], [-2, 2], [-2, 2]],
+        "input_bounds": [[-2, 2], [-2, 2]],
+    }
+    dot = {
+        "A": [[1, 0], [0, 1]],
+        "B": [[1], [1]],
+        "state_bounds": [[0, 7], [0, 5]],
+        "input_bounds": [[-1, 1]],
+    }
+    mission = Mission.model_validate(
+        {
+            "name": "io",
+            "horizon": H,
+            "dynamics": {"ground": ground, "dot": dot},
+            "agents": [
+                {"name": "uv1", "dynamics": "ground", "initial_state": [0.2, 4.8, 0, 0]},
+                {"name": "d", "dynamics": "dot", "initial_state": [1.0, 1.0]},
+            ],
+        }
+    )
+    return build_problem(mission)
+
+
+def make_trajectory(seed: int = 0) -> Trajectory:
+    rng = np.random.default_rng(seed)
+    states = {"uv1": rng.uniform(-2, 5, (H + 1, 4)), "d": rng.uniform(0, 1, (H + 1, 2))}
+    states["d"][0, 0] = 0.1 + 0.2  # 0.30000000000000004 must survive
+    inputs = {"uv1": rng.uniform(-2, 2, (H, 2)), "d": rng.normal(size=(H, 1)) * 1e-17}
+    return Trajectory(H, states, inputs)
+
+
+@pytest.fixture
+def problem() -> Problem:
+    return make_problem()
+
+
+@pytest.fixture
+def written(problem: Problem, tmp_path: Path) -> Path:
+    path = tmp_path / "trajectory.csv"
+    write_trajectory_csv(problem, make_trajectory(), path)
+    return path
+
+
+def test_round_trip_is_exact(problem: Problem, written: Path) -> None:
+    original = make_trajectory()
+    back = read_trajectory_csv(problem, written)
+    assert back.horizon == H
+    for name in ("uv1", "d"):
+        assert np.array_equal(back.states[name], original.states[name])
+        assert np.array_equal(back.inputs[name], original.inputs[name])
+
+
+def test_layout(written: Path) -> None:
+    lines = written.read_text().splitlines()
+    assert lines[0] == "agent,k,x0,x1,x2,x3,u0,u1"
+    assert len(lines) == 1 + 2 * (H + 1)
+    uv_last = lines[1 + H].split(",")
+    assert uv_last[:2] == ["uv1", str(H)] and uv_last[6:] == ["", ""]  # no u(H)
+    d_first = lines[2 + H].split(",")
+    assert d_first[:4] == ["d", "0", "0.30000000000000004", d_first[3]]
+    assert d_first[4:6] == ["", ""] and d_first[6] != "" and d_first[7] == ""
+
+
+def test_write_replaces_atomically(problem: Problem, written: Path) -> None:
+    write_trajectory_csv(problem, make_trajectory(seed=1), written)
+    assert np.array_equal(
+        read_trajectory_csv(problem, written).states["uv1"], make_trajectory(seed=1).states["uv1"]
+    )
+    assert sorted(p.name for p in written.parent.iterdir()) == ["trajectory.csv"]
+
+
+def test_failed_write_leaves_the_old_file(
+    problem: Problem, written: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    before = written.read_text()
+
+    def broken(src: str, dst: str) -> None:
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "replace", broken)
+    with pytest.raises(TrajectoryError, match="disk full"):
+        write_trajectory_csv(problem, make_trajectory(seed=2), written)
+    assert written.read_text() == before
+    assert sorted(p.name for p in written.parent.iterdir()) == ["trajectory.csv"]
+
+
+def test_extra_columns_are_ignored(problem: Problem, written: Path) -> None:
+    lines = written.read_text().splitlines()
+    written.write_text("\n".join(line + ",note" for line in lines) + "\n")
+    back = read_trajectory_csv(problem, written)
+    assert np.array_equal(back.states["uv1"], make_trajectory().states["uv1"])
+
+
+def edit(path: Path, line: int, old: str, new: str) -> None:
+    """Replace ``old`` by ``new`` on 1-based ``line`` of ``path``."""
+    lines = path.read_text().splitlines()
+    assert old in lines[line - 1]
+    lines[line - 1] = lines[line - 1].replace(old, new, 1)
+    path.write_text("\n".join(lines) + "\n")
+
+
+def drop(path: Path, line: int) -> None:
+    lines = path.read_text().splitlines()
+    del lines[line - 1]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def cell(path: Path, line: int, column: int, value: str) -> None:
+    lines = path.read_text().splitlines()
+    cells = lines[line - 1].split(",")
+    cells[column] = value
+    lines[line - 1] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+
+
+def read_error(problem: Problem, path: Path) -> str:
+    with pytest.raises(TrajectoryError) as info:
+        read_trajectory_csv(problem, path)
+    return str(info.value)
+
+
+def test_missing_file(problem: Problem, tmp_path: Path) -> None:
+    message = read_error(problem, tmp_path / "none.csv")
+    assert message == f"{tmp_path / 'none.csv'}: no such file"
+
+
+def test_empty_file(problem: Problem, tmp_path: Path) -> None:
+    (tmp_path / "empty.csv").write_text("")
+    assert "line 1: empty file: expected a header" in read_error(problem, tmp_path / "empty.csv")
+
+
+def test_missing_column(problem: Problem, written: Path) -> None:
+    edit(written, 1, ",u1", ",v1")
+    message = read_error(problem, written)
+    assert message.startswith(f"{written}: line 1: missing column(s) u1; expected the columns")
+
+
+def test_unknown_agent(problem: Problem, written: Path) -> None:
+    edit(written, 3, "uv1", "uv9")
+    assert "line 3: unknown agent 'uv9'; agents of the mission: uv1, d" in read_error(
+        problem, written
+    )
+
+
+def test_missing_agent(problem: Problem, written: Path) -> None:
+    for _ in range(H + 1):
+        drop(written, 2 + H + 1)  # the rows of d
+    message = read_error(problem, written)
+    assert (
+        f"line {H + 2}: end of file: agent 'd' has no rows; expected one row per step 0..{H}"
+        in message
+    )
+
+
+def test_missing_step(problem: Problem, written: Path) -> None:
+    drop(written, 3)  # uv1 at k = 1
+    assert "agent 'uv1' has no row for step(s) 1; expected" in read_error(problem, written)
+
+
+def test_duplicate_step(problem: Problem, written: Path) -> None:
+    cell(written, 3, 1, "0")
+    message = read_error(problem, written)
+    assert "line 3: duplicate row for agent 'uv1' at step 0 (first at line 2)" in message
+
+
+@pytest.mark.parametrize("step", ["-1", "1.5", "", str(H + 1)])
+def test_bad_step(problem: Problem, written: Path, step: str) -> None:
+    cell(written, 2, 1, step)
+    assert f"line 2: column k: expected an integer step in 0..{H}" in read_error(problem, written)
+
+
+@pytest.mark.parametrize("value", ["abc", "nan", "inf", "-Infinity"])
+def test_non_numeric_or_non_finite(problem: Problem, written: Path, value: str) -> None:
+    cell(written, 4, 3, value)
+    message = read_error(problem, written)
+    assert f"line 4: column x1: expected a finite number, found '{value}'" in message
+
+
+def test_missing_state_value(problem: Problem, written: Path) -> None:
+    cell(written, 7, 3, "")  # d at k = 1, x1
+    assert "line 7: column x1: agent 'd' needs a state value at step 1" in read_error(
+        problem, written
+    )
+
+
+def test_missing_input_before_the_horizon(problem: Problem, written: Path) -> None:
+    cell(written, 2 + H - 1, 7, "")  # uv1 at k = H - 1, u1
+    message = read_error(problem, written)
+    expected = f"line {H + 1}: column u1: agent 'uv1' needs an input at step {H - 1} (one per step"
+    assert expected in message
