@@ -12,6 +12,7 @@ from stlplan.errors import FormulaError
 from stlplan.formula.tree import (
     Always,
     And,
+    Comparison,
     Distance,
     Eventually,
     Formula,
@@ -98,7 +99,7 @@ def _role(token: object) -> str:
     return name
 
 
-def _cmp(token: Token) -> str:  # narrowed by the grammar to '<=' or '>='
+def _cmp(token: Token) -> Comparison:  # the grammar allows only '<=' and '>='
     return "<=" if str(token) == "<=" else ">="
 
 
@@ -130,7 +131,7 @@ def _syntax_message(text: str, exc: UnexpectedInput) -> str:
         line, column = len(lines), len(lines[-1]) + 1
         found = "end of formula"
     elif isinstance(exc, UnexpectedCharacters):
-        found = f"character {text[exc.pos_in_stream]!r}"
+        found = f"character {text[exc.pos_in_stream or 0]!r}"
     else:
         found = repr(str(token))
     expected = sorted(getattr(exc, "expected", None) or getattr(exc, "allowed", None) or [])
