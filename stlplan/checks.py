@@ -7,14 +7,26 @@ constraints, objective.
 
 from __future__ import annotations
 
+import math
 from difflib import get_close_matches
 from typing import NoReturn
 
 import numpy as np
 
 from stlplan.errors import FormulaError, MissionError
-from stlplan.formula.tree import Formula, Linear, atoms, horizon, regions, roles
-from stlplan.mission import Mission, PinnedRole
+from stlplan.formula.parser import to_text
+from stlplan.formula.tree import (
+    Atom,
+    Distance,
+    Formula,
+    Linear,
+    Predicate,
+    atoms,
+    horizon,
+    regions,
+    roles,
+)
+from stlplan.mission import Constraint, Dynamics, Mission, PinnedRole, Synchronous
 
 
 def _fail(message: str, where: str, source: str | None) -> NoReturn:
@@ -35,30 +47,57 @@ def check_dynamics(mission: Mission, source: str | None) -> None:
     """Matrix shapes, position components and bound intervals of every dynamics model."""
     for name, dyn in mission.dynamics.items():
         where = f"dynamics.{name}"
-        n = len(dyn.A)
-        if n == 0 or any(len(row) != n for row in dyn.A):
-            _fail(f"A must be square (n x n), found rows of lengths {[len(r) for r in dyn.A]}",
-                  f"{where}.A", source)
-        if len(dyn.B) != n:
-            _fail(f"B must have n = {n} rows (as A), found {len(dyn.B)}", f"{where}.B", source)
-        m = len(dyn.B[0])
-        if m == 0 or any(len(row) != m for row in dyn.B):
-            _fail("B rows must all have the same non-zero length m", f"{where}.B", source)
-        if len(dyn.state_bounds) != n:
-            _fail(f"expected {n} state bounds (one per state component), found "
-                  f"{len(dyn.state_bounds)}", f"{where}.state_bounds", source)
-        if len(dyn.input_bounds) != m:
-            _fail(f"expected {m} input bounds (one per input component), found "
-                  f"{len(dyn.input_bounds)}", f"{where}.input_bounds", source)
-        for field, bounds in (("state_bounds", dyn.state_bounds), ("input_bounds", dyn.input_bounds)):
+        n, m = _check_matrices(dyn, where, source)
+        for field, bounds, size, kind in (
+            ("state_bounds", dyn.state_bounds, n, "state"),
+            ("input_bounds", dyn.input_bounds, m, "input"),
+        ):
+            if len(bounds) != size:
+                _fail(
+                    f"expected {size} {kind} bounds (one per {kind} component), found "
+                    f"{len(bounds)}",
+                    f"{where}.{field}",
+                    source,
+                )
             for i, (lo, hi) in enumerate(bounds):
                 if lo > hi:
-                    _fail(f"empty interval [{lo}, {hi}]: low must be <= high",
-                          f"{where}.{field}[{i}]", source)
+                    _fail(
+                        f"empty interval [{lo}, {hi}]: low must be <= high",
+                        f"{where}.{field}[{i}]",
+                        source,
+                    )
         i, j = dyn.position
         if i == j or not (0 <= i < n and 0 <= j < n):
-            _fail(f"position must name two distinct state components in 0..{n - 1}, found "
-                  f"[{i}, {j}]", f"{where}.position", source)
+            _fail(
+                f"position must name two distinct state components in 0..{n - 1}, found [{i}, {j}]",
+                f"{where}.position",
+                source,
+            )
+
+
+def _check_matrices(dyn: Dynamics, where: str, source: str | None) -> tuple[int, int]:
+    """``A`` is n x n and ``B`` is n x m with m >= 1; returns ``(n, m)``."""
+    n = len(dyn.A)
+    if n == 0 or any(len(row) != n for row in dyn.A):
+        _fail(
+            f"A must be a non-empty square matrix (n x n), found rows of lengths "
+            f"{[len(r) for r in dyn.A]}",
+            f"{where}.A",
+            source,
+        )
+    if len(dyn.B) != n:
+        _fail(f"B must have n = {n} rows (as A), found {len(dyn.B)}", f"{where}.B", source)
+    m = len(dyn.B[0])
+    if m == 0:
+        _fail("B needs at least one column (one per input component)", f"{where}.B", source)
+    for k, row in enumerate(dyn.B):
+        if len(row) != m:
+            _fail(
+                f"every row of B must have m = {m} entries (as B[0]), found {len(row)}",
+                f"{where}.B[{k}]",
+                source,
+            )
+    return n, m
 
 
 def check_agents(mission: Mission, source: str | None) -> None:
@@ -70,17 +109,26 @@ def check_agents(mission: Mission, source: str | None) -> None:
             _fail(f"duplicate agent name '{agent.name}'", f"{where}.name", source)
         seen.add(agent.name)
         if agent.dynamics not in mission.dynamics:
-            _fail(_undefined("dynamics", agent.dynamics, list(mission.dynamics)),
-                  f"{where}.dynamics", source)
+            _fail(
+                _undefined("dynamics", agent.dynamics, list(mission.dynamics)),
+                f"{where}.dynamics",
+                source,
+            )
         dyn = mission.dynamics[agent.dynamics]
         if len(agent.initial_state) != len(dyn.A):
-            _fail(f"initial_state has {len(agent.initial_state)} values, dynamics "
-                  f"'{agent.dynamics}' has {len(dyn.A)} state components",
-                  f"{where}.initial_state", source)
-        for i, (x, (lo, hi)) in enumerate(zip(agent.initial_state, dyn.state_bounds)):
+            _fail(
+                f"initial_state has {len(agent.initial_state)} values, dynamics "
+                f"'{agent.dynamics}' has {len(dyn.A)} state components",
+                f"{where}.initial_state",
+                source,
+            )
+        for i, (x, (lo, hi)) in enumerate(zip(agent.initial_state, dyn.state_bounds, strict=True)):
             if not lo <= x <= hi:
-                _fail(f"initial state {x} is outside its bounds [{lo}, {hi}]",
-                      f"{where}.initial_state[{i}]", source)
+                _fail(
+                    f"initial state {x} is outside its bounds [{lo}, {hi}]",
+                    f"{where}.initial_state[{i}]",
+                    source,
+                )
 
 
 def check_regions(mission: Mission, source: str | None) -> None:
@@ -88,39 +136,73 @@ def check_regions(mission: Mission, source: str | None) -> None:
     for name, region in mission.regions.items():
         where = f"regions.{name}"
         if region.box is not None:
-            for axis, (lo, hi) in zip("xy", region.box):
+            for axis, (lo, hi) in zip("xy", region.box, strict=True):
                 if lo >= hi:
-                    _fail(f"empty box: {axis} interval [{lo}, {hi}] needs low < high",
-                          f"{where}.box", source)
+                    _fail(
+                        f"empty box: {axis} interval [{lo}, {hi}] needs low < high",
+                        f"{where}.box",
+                        source,
+                    )
         elif region.G is not None and region.h is not None:
             if len(region.G) != len(region.h):
-                _fail(f"G has {len(region.G)} rows but h has {len(region.h)} entries",
-                      f"{where}.h", source)
+                _fail(
+                    f"G has {len(region.G)} rows but h has {len(region.h)} entries",
+                    f"{where}.h",
+                    source,
+                )
             if any(np.hypot(*g) == 0 for g in region.G):
                 _fail("a row of G is zero", f"{where}.G", source)
 
 
 def _formula_fits(
-    mission: Mission, formula: Formula, where: str, role_agents: dict[str, list[str]],
-    reach: int, source: str | None,
+    mission: Mission,
+    formula: Formula,
+    where: str,
+    role_agents: dict[str, list[str]],
+    reach: int,
+    source: str | None,
 ) -> None:
     for region in regions(formula):
         if region not in mission.regions:
-            raise FormulaError(_undefined("region", region, list(mission.regions)),
-                               source=source, where=where)
+            raise FormulaError(
+                _undefined("region", region, list(mission.regions)), source=source, where=where
+            )
     if reach > mission.horizon:
-        raise FormulaError(f"the formula needs steps up to {reach}, past the horizon "
-                           f"{mission.horizon}", source=source, where=where)
-    dims = {a.name: len(mission.dynamics[a.dynamics].A) for a in mission.agents
-            if a.dynamics in mission.dynamics}
+        raise FormulaError(
+            f"the formula needs steps up to {reach}, past the horizon {mission.horizon}",
+            source=source,
+            where=where,
+        )
+    dims = {
+        a.name: len(mission.dynamics[a.dynamics].A)
+        for a in mission.agents
+        if a.dynamics in mission.dynamics
+    }
     for atom in atoms(formula):
+        if not all(math.isfinite(v) for v in _numbers(atom)):
+            raise FormulaError(
+                f"'{to_text(atom)}' has a number that is not finite (too large)",
+                source=source,
+                where=where,
+            )
         if isinstance(atom, Linear):
             for term in atom.terms:
                 for agent in role_agents.get(term.role, []):
                     if term.component >= dims[agent]:
                         raise FormulaError(
                             f"{term.role}.x[{term.component}] is out of range: agent '{agent}' has "
-                            f"{dims[agent]} state components", source=source, where=where)
+                            f"{dims[agent]} state components",
+                            source=source,
+                            where=where,
+                        )
+
+
+def _numbers(atom: Atom) -> tuple[float, ...]:
+    if isinstance(atom, Distance):
+        return (atom.radius,)
+    if isinstance(atom, (Linear, Predicate)):
+        return (*(t.coef for t in atom.terms), atom.bound)
+    return ()
 
 
 def check_task(mission: Mission, name: str, formula: Formula, source: str | None) -> None:
@@ -130,22 +212,52 @@ def check_task(mission: Mission, name: str, formula: Formula, source: str | None
     used, declared = roles(formula), list(task.roles)
     for role in used:
         if role not in task.roles:
-            raise FormulaError(_undefined("role", role, declared) + " in 'roles'",
-                               source=source, where=f"{where}.formula")
+            raise FormulaError(
+                f"role '{role}' is used by the formula but not declared in "
+                f"'roles'{_did_you_mean(role, declared)}; declared: "
+                f"{', '.join(declared) or 'none'}",
+                source=source,
+                where=f"{where}.formula",
+            )
     for role in declared:
         if role not in used:
-            _fail(f"role '{role}' is not used by the formula (roles used: {', '.join(used)})",
-                  f"{where}.roles.{role}", source)
-    role_agents = {r: _role_agents(mission, task.roles[r], f"{where}.roles.{r}", source)
-                   for r in used}
-    reach = horizon(formula)
+            _fail(
+                f"role '{role}' is not used by the formula (roles used: {', '.join(used)})",
+                f"{where}.roles.{role}",
+                source,
+            )
+    role_agents = {
+        r: _role_agents(mission, task.roles[r], f"{where}.roles.{r}", source) for r in used
+    }
+    _formula_fits(mission, formula, f"{where}.formula", role_agents, horizon(formula), source)
     if task.synchronous is not None:
-        a, b = task.synchronous.within
-        if a < 0 or b < a:
-            _fail(f"window [{a}, {b}] must satisfy 0 <= a <= b", f"{where}.synchronous.within",
-                  source)
-        reach += b + task.synchronous.hold
-    _formula_fits(mission, formula, f"{where}.formula", role_agents, reach, source)
+        check_window(
+            task.synchronous,
+            mission.horizon,
+            horizon(formula),
+            f"{where}.synchronous.within",
+            source,
+        )
+
+
+def check_window(
+    sync: Synchronous, horizon_steps: int, reach: int, where: str, source: str | None
+) -> None:
+    """A synchronous window ``F[a,b] G[0,d] phi`` must fit the horizon: ``b + d + h(phi) <= H``.
+
+    ``reach`` is ``h(phi)``, the steps past ``k`` that deciding phi at ``k`` needs.
+    """
+    (a, b), d = sync.within, sync.hold
+    if a < 0 or b < a:
+        _fail(f"window [{a}, {b}] must satisfy 0 <= a <= b", where, source)
+    if b + d + reach > horizon_steps:
+        phi = f" + {reach} (phi)" if reach else ""
+        _fail(
+            f"the synchronous window F[{a},{b}] G[0,{d}] needs steps up to {b} + {d}{phi} = "
+            f"{b + d + reach}, past the horizon {horizon_steps}",
+            where,
+            source,
+        )
 
 
 def _role_agents(
@@ -160,9 +272,13 @@ def _role_agents(
     known = sorted({c for a in mission.agents for c in a.capabilities})
     for cap in wanted:
         if cap not in known:
-            _fail(f"no agent has capability '{cap}'{_did_you_mean(cap, known)}; capabilities of "
-                  f"the team: {', '.join(known) or 'none'}", where, source)
-    fit = [a.name for a in mission.agents if set(wanted) <= set(a.capabilities)]
+            _fail(
+                f"no agent has capability '{cap}'{_did_you_mean(cap, known)}; capabilities of "
+                f"the team: {', '.join(known) or 'none'}",
+                where,
+                source,
+            )
+    fit = _fitting(mission, rule)
     if not fit:
         _fail(f"no agent has all of the capabilities {wanted}", where, source)
     return fit
@@ -171,13 +287,35 @@ def _role_agents(
 def check_groups(
     mission: Mission, name: str, n_elements: int, n_groups: int, source: str | None
 ) -> None:
-    """A Pattern must admit at least one group."""
+    """A Pattern must admit at least one group of ``count`` elements."""
     task = mission.tasks[name]
-    if n_groups == 0:
-        reuse = "" if task.reuse_agents else " without reusing an agent"
-        _fail(f"the Pattern admits {n_elements} element(s) but no group of {task.count}"
-              f"{reuse}: the team has too few agents for this task", f"tasks.{name}.count",
-              source)
+    if n_groups > 0:
+        return
+    c = task.count
+    reuse = "" if task.reuse_agents else " that share no agent"
+    shortage = (
+        f"the Pattern admits only {n_elements} element(s)"
+        if n_elements < c
+        else f"no {c} of its {n_elements} elements share no agent"
+    )
+    fits = "; ".join(
+        f"{role}: {', '.join(_fitting(mission, rule)) or 'none'}"
+        for role, rule in task.roles.items()
+    )
+    _fail(
+        f"count {c} needs {c} elements{reuse}, but {shortage} (agents that fit each role: "
+        f"{fits}); add agents or lower count",
+        f"tasks.{name}.count",
+        source,
+    )
+
+
+def _fitting(mission: Mission, rule: str | list[str] | PinnedRole) -> list[str]:
+    """Agents that may fill a role: the pinned one, or those with every capability listed."""
+    if isinstance(rule, PinnedRole):
+        return [rule.agent]
+    wanted = {rule} if isinstance(rule, str) else set(rule)
+    return [a.name for a in mission.agents if wanted <= set(a.capabilities)]
 
 
 def check_constraint(mission: Mission, name: str, formula: Formula, source: str | None) -> None:
@@ -185,13 +323,6 @@ def check_constraint(mission: Mission, name: str, formula: Formula, source: str 
     spec = mission.constraints[name]
     where = f"constraints.{name}"
     names = [a.name for a in mission.agents]
-    bound = dict.fromkeys(spec.roles)
-    if spec.for_each is not None:
-        bound[spec.for_each] = None
-    for role in roles(formula):
-        if role not in bound:
-            raise FormulaError(f"role '{role}' is neither 'for_each' nor in 'roles'",
-                               source=source, where=f"{where}.formula")
     for role, agent in spec.roles.items():
         if agent not in names:
             _fail(_undefined("agent", agent, names), f"{where}.roles.{role}", source)
@@ -199,13 +330,45 @@ def check_constraint(mission: Mission, name: str, formula: Formula, source: str 
         if agent not in names:
             _fail(_undefined("agent", agent, names), f"{where}.agents[{k}]", source)
     if spec.agents is not None and spec.for_each is None:
-        _fail("'agents' needs 'for_each' (the role that ranges over them)", f"{where}.agents",
-              source)
+        _fail(
+            "'agents' needs 'for_each' (the role that ranges over them)", f"{where}.agents", source
+        )
+    _constraint_roles(spec, roles(formula), where, source)
     pool = spec.agents if spec.agents is not None else names
     role_agents = {r: [a] for r, a in spec.roles.items()}
     if spec.for_each is not None:
         role_agents[spec.for_each] = list(pool)
     _formula_fits(mission, formula, f"{where}.formula", role_agents, horizon(formula), source)
+
+
+def _constraint_roles(
+    spec: Constraint, used: tuple[str, ...], where: str, source: str | None
+) -> None:
+    """Every role of the formula is bound exactly once, and every bound role is used."""
+    bound = [*spec.roles, *([spec.for_each] if spec.for_each is not None else [])]
+    if spec.for_each is not None and spec.for_each in spec.roles:
+        _fail(
+            f"role '{spec.for_each}' is both 'for_each' and pinned in 'roles'; use one",
+            f"{where}.for_each",
+            source,
+        )
+    for role in used:
+        if role not in bound:
+            raise FormulaError(
+                f"role '{role}' is neither 'for_each' nor in 'roles'{_did_you_mean(role, bound)}"
+                f"; bound roles: {', '.join(bound) or 'none'}",
+                source=source,
+                where=f"{where}.formula",
+            )
+    for role in bound:
+        if role not in used:
+            field = "for_each" if role == spec.for_each else f"roles.{role}"
+            _fail(
+                f"role '{role}' is not used by the formula (roles used: "
+                f"{', '.join(used) or 'none'})",
+                f"{where}.{field}",
+                source,
+            )
 
 
 def check_mission(mission: Mission, source: str | None) -> None:
@@ -214,5 +377,8 @@ def check_mission(mission: Mission, source: str | None) -> None:
     check_agents(mission, source)
     check_regions(mission, source)
     if mission.sweep is not None and mission.sweep.initial_region not in mission.regions:
-        _fail(_undefined("region", mission.sweep.initial_region, list(mission.regions)),
-              "sweep.initial_region", source)
+        _fail(
+            _undefined("region", mission.sweep.initial_region, list(mission.regions)),
+            "sweep.initial_region",
+            source,
+        )

@@ -7,14 +7,17 @@ Exit codes: 0 satisfied / valid; 1 a checked trajectory violates the mission; 2 
 
 from __future__ import annotations
 
+import functools
 import os
 import sys
+from collections.abc import Callable
 from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any, Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from stlplan import api
 from stlplan.errors import StlplanError
@@ -40,6 +43,28 @@ STATUS_EXIT = {
 }
 SCHEMA_PATH = Path("schemas") / "mission.schema.json"
 
+def handled(command: Callable[..., None]) -> Callable[..., None]:
+    """Turn stlplan errors into one message on stderr and their exit code; never a traceback."""
+
+    @functools.wraps(command)
+    def run(*args: Any, **kwargs: Any) -> None:
+        try:
+            command(*args, **kwargs)
+        except StlplanError as exc:
+            err_console.print(f"[red]error[/]: {escape(str(exc))}", highlight=False)
+            raise typer.Exit(exc.exit_code) from None
+        except (typer.Exit, KeyboardInterrupt):
+            raise
+        except Exception as exc:  # noqa: BLE001 - the edge of the program
+            if os.environ.get("STLPLAN_DEBUG"):
+                raise
+            err_console.print(f"[red]internal error[/]: {type(exc).__name__}: {escape(str(exc))} "
+                              "(set STLPLAN_DEBUG=1 for a traceback)", highlight=False)
+            raise typer.Exit(EXIT_INTERNAL) from None
+
+    return run
+
+
 MissionArg = Annotated[Path, typer.Argument(help="Mission file (YAML).", show_default=False)]
 
 
@@ -51,6 +76,7 @@ class Encoding(str, Enum):
 
 
 @app.command()
+@handled
 def validate(mission: MissionArg) -> None:
     """Check a mission file: schema, names, shapes, horizons and Patterns."""
     problem = api.validate(mission)
@@ -61,6 +87,7 @@ def validate(mission: MissionArg) -> None:
 
 
 @app.command()
+@handled
 def check(
     mission: MissionArg,
     trajectory: Annotated[Path, typer.Argument(help="Trajectory CSV (agent, k, x0.., u0..).")],
@@ -75,6 +102,7 @@ def check(
 
 
 @app.command()
+@handled
 def schema(
     out: Annotated[Path, typer.Option(help="Where to write the JSON Schema.")] = SCHEMA_PATH,
 ) -> None:
@@ -87,6 +115,7 @@ def schema(
 
 
 @app.command()
+@handled
 def solve(
     mission: MissionArg,
     out: Annotated[Path, typer.Option(help="Output directory.")] = Path("out"),
@@ -118,6 +147,7 @@ def solve(
 
 
 @app.command()
+@handled
 def sweep(
     missions: Annotated[list[Path], typer.Argument(help="Mission files (YAML).", show_default=False)],
     runs: Annotated[int, typer.Option(help="Random initial states per mission.", min=1)] = 30,
@@ -141,27 +171,9 @@ def sweep(
 
 
 def main() -> None:
-    """Console entry point: run the app and turn errors into messages and exit codes."""
+    """Console entry point (``stlplan``)."""
     try:
-        app(standalone_mode=False)
-    except StlplanError as exc:
-        err_console.print(f"[red]error[/]: {exc}", highlight=False, markup=True)
-        sys.exit(exc.exit_code)
-    except typer.Exit as exc:
-        sys.exit(exc.exit_code)
+        app()
     except KeyboardInterrupt:
         err_console.print("interrupted")
         sys.exit(EXIT_INTERRUPTED)
-    except Exception as exc:  # noqa: BLE001 - the edge of the program
-        import click
-
-        if isinstance(exc, click.ClickException):
-            exc.show()
-            sys.exit(exc.exit_code)
-        if isinstance(exc, click.exceptions.Abort):
-            sys.exit(EXIT_INTERRUPTED)
-        if os.environ.get("STLPLAN_DEBUG"):
-            raise
-        err_console.print(f"[red]internal error[/]: {type(exc).__name__}: {exc} (set "
-                          "STLPLAN_DEBUG=1 for a traceback)")
-        sys.exit(EXIT_INTERNAL)

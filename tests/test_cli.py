@@ -15,20 +15,8 @@ runner = CliRunner()
 
 
 def _run(*args: str) -> tuple[int, str]:
-    from stlplan import cli
-
-    try:
-        result = runner.invoke(app, list(args), standalone_mode=False, catch_exceptions=True)
-    except SystemExit as exc:  # pragma: no cover - typer.Exit is raised as SystemExit
-        return int(exc.code or 0), ""
-    exc = result.exception
-    if exc is None:
-        return 0, result.output
-    if isinstance(exc, cli.typer.Exit):
-        return exc.exit_code, result.output
-    if isinstance(exc, cli.StlplanError):
-        return exc.exit_code, str(exc)
-    raise exc
+    result = runner.invoke(app, list(args))
+    return result.exit_code, result.output + (result.stderr if result.stderr_bytes else "")
 
 
 def test_validate_every_shipped_mission() -> None:
