@@ -1,0 +1,207 @@
+"""Tiny missions with optima derived by hand, status mapping, options, the farm (slow)."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from stlplan.loader import load_problem
+from stlplan.mission import Mission
+from stlplan.problem import Problem, build_problem
+from stlplan.result import PlanStatus
+from stlplan.solve import PlanOptions, Progress, plan
+
+ENCODINGS = ["log", "standard"]
+FARM = Path(__file__).resolve().parents[1] / "missions" / "farm.yaml"
+
+DOUBLE_INTEGRATOR = {
+    "A": [[1, 0, 1, 0], [0, 1, 0, 1], [0, 0, 1, 0], [0, 0, 0, 1]],
+    "B": [[0.5, 0], [0, 0.5], [1, 0], [0, 1]],
+    "state_bounds": [[-5, 5], [-5, 5], [-2, 2], [-2, 2]],
+    "input_bounds": [[-2, 2], [-2, 2]],
+}
+
+
+def single_integrator(u_max: float) -> dict[str, Any]:
+    """``x(k+1) = x(k) + u(k)`` on the plane, ``|u| <= u_max`` per axis."""
+    return {
+        "A": [[1, 0], [0, 1]],
+        "B": [[1, 0], [0, 1]],
+        "state_bounds": [[-5, 5], [-5, 5]],
+        "input_bounds": [[-u_max, u_max], [-u_max, u_max]],
+    }
+
+
+def mission(**fields: Any) -> Problem:
+    """A checked problem from mission fields (name defaults to 'tiny')."""
+    return build_problem(Mission.model_validate({"name": "tiny", **fields}))
+
+
+def reach_problem(effort: str = "l1", goal_x: tuple[float, float] = (1, 2)) -> Problem:
+    # double integrator from rest at 0: px(1) = 0.5 u0, px(2) = 1.5 u0 + 0.5 u1
+    return mission(
+        horizon=2,
+        dynamics={"di": DOUBLE_INTEGRATOR},
+        agents=[{"name": "a", "dynamics": "di", "initial_state": [0, 0, 0, 0]}],
+        regions={"Goal": {"box": [list(goal_x), [-1, 1]]}},
+        tasks={"reach": {"formula": "F[0,2] in(p, Goal)", "roles": {"p": {"agent": "a"}}}},
+        objective={"beta": 1.0, "effort": effort},
+    )
+
+
+def sync_problem(gamma: float = 8) -> Problem:
+    # Vis agents reach C (x >= 2) at the earliest at k = 2 (v1), 3 (v2), 5 (v3)
+    starts = {"v1": [0, 0], "v2": [-1, 0.5], "v3": [-3, 1]}
+    return mission(
+        horizon=6,
+        dynamics={"si": single_integrator(1.0)},
+        agents=[
+            {"name": n, "dynamics": "si", "capabilities": ["Vis"], "initial_state": s}
+            for n, s in starts.items()
+        ],
+        regions={"C": {"box": [[2, 3], [-1, 2]]}},
+        tasks={
+            "watch": {
+                "formula": "in(p, C)",
+                "count": 2,
+                "roles": {"p": "Vis"},
+                "synchronous": {"within": [0, 4], "hold": 1, "gamma": gamma},
+            }
+        },
+        separation=0.1,
+        objective={"beta": 0.05, "effort": "l1"},
+    )
+
+
+@pytest.mark.parametrize("encoding", ENCODINGS)
+def test_reach_minimal_l1_effort(encoding: str) -> None:
+    # reach at k=1 costs |u0| = 2; at k=2: min |u0| + |u1| s.t. 1.5 u0 + 0.5 u1 >= 1 is 2/3
+    result = plan(reach_problem(), PlanOptions(encoding=encoding, time_limit=30))
+    assert result.status is PlanStatus.OPTIMAL
+    assert result.objective == pytest.approx(-2 / 3, abs=1e-6)
+    assert result.effort == pytest.approx(2 / 3, abs=1e-6)
+    assert result.steps == 2
+    assert result.trajectory is not None
+    assert result.trajectory.states["a"][2, 0] >= 1 - 1e-7
+
+
+def test_step2_minimizes_l2_effort_with_step1_decisions() -> None:
+    # step 1 picks k=2; step 2: min u0^2 + u1^2 s.t. 1.5 u0 + 0.5 u1 >= 1 -> u = (0.6, 0.2)
+    result = plan(reach_problem(effort="l2"), PlanOptions(time_limit=30))
+    assert result.status is PlanStatus.OPTIMAL and result.steps == 2
+    assert result.effort == pytest.approx(math.sqrt(0.4), abs=1e-5)
+    assert result.trajectory is not None
+    np.testing.assert_allclose(result.trajectory.inputs["a"][:, 0], [0.6, 0.2], atol=1e-5)
+    one_step = plan(reach_problem(effort="l2"), PlanOptions(time_limit=30, two_step=False))
+    assert one_step.steps == 1
+    assert one_step.effort == pytest.approx(2 / 3, abs=1e-6)  # l2 of (2/3, 0)
+    assert one_step.effort > result.effort
+
+
+@pytest.mark.parametrize("encoding", ENCODINGS)
+def test_maximized_margin(encoding: str) -> None:
+    # single integrator, one step: px = u0 <= 2, margin = min(px - 1, 4 - px, 3 - |py|)
+    # objective max r - 0.1 |u0|  ->  px = 2, r = 1, objective 0.8
+    problem = mission(
+        horizon=1,
+        dynamics={"si": single_integrator(2.0)},
+        agents=[{"name": "a", "dynamics": "si", "initial_state": [0, 0]}],
+        regions={"Goal": {"box": [[1, 4], [-3, 3]]}},
+        tasks={"reach": {"formula": "G[1,1] in(p, Goal)", "roles": {"p": {"agent": "a"}}}},
+        objective={"beta": 0.1, "effort": "l1", "margin": {"maximize": True}},
+    )
+    result = plan(problem, PlanOptions(encoding=encoding, time_limit=30))
+    assert result.status is PlanStatus.OPTIMAL
+    assert result.objective == pytest.approx(0.8, abs=1e-6)
+    assert result.margin == pytest.approx(1.0, abs=1e-6)
+
+
+@pytest.mark.parametrize("encoding", ENCODINGS)
+def test_synchronous_robustness_by_hand(encoding: str) -> None:
+    # best pair (v1, v2): both in C on steps 3..6, run 4, rho_s = 4 - 1 - d = 2;
+    # effort: v1 moves 2, v2 moves 3 -> objective 2 - 0.05 * 5
+    result = plan(sync_problem(), PlanOptions(encoding=encoding, time_limit=60))
+    assert result.status is PlanStatus.OPTIMAL
+    assert result.objective == pytest.approx(2 - 0.05 * 5, abs=1e-6)
+    assert result.rho_s == {"watch": pytest.approx(2.0)}
+    (assignment,) = result.assignments
+    assert assignment.group == (("v1",), ("v2",))
+    assert (assignment.run_start, assignment.run_length) == (3, 4)
+    assert result.effort == pytest.approx(5.0, abs=1e-6)
+
+
+def test_gamma_caps_synchronous_robustness() -> None:
+    # rho_s <= gamma = 1 needs a run of 3 (v1, v2 from step 3): effort still 5
+    result = plan(sync_problem(gamma=1), PlanOptions(time_limit=60))
+    assert result.status is PlanStatus.OPTIMAL
+    assert result.objective == pytest.approx(1 - 0.05 * 5, abs=1e-6)
+
+
+def test_solver_robustness_equals_monitor() -> None:
+    from stlplan.monitor import check
+
+    problem = sync_problem()
+    result = plan(problem, PlanOptions(time_limit=60, two_step=False))
+    assert result.trajectory is not None
+    report = check(problem, result.trajectory)
+    assert report.satisfied
+    assert report.rho_s == pytest.approx(result.rho_s["watch"])
+    verdict = report.verdict("watch")
+    assert (verdict.run_start, verdict.run_length) == (3, 4)
+
+
+def test_unreachable_goal_is_infeasible() -> None:
+    # px(2) <= 1.5 * 2 + 0.5 * 2 = 4 < 4.5
+    result = plan(reach_problem(goal_x=(4.5, 5)), PlanOptions(time_limit=30))
+    assert result.status is PlanStatus.INFEASIBLE
+    assert result.trajectory is None and not result.status.has_plan
+
+
+def test_progress_reports_phases_in_order() -> None:
+    seen: list[Progress] = []
+    plan(reach_problem(), PlanOptions(time_limit=30), progress=seen.append)
+    phases = [p.phase for p in seen]
+    assert phases[0] == "build" and phases[-1] == "done"
+    assert phases.index("step1") < phases.index("step2")
+    assert all(a.elapsed <= b.elapsed for a, b in itertools.pairwise(seen))
+
+
+def test_progress_errors_are_raised() -> None:
+    def broken(_: Progress) -> None:
+        raise RuntimeError("bar broke")
+
+    with pytest.raises(RuntimeError, match="bar broke"):
+        plan(reach_problem(), PlanOptions(time_limit=30), progress=broken)
+
+
+def test_options_from_mission_with_overrides() -> None:
+    problem = load_problem(FARM)
+    options = PlanOptions.from_mission(problem.mission, time_limit=12.5, threads=None, seed=3)
+    assert options.time_limit == 12.5 and options.seed == 3
+    assert options.threads == problem.mission.solver.threads
+    assert options.gap == problem.mission.solver.gap
+    assert options.two_step is problem.mission.objective.two_step
+    with pytest.raises(TypeError, match="colour"):
+        PlanOptions.from_mission(problem.mission, colour="red")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("encoding", ENCODINGS)
+def test_farm_case_one(encoding: str) -> None:
+    from stlplan.monitor import check
+
+    problem = load_problem(FARM)
+    result = plan(
+        problem,
+        PlanOptions.from_mission(problem.mission, encoding=encoding, time_limit=300, threads=2),
+    )
+    assert result.status.has_plan
+    assert result.trajectory is not None
+    assert check(problem, result.trajectory).satisfied
+    if result.status is PlanStatus.OPTIMAL:
+        assert result.rho_s == {"crop_C": pytest.approx(5.0)}
