@@ -23,18 +23,35 @@ def _group(v: Verdict) -> str:
 def _sync(v: Verdict) -> str:
     if v.rho_s is None:
         return ""
-    run = f"run {v.run_length} from {v.run_start}" if v.run_length else "no run"
-    return f"rho_s = {_num(v.rho_s)}, {run}"
+    if not v.run_length or v.run_start is None:
+        return f"rho_s {_num(v.rho_s)}, no run"
+    return f"rho_s {_num(v.rho_s)}, steps {v.run_start}-{v.run_start + v.run_length - 1}"
+
+
+def _rows(report: MonitorReport) -> list[Verdict]:
+    """Verdicts to show: the dynamics checks fold into one row when every agent passes."""
+    dynamics = [v for v in report.verdicts if v.kind == "dynamics"]
+    rows = [v for v in report.verdicts if v.kind != "dynamics"]
+    if dynamics and all(v.satisfied for v in dynamics):
+        rows.append(Verdict("dynamics", "dynamics", True, 0.0, detail="every agent"))
+    else:
+        rows += dynamics
+    return rows
 
 
 def verdict_table(report: MonitorReport, title: str = "Monitor") -> Table:
     """One row per task, constraint and physical check."""
     table = Table(title=title, title_justify="left", header_style="bold")
-    for column in ("name", "kind", "verdict", "robustness", "agents", "synchronization"):
-        table.add_column(column, overflow="fold")
-    for v in report.verdicts:
+    table.add_column("name", no_wrap=True)
+    table.add_column("kind", no_wrap=True)
+    table.add_column("verdict", no_wrap=True)
+    table.add_column("robustness", justify="right", no_wrap=True)
+    table.add_column("agents", overflow="fold")
+    table.add_column("sync", overflow="fold")
+    for v in _rows(report):
         mark = "[green]ok[/]" if v.satisfied else "[red]FAIL[/]"
-        table.add_row(v.name, v.kind, mark, _num(v.robustness), _group(v), _sync(v))
+        agents = _group(v) or (v.detail if v.kind == "dynamics" else "")
+        table.add_row(v.name, v.kind, mark, _num(v.robustness), agents, _sync(v))
     return table
 
 
