@@ -6,7 +6,7 @@ STAMP  := $(VENV)/.installed
 OUT    ?= out/farm
 
 .DEFAULT_GOAL := help
-.PHONY: help install farm test test-slow lint format schema clean
+.PHONY: help install farm test test-slow smoke lint format schema clean
 
 help:  ## List the targets
 	@grep -E '^[a-zA-Z_-]+:.*?## ' $(MAKEFILE_LIST) | awk 'BEGIN {FS = ":.*?## "}; {printf "  %-12s %s\n", $$1, $$2}'
@@ -27,6 +27,12 @@ test: $(STAMP)  ## Run the test suite (without the slow solves)
 
 test-slow: $(STAMP)  ## Run only the slow tests (full farm solves)
 	$(BIN)/pytest -q -m slow
+
+SMOKE_LIMIT ?= 180
+smoke: $(STAMP)  ## Solve Cases I-III once each under a time limit; fail unless every plan is accepted
+	@for m in farm farm-case2 farm-case3; do \
+	  $(BIN)/stlplan solve missions/$$m.yaml --out out/smoke/$$m --time-limit $(SMOKE_LIMIT) --quiet || exit 1; \
+	done
 
 lint: $(STAMP)  ## ruff check, ruff format --check, mypy
 	$(BIN)/ruff check stlplan tests
