@@ -6,24 +6,37 @@ effort norm: ``l2`` is ``sum u^2`` (a convex QP), ``l1`` is ``sum |u|`` and ``li
 ``sum_p max |u_p|`` (LPs). In one-step mode the same fixing is followed by a continuous re-solve of
 the step-1 objective, which moves the plan to an exact vertex: integrality tolerances cannot then
 leak into the predicates the monitor checks.
+
+Both continuous solves run on a small model (:mod:`stlplan.encoding.continuous`): an LP over the
+step-1 model first finds the predicates the fixed decisions enforce, then only those, the
+dynamics (states eliminated) and the effort remain. HiGHS's QP solver stalls on the full model,
+whose Hessian is singular.
+
+Progress: HiGHS callbacks (improving solution, MIP interrupt) are registered on the
+``highspy.Highs`` object inside Pyomo's solver; Pyomo redirects stdout/stderr during a solve,
+so whatever the progress callback prints then is forwarded to the real stderr.
 """
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 from typing import Any, Literal
 
+import highspy
 from highspy import cb
 from pyomo.contrib.solver.common.results import Results, SolutionStatus, TerminationCondition
 from pyomo.contrib.solver.solvers.highs import Highs
-from pyomo.environ import ConcreteModel, Constraint, Objective, Reals, Var, minimize
+from pyomo.environ import ConcreteModel, Constraint, Objective, Reals, Var, minimize, value
 
-from stlplan.encoding.model import PlanModel, build_model, step2_objective
+from stlplan.encoding.continuous import continuous_model, copy_plan
+from stlplan.encoding.model import PlanModel, build_model
 from stlplan.encoding.readout import plan_result
 from stlplan.encoding.sos1 import Encoding
+from stlplan.encoding.stl import Enforced
 from stlplan.mission import Mission
 from stlplan.problem import Problem
 from stlplan.result import ModelSize, PlanResult, PlanStatus
@@ -179,6 +192,20 @@ def _watch(solver: Highs, model: ConcreteModel, clock: _Clock, phase: Phase) -> 
     return highs
 
 
+_SCHEDULER: dict[str, int | None] = {}
+
+
+def _use_threads(threads: int | None) -> None:
+    """Restart HiGHS's process-wide thread pool when the thread count changes.
+
+    HiGHS sizes one global scheduler at its first solve and fails later solves that ask for a
+    different ``threads``; a planning run in the same process must not inherit that.
+    """
+    if _SCHEDULER.get("threads", threads) != threads:
+        highspy.Highs.resetGlobalScheduler(True)
+    _SCHEDULER["threads"] = threads
+
+
 def _solve(
     model: ConcreteModel, options: PlanOptions, clock: _Clock, phase: Phase, mip: bool = True
 ) -> tuple[Results, float, float | None]:
@@ -193,6 +220,7 @@ def _solve(
         solver.config.rel_gap = options.gap
     clock.report(phase)
     tick = time.perf_counter()
+    _use_threads(options.threads)
     highs = _watch(solver, model, clock, phase)
     # Pyomo redirects the process's stdout/stderr while HiGHS runs; send what the progress
     # callback writes meanwhile to the real stderr (HiGHS's own log is off).
@@ -202,7 +230,10 @@ def _solve(
         raise clock.error
     gap = None
     if mip and highs is not None and has_solution(results):
-        gap = float(highs.getInfo().mip_gap)
+        gap = float(highs.getInfo().mip_gap)  # HiGHS reports inf when there is no integer
+        if not math.isfinite(gap):
+            optimal = results.termination_condition == TC.convergenceCriteriaSatisfied
+            gap = 0.0 if optimal else None
     if has_solution(results):
         results.solution_loader.load_vars()
     return results, seconds, gap
@@ -218,8 +249,8 @@ def model_size(model: ConcreteModel) -> ModelSize:
 def fix_decisions(pm: PlanModel) -> None:
     """Fix every binary at its rounded value (domain made real first: HiGHS has no MIQP).
 
-    Each ``rho_s^l`` keeps its step-1 value as a lower bound (the fixed runs pin it anyway) and
-    a maximized margin keeps its value as a lower bound.
+    Each ``rho_s^l`` keeps its step-1 value as a lower bound (the fixed runs pin it anyway), and
+    so does a maximized margin.
     """
     for v in pm.model.component_data_objects(Var, active=True):
         if v.is_binary() and not v.fixed:
@@ -232,21 +263,46 @@ def fix_decisions(pm: PlanModel) -> None:
         pm.margin.setlb(float(pm.margin.value) - 1e-9)
 
 
-def _continuous(pm: PlanModel, options: PlanOptions, clock: _Clock) -> tuple[bool, float]:
-    """Step 2 (or the one-step polish) on the model with decisions fixed; True on success."""
+def enforced_predicates(
+    pm: PlanModel, options: PlanOptions, clock: _Clock, phase: Phase
+) -> tuple[list[Enforced] | None, float]:
+    """The predicates step 1's fixed decisions enforce, and the seconds it took.
+
+    With the binaries fixed, every indicator has a least feasible value, 1 exactly where the
+    decisions enforce it (requirements only push indicators up). One LP finds them all:
+    ``min sum z`` over the step-1 rows. Returns None if that LP fails.
+    """
     model = pm.model
-    snapshot = [(v, v.value) for v in model.component_data_objects(Var) if not v.fixed]
-    fix_decisions(pm)
-    phase: Phase = "step2" if options.two_step else "polish"
-    if options.two_step:
-        model.step1.deactivate()
-        model.step2 = Objective(expr=step2_objective(pm), sense=minimize)
+    model.step1.deactivate()
+    model.least = Objective(expr=sum(model.spec.indicators.values()), sense=minimize)
     results, seconds, _ = _solve(model, options, clock, phase, mip=False)
-    if results.termination_condition == TC.convergenceCriteriaSatisfied and has_solution(results):
-        return True, seconds
+    model.del_component(model.least)
+    model.step1.activate()
+    if results.termination_condition != TC.convergenceCriteriaSatisfied:
+        return None, seconds
+    guarded = [enforced for z, enforced in pm.ledger.guarded if value(z) > 0.5]
+    return pm.ledger.required + guarded, seconds
+
+
+def _continuous(pm: PlanModel, options: PlanOptions, clock: _Clock) -> tuple[bool, float]:
+    """Step 2 (or the one-step polish) with step 1's decisions fixed; True on success.
+
+    On failure the step-1 solution stays loaded in ``pm``.
+    """
+    snapshot = [(v, v.value) for v in pm.model.component_data_objects(Var)]
+    phase: Phase = "step2" if options.two_step else "polish"
+    fix_decisions(pm)
+    enforced, seconds = enforced_predicates(pm, options, clock, phase)
     for v, val in snapshot:
         v.set_value(val, skip_validation=True)
-    return False, seconds
+    if enforced is None:
+        return False, seconds
+    small = continuous_model(pm, enforced, "effort" if options.two_step else "polish")
+    results, more, _ = _solve(small, options, clock, phase, mip=False)
+    if results.termination_condition != TC.convergenceCriteriaSatisfied:
+        return False, seconds + more
+    copy_plan(small, pm)
+    return True, seconds + more
 
 
 def plan(
@@ -289,9 +345,11 @@ def plan(
         )
     polished, seconds = _continuous(pm, options, clock)
     clock.report("done", step1["objective"], step1["bound"], gap)
-    message = _message(status, results, options)
+    message = _message(status, results, options, gap)
     if not polished:
         message += "; the continuous re-solve failed, the step-1 plan is kept"
+    elif options.two_step:
+        message += f"; step 2 minimized the {problem.mission.objective.effort} effort"
     return plan_result(
         pm,
         status,
@@ -304,15 +362,18 @@ def plan(
     )
 
 
-def _message(status: PlanStatus, results: Results, options: PlanOptions) -> str:
-    """One line on how the solve ended."""
+def _message(
+    status: PlanStatus, results: Results, options: PlanOptions, gap: float | None = None
+) -> str:
+    """One line on how step 1 ended."""
     bound = results.objective_bound
+    stop = results.termination_condition.name
+    where = f"gap {gap:.2%}, bound {bound:.6g}" if gap is not None and bound is not None else ""
     texts = {
         PlanStatus.OPTIMAL: "optimal plan",
-        PlanStatus.FEASIBLE: f"a plan, not proven optimal: HiGHS stopped "
-        f"({results.termination_condition.name}) with bound {bound}",
+        PlanStatus.FEASIBLE: f"a plan, not proven optimal: HiGHS stopped ({stop}; {where})",
         PlanStatus.INFEASIBLE: "the tasks and constraints cannot be met together",
         PlanStatus.NO_PLAN: f"no plan found within the time limit of {options.time_limit:g} s",
-        PlanStatus.ERROR: f"HiGHS failed: {results.termination_condition.name}",
+        PlanStatus.ERROR: f"HiGHS failed: {stop}",
     }
     return texts[status]

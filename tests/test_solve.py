@@ -119,6 +119,7 @@ def test_maximized_margin(encoding: str) -> None:
     assert result.status is PlanStatus.OPTIMAL
     assert result.objective == pytest.approx(0.8, abs=1e-6)
     assert result.margin == pytest.approx(1.0, abs=1e-6)
+    assert result.gap == 0.0  # no binaries: an LP, solved to optimality
 
 
 @pytest.mark.parametrize("encoding", ENCODINGS)
@@ -205,3 +206,67 @@ def test_farm_case_one(encoding: str) -> None:
     assert check(problem, result.trajectory).satisfied
     if result.status is PlanStatus.OPTIMAL:
         assert result.rho_s == {"crop_C": pytest.approx(5.0)}
+
+
+def swap_problem(effort: str) -> Problem:
+    # two agents swap sides around an obstacle while keeping apart; "a" cannot also reach
+    # West on steps 6..8 after East on 5..8, so "west" must be served by "b"
+    return mission(
+        horizon=8,
+        dynamics={"si": single_integrator(1.0)},
+        agents=[
+            {"name": "a", "dynamics": "si", "capabilities": ["X"], "initial_state": [0, 0]},
+            {"name": "b", "dynamics": "si", "capabilities": ["X"], "initial_state": [5, 0]},
+        ],
+        regions={
+            "East": {"box": [[4, 5], [-0.5, 0.5]]},
+            "West": {"box": [[0, 0.5], [-0.5, 0.5]]},
+            "Obs": {"box": [[1.5, 3.5], [-1, 1]]},
+        },
+        tasks={
+            "east": {"formula": "F[5,8] in(p, East)", "roles": {"p": {"agent": "a"}}},
+            "west": {"formula": "F[6,8] G[0,0] in(p, West)", "roles": {"p": "X"}},
+        },
+        constraints={"avoid": {"formula": "G[0,8] !in(p, Obs)", "for_each": "p"}},
+        separation=0.5,
+        objective={"effort": effort},
+    )
+
+
+@pytest.mark.parametrize("encoding", ENCODINGS)
+@pytest.mark.parametrize(("effort", "two_step"), [("l2", True), ("linf", True), ("l1", False)])
+def test_plans_pass_the_monitor(encoding: str, effort: str, two_step: bool) -> None:
+    from stlplan.monitor import check
+
+    problem = swap_problem(effort)
+    result = plan(problem, PlanOptions(encoding=encoding, two_step=two_step, time_limit=60))
+    assert result.status is PlanStatus.OPTIMAL
+    assert result.steps == (2 if two_step else 1)
+    assert result.trajectory is not None
+    report = check(problem, result.trajectory)
+    assert report.satisfied, [v.detail for v in report.verdicts if not v.satisfied]
+    groups = {a.task: a.group for a in result.assignments}
+    assert groups == {"east": (("a",),), "west": (("b",),)}
+
+
+def test_fixed_decisions_enforce_exactly_the_chosen_disjunct() -> None:
+    # reach at k=2 is the optimal decision: the Goal's half-planes at k=2 are the ones enforced
+    from stlplan.encoding.model import build_model
+    from stlplan.solve import _Clock, _solve, enforced_predicates, fix_decisions
+
+    pm = build_model(reach_problem(), "log")
+    options = PlanOptions(time_limit=30)
+    clock = _Clock(0.0, None)
+    _solve(pm.model, options, clock, "step1")
+    fix_decisions(pm)
+    enforced, _ = enforced_predicates(pm, options, clock, "step2")
+    assert enforced is not None
+    assert {k for _, k, _ in enforced} == {2}
+    assert len(enforced) == 4
+
+
+def test_thread_count_can_change_between_plans() -> None:
+    # HiGHS keeps one thread pool per process; a new count must not fail the next solve
+    for threads in (None, 2, 1):
+        result = plan(reach_problem(), PlanOptions(time_limit=30, threads=threads))
+        assert result.status is PlanStatus.OPTIMAL, (threads, result.message)

@@ -33,7 +33,7 @@ from pyomo.environ import (
 )
 
 from stlplan.encoding.sos1 import Encoding, sos1_block
-from stlplan.encoding.stl import StlContext, margin_ceiling
+from stlplan.encoding.stl import Ledger, StlContext, margin_ceiling
 from stlplan.encoding.tasks import (
     SyncEncoding,
     TaskEncoding,
@@ -64,6 +64,10 @@ class PlanModel:
         ``rho_s(Phi)`` lower bound variable, or None without synchronous tasks.
     margin
         Spatial margin ``r``: a variable when maximized, else the required minimum.
+    encoding
+        ``"log"`` or ``"standard"`` SOS1.
+    ledger
+        Every predicate the encoding placed (for step 2).
     """
 
     model: ConcreteModel
@@ -73,6 +77,7 @@ class PlanModel:
     t: Any
     margin: Any
     encoding: Encoding
+    ledger: Ledger
 
     def states(self, agent: AgentModel) -> list[list[Any]]:
         """``x_p(k)[i]`` variables, ``k = 0..H``."""
@@ -181,7 +186,7 @@ def add_objective(
     score: Any = -objective.beta * sum(model.s.values())
     t = None
     if synchronous:
-        model.t = Var(bounds=(0.0, max(e.task.sync.gamma for e in synchronous if e.task.sync)))
+        model.t = Var(bounds=(0.0, min(e.rho_s.ub for e in synchronous)))
         model.t_rows = Constraint(
             range(len(synchronous)), rule=lambda m, i: m.t <= synchronous[i].rho_s
         )
@@ -224,22 +229,4 @@ def build_model(problem: Problem, encoding: Encoding = "log") -> PlanModel:
     encode_constraints(ctx, problem)
     encode_separation(ctx, problem)
     t = add_objective(model, problem, synchronous, margin)
-    return PlanModel(model, problem, tasks, synchronous, t, margin, encoding)
-
-
-def step2_objective(pm: PlanModel) -> Any:
-    """Effort of step 2 in the mission's norm (to minimize; decisions fixed beforehand).
-
-    ``l2``: ``sum u^2`` (convex QP); ``l1``: ``sum s`` with ``s >= |u|``; ``linf``:
-    ``sum_p v_p`` with ``v_p >= s_{p,k,j}`` for every ``k, j`` (LPs).
-    """
-    model, problem = pm.model, pm.problem
-    norm = problem.mission.objective.effort
-    if norm == "l2":
-        return sum(u * u for u in model.u.values())
-    if norm == "l1":
-        return sum(model.s.values())
-    names = [a.name for a in problem.agents]
-    model.peak = Var(names, bounds=(0.0, None))
-    model.peak_rows = Constraint(list(model.s), rule=lambda m, p, k, j: m.peak[p] >= m.s[p, k, j])
-    return sum(model.peak.values())
+    return PlanModel(model, problem, tasks, synchronous, t, margin, encoding, ctx.ledger)

@@ -41,6 +41,24 @@ Boxes = Mapping[str, tuple[np.ndarray, np.ndarray]]
 """Agent name to ``(lo, hi)`` state bounds per step, each of shape (H+1, n)."""
 
 
+Enforced = tuple[Predicate, int, Mapping[str, str]]
+"""A predicate at a step under a binding: ``alpha(x(k)) - r >= 0`` when enforced."""
+
+
+@dataclass(eq=False)
+class Ledger:
+    """Every predicate the encoding placed: indicator-guarded ones and unconditional ones.
+
+    Step 2 rebuilds a small continuous model from it: the predicates whose indicators the fixed
+    decisions force to 1, plus the unconditional ones.
+    """
+
+    guarded: list[tuple[Any, Enforced]] = field(default_factory=list)
+    """``(z, (node, k, binding))``: ``z = 1`` enforces the predicate."""
+    required: list[Enforced] = field(default_factory=list)
+    """Predicates enforced outright."""
+
+
 @dataclass(frozen=True, eq=False)
 class StlContext:
     """Where and how formulas are encoded.
@@ -68,6 +86,8 @@ class StlContext:
         Role to agent name for the formulas being encoded.
     memo
         ``(node, k, binding)`` to indicator, shared by every binding.
+    ledger
+        Every predicate placed (shared by every binding).
     """
 
     block: Block
@@ -80,6 +100,7 @@ class StlContext:
     encoding: Encoding = "log"
     binding: Mapping[str, str] = field(default_factory=dict)
     memo: dict[tuple[Any, ...], Any] = field(default_factory=dict)
+    ledger: Ledger = field(default_factory=Ledger)
 
     def bound(self, binding: Mapping[str, str]) -> StlContext:
         """The same context with roles bound to agents by ``binding`` (memo shared)."""
@@ -138,12 +159,16 @@ def predicate_range(
     return lo, hi
 
 
+def alpha(node: Predicate, k: int, binding: Mapping[str, str], states: Any) -> Any:
+    """``alpha(x(k)) = sum(coef * x_role[k, component]) - bound`` over ``states[agent, k, i]``."""
+    return sum(t.coef * states[binding[t.role], k, t.component] for t in node.terms) - node.bound
+
+
 def predicate_value(node: Predicate, k: int, ctx: StlContext) -> Any:
-    """``alpha(x(k)) = sum(coef * x_role[k, component]) - bound`` as a Pyomo expression."""
+    """``alpha(x(k))`` of ``node`` under the context's binding, as a Pyomo expression."""
     if k > ctx.horizon:
         raise FormulaError(f"a predicate is needed at step {k}, past the horizon {ctx.horizon}")
-    x = ctx.states
-    return sum(t.coef * x[ctx.binding[t.role], k, t.component] for t in node.terms) - node.bound
+    return alpha(node, k, ctx.binding, ctx.states)
 
 
 def encode_predicate(node: Predicate, k: int, ctx: StlContext) -> Any:
@@ -152,6 +177,7 @@ def encode_predicate(node: Predicate, k: int, ctx: StlContext) -> Any:
     lo, _ = predicate_range(node, k, ctx.binding, ctx.boxes)
     big_m = max(0.0, ctx.margin_ceiling - lo)
     ctx.block.rows.add(predicate_value(node, k, ctx) - ctx.margin >= -big_m * (1 - z))
+    ctx.ledger.guarded.append((z, (node, k, ctx.binding)))
     return z
 
 
@@ -222,6 +248,7 @@ def encode(node: Formula, k: int, ctx: StlContext) -> Any:
 def require_predicate(node: Predicate, k: int, ctx: StlContext) -> None:
     # alpha(x(k)) - r >= 0: no indicator, no big-M
     ctx.block.rows.add(predicate_value(node, k, ctx) - ctx.margin >= 0)
+    ctx.ledger.required.append((node, k, ctx.binding))
 
 
 def require_and(node: And, k: int, ctx: StlContext) -> None:

@@ -133,8 +133,10 @@ def encode_synchronous(ctx: StlContext, problem: Problem, task: TaskModel) -> Sy
     """Synchronous robustness of ``F[a,b] <G[0,d] phi, c, Pattern>`` (DESIGN 2.1).
 
     With selection entries ``lambda_jk'`` SOS1 (one ``(j, k')`` chosen, ``k' in [a, b]``):
-    ``rho_s + 1 + d <= c_j(k') + (gamma + 1 + d)(1 - lambda_jk')`` and ``0 <= rho_s <= gamma``,
-    so ``rho_s <= max_j max_{k' in [a,b]} c_j(k') - 1 - d`` (tight when maximized).
+    ``rho_s + 1 + d <= c_j(k') + (rho_max + 1 + d)(1 - lambda_jk')`` and
+    ``0 <= rho_s <= rho_max = min(gamma, last - a - d)`` (no run from ``k' >= a`` is longer than
+    ``last - a + 1``), so ``rho_s <= max_j max_{k' in [a,b]} c_j(k') - 1 - d``, tight when
+    maximized.
     """
     assert task.sync is not None
     a, b, d, gamma = task.sync.a, task.sync.b, task.sync.d, task.sync.gamma
@@ -149,14 +151,14 @@ def encode_synchronous(ctx: StlContext, problem: Problem, task: TaskModel) -> Sy
     counts = group_runs(ctx, task, h, a, last)
     rho_s = ctx.block.reals.add()
     rho_s.setlb(0)
-    rho_s.setub(gamma)
+    rho_s.setub(min(gamma, last - a - d))  # a run from k' >= a has at most last - a + 1 steps
     starts = [(j, k) for j in range(len(task.groups)) for k in range(a, b + 1)]
     chosen = [indicator(ctx) for _ in starts]
     if len(chosen) == 1:
         ctx.block.rows.add(chosen[0] == 1)
     else:
         sos1(ctx.sos, chosen, ctx.encoding)
-    big_m = gamma + 1 + d
+    big_m = rho_s.ub + 1 + d
     for lam, start in zip(chosen, starts, strict=True):
         ctx.block.rows.add(rho_s + 1 + d <= counts[start] + big_m * (1 - lam))
     return SyncEncoding(task, rho_s, counts)
