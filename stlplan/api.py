@@ -11,12 +11,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from stlplan.diagnose import cheap_reasons, diagnose
 from stlplan.errors import SolverError
 from stlplan.loader import load_problem
 from stlplan.monitor import check as monitor_check
 from stlplan.outputs import prepare_directory, write_all, write_json
 from stlplan.problem import Problem
-from stlplan.result import MonitorReport, PlanResult
+from stlplan.result import Diagnosis, MonitorReport, PlanResult, PlanStatus
 from stlplan.summary import summary_dict
 from stlplan.trajio import read_trajectory_csv, write_trajectory_csv
 
@@ -46,31 +47,51 @@ def _verified(problem: Problem, result: PlanResult) -> PlanResult:
     for task, rho in result.rho_s.items():
         seen = report.verdict(task).rho_s
         if seen is None or seen < rho - RHO_TOL:
-            raise SolverError(f"synchronous robustness of '{task}' disagrees: solver {rho}, "
-                              f"monitor {seen}")
+            raise SolverError(
+                f"synchronous robustness of '{task}' disagrees: solver {rho}, monitor {seen}"
+            )
     return dataclasses.replace(result, report=report)
 
 
 def plan(
     mission: str | Path | Problem,
     progress: Callable[[Any], None] | None = None,
+    diagnose_infeasible: bool = True,
     **overrides: Any,
 ) -> tuple[Problem, PlanResult]:
     """Solve a mission and verify the plan with the monitor.
 
     ``overrides`` are :class:`stlplan.solve.PlanOptions` fields (``time_limit``, ``gap``,
-    ``threads``, ``seed``, ``encoding``, ``two_step``); None keeps the mission's value.
+    ``threads``, ``seed``, ``encoding``, ``two_step``); None keeps the mission's value. An
+    infeasible mission comes back with a :class:`~stlplan.result.Diagnosis` (cheap reasons found
+    before solving, or a minimal conflict found by feasibility solves).
     """
-    from stlplan.solve import PlanOptions, plan as solve_plan
+    from stlplan.solve import PlanOptions
+    from stlplan.solve import plan as solve_plan
 
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
     options = PlanOptions.from_mission(problem.mission, **overrides)
+    reasons = cheap_reasons(problem)
+    if reasons:
+        diagnosis = Diagnosis(reasons, tuple(dict.fromkeys(r.split("'")[1] for r in reasons)))
+        message = f"infeasible before solving: {len(reasons)} requirement(s) cannot be met in time"
+        return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis)
     result = solve_plan(problem, options, progress=progress)
+    if result.status is PlanStatus.INFEASIBLE and diagnose_infeasible:
+        probe = dataclasses.replace(
+            options, time_limit=min(30.0, options.time_limit), two_step=False
+        )
+
+        def feasibility(subset: Problem) -> PlanStatus:
+            return solve_plan(subset, probe).status
+
+        result = dataclasses.replace(result, diagnosis=diagnose(problem, feasibility))
     return problem, _verified(problem, result)
 
 
-def write_plan(problem: Problem, result: PlanResult, out: str | Path,
-               options: dict[str, Any] | None = None) -> list[Path]:
+def write_plan(
+    problem: Problem, result: PlanResult, out: str | Path, options: dict[str, Any] | None = None
+) -> list[Path]:
     """Write ``trajectory.csv``, ``summary.json``, ``plan.png``, ``timeline.png`` (all or none).
 
     Without a plan, only ``summary.json`` is written.
@@ -102,6 +123,10 @@ def solve(
     if out is not None:
         write_plan(problem, result, out, {k: v for k, v in overrides.items() if v is not None})
     return result
+
+
+def _write_text(path: Path, text: str) -> None:
+    path.write_text(text, encoding="utf-8")
 
 
 def sweep(
@@ -148,9 +173,12 @@ def sweep(
     wanted = {(s.mission_key, s.run, s.seed) for s in specs}
     records = [r for r in read_records(out) if (r["mission"], r["run"], r["seed"]) in wanted]
     rows = report.summarize(records)
-    write_all(out, {
-        "table.csv": lambda p: p.write_text(report.to_csv(rows), encoding="utf-8"),
-        "table.md": lambda p: p.write_text(report.to_markdown(rows), encoding="utf-8"),
-        "solve-times.png": lambda p: report.plot_times(records, p),
-    })
+    write_all(
+        out,
+        {
+            "table.csv": lambda p: _write_text(p, report.to_csv(rows)),
+            "table.md": lambda p: _write_text(p, report.to_markdown(rows)),
+            "solve-times.png": lambda p: report.plot_times(records, p),
+        },
+    )
     return rows

@@ -47,7 +47,9 @@ def iter_groups(
 ) -> Iterator[tuple[int, ...]]:
     """Yield each group as increasing indices into ``elems`` (so each set once)."""
 
-    def extend(start: int, chosen: tuple[int, ...], used: frozenset[str]) -> Iterator[tuple[int, ...]]:
+    def extend(
+        start: int, chosen: tuple[int, ...], used: frozenset[str]
+    ) -> Iterator[tuple[int, ...]]:
         if len(chosen) == count:
             yield chosen
             return

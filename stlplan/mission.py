@@ -8,7 +8,7 @@ checked in :mod:`stlplan.checks`, after these models accept the document.
 from __future__ import annotations
 
 import json
-from typing import Literal, Optional, Union
+from typing import Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -52,11 +52,11 @@ class Agent(_Strict):
 class Region(_Strict):
     """A convex region of the plane: a box, or a polytope ``{z : G z <= h}``."""
 
-    box: Optional[tuple[Bounds, Bounds]] = None
+    box: tuple[Bounds, Bounds] | None = None
     """[[x_lo, x_hi], [y_lo, y_hi]]."""
-    G: Optional[list[tuple[float, float]]] = None
+    G: list[tuple[float, float]] | None = None
     """Polytope rows: each row [g_x, g_y] of G in G z <= h."""
-    h: Optional[list[float]] = None
+    h: list[float] | None = None
     """Polytope right-hand sides, one per row of G."""
 
     @model_validator(mode="after")
@@ -85,7 +85,7 @@ class Synchronous(_Strict):
     """[a, b]: the steps at which the synchronized run may start."""
     hold: int = Field(default=0, ge=0)
     """d: every element must satisfy phi for d+1 consecutive steps together."""
-    gamma: Optional[float] = Field(default=None, ge=0)
+    gamma: float | None = Field(default=None, ge=0)
     """Upper bound on this task's synchronous robustness (default: objective.gamma)."""
 
 
@@ -100,7 +100,7 @@ class Task(_Strict):
     """Pattern: each role's capability, list of capabilities (all required), or {agent: name}."""
     reuse_agents: bool = False
     """Allow one agent in several elements of a group (the paper forbids it by default)."""
-    synchronous: Optional[Synchronous] = None
+    synchronous: Synchronous | None = None
     """Synchronization window and hold; absent for an ordinary task."""
 
 
@@ -109,9 +109,9 @@ class Constraint(_Strict):
 
     formula: str
     """STL formula over the roles below."""
-    for_each: Optional[str] = None
+    for_each: str | None = None
     """A role that ranges over agents: the formula must hold for each of them."""
-    agents: Optional[list[str]] = None
+    agents: list[str] | None = None
     """Agents `for_each` ranges over (default: every agent)."""
     roles: dict[str, str] = {}
     """Roles pinned to named agents."""
@@ -150,7 +150,7 @@ class SolverOptions(_Strict):
     """Wall-clock limit of one solve, seconds."""
     gap: float = Field(default=1e-4, ge=0)
     """Relative optimality gap at which HiGHS stops."""
-    threads: Optional[int] = Field(default=None, ge=1)
+    threads: int | None = Field(default=None, ge=1)
     """Threads HiGHS may use (default: HiGHS decides)."""
     seed: int = Field(default=0, ge=0)
     """HiGHS random seed."""
@@ -184,13 +184,13 @@ class Mission(_Strict):
     """Global tasks <phi, c, Pattern>, some synchronous."""
     constraints: dict[str, Constraint] = {}
     """Bottom-up STL constraints on named agents or every agent (e.g. obstacle avoidance)."""
-    separation: Optional[float] = Field(default=None, ge=0)
+    separation: float | None = Field(default=None, ge=0)
     """Minimum pairwise distance between agents' positions (infinity norm), at every step."""
     objective: Objective = Objective()
     """What the plan optimizes."""
     solver: SolverOptions = SolverOptions()
     """Solver options (the command line may override them)."""
-    sweep: Optional[SweepOptions] = None
+    sweep: SweepOptions | None = None
     """Settings for `stlplan sweep`."""
 
 

@@ -19,8 +19,9 @@ def prepare_directory(out: Path) -> None:
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise UsageError(f"cannot create the output directory: {exc.strerror or exc}",
-                         source=str(out)) from None
+        raise UsageError(
+            f"cannot create the output directory: {exc.strerror or exc}", source=str(out)
+        ) from None
     if not os.access(out, os.W_OK):
         raise UsageError("the output directory is not writable", source=str(out))
 

@@ -72,7 +72,7 @@ class TaskModel:
 
     def binding(self, element: Element) -> dict[str, str]:
         """Role to agent name for one element."""
-        return dict(zip(self.roles, element))
+        return dict(zip(self.roles, element, strict=False))
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,7 +118,7 @@ def region_halfspaces(region: Region) -> HalfSpaces:
         return ((1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)), (xh, -xl, yh, -yl)
     assert region.G is not None and region.h is not None
     rows, rhs = [], []
-    for g, h in zip(region.G, region.h):
+    for g, h in zip(region.G, region.h, strict=False):
         norm = float(np.hypot(*g)) or 1.0
         rows.append((g[0] / norm, g[1] / norm))
         rhs.append(h / norm)
@@ -164,7 +164,9 @@ def _task_model(mission: Mission, name: str, source: str | None) -> TaskModel:
         s = spec.synchronous
         gamma = mission.objective.gamma if s.gamma is None else s.gamma
         sync = SyncWindow(s.within[0], s.within[1], s.hold, gamma)
-    return TaskModel(name, formula, spec.count, order, rules, spec.reuse_agents, elems, groups, sync)
+    return TaskModel(
+        name, formula, spec.count, order, rules, spec.reuse_agents, elems, groups, sync
+    )
 
 
 def _constraint_model(mission: Mission, name: str, source: str | None) -> ConstraintModel:

@@ -22,13 +22,21 @@ class ProgressLine:
 
     def __enter__(self) -> ProgressLine:
         if self._enabled:
-            self._live = Live(Text("building the model..."), console=self._console,
-                              refresh_per_second=4, transient=True)
+            self._live = Live(
+                Text("building the model..."),
+                console=self._console,
+                refresh_per_second=4,
+                transient=True,
+            )
             self._live.__enter__()
         return self
 
-    def __exit__(self, kind: type[BaseException] | None, value: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        value: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
         if self._live is not None:
             self._live.__exit__(kind, value, tb)
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from rich.console import Console
 from rich.table import Table
 
-from stlplan.result import MonitorReport, PlanResult, Verdict
+from stlplan.result import Diagnosis, MonitorReport, PlanResult, Verdict
 
 
 def _num(value: float | None, digits: int = 3) -> str:
@@ -65,8 +65,10 @@ def print_report(console: Console, report: MonitorReport) -> None:
             console.print(f"  {v.name}: {v.detail}")
     else:
         rho = "" if report.rho_s is None else f", rho_s(Phi) = {_num(report.rho_s)}"
-        console.print(f"[green]satisfied[/]: every task and constraint holds{rho}, spatial "
-                      f"robustness {_num(report.spatial_robustness)}")
+        console.print(
+            f"[green]satisfied[/]: every task and constraint holds{rho}, spatial "
+            f"robustness {_num(report.spatial_robustness)}"
+        )
 
 
 def print_plan(console: Console, result: PlanResult) -> None:
@@ -76,21 +78,50 @@ def print_plan(console: Console, result: PlanResult) -> None:
         status += f" (not proven optimal, gap {_num(result.gap)})"
     console.print(f"[bold]status[/]     {status}: {result.message}")
     if result.objective is not None:
-        console.print(f"[bold]objective[/]  {_num(result.objective, 6)} (step 1; bound "
-                      f"{_num(result.bound, 6)})")
+        console.print(
+            f"[bold]objective[/]  {_num(result.objective, 6)} (step 1; bound "
+            f"{_num(result.bound, 6)})"
+        )
     if result.effort is not None:
         console.print(f"[bold]effort[/]     {_num(result.effort, 6)} after step {result.steps}")
     for a in result.assignments:
-        run = "" if a.run_length is None else (
-            f"  synchronized steps {a.run_start}-{a.run_start + a.run_length - 1} "
-            f"(run {a.run_length}, rho_s = {_num(a.rho_s)})" if a.run_start is not None else "")
-        console.print(f"[bold]task[/]       {a.task}: " + " ".join(
-            "(" + ", ".join(e) + ")" for e in a.group) + run)
+        run = (
+            ""
+            if a.run_length is None
+            else (
+                f"  synchronized steps {a.run_start}-{a.run_start + a.run_length - 1} "
+                f"(run {a.run_length}, rho_s = {_num(a.rho_s)})"
+                if a.run_start is not None
+                else ""
+            )
+        )
+        console.print(
+            f"[bold]task[/]       {a.task}: "
+            + " ".join("(" + ", ".join(e) + ")" for e in a.group)
+            + run
+        )
     size = result.model_size
     if size is not None:
-        console.print(f"[bold]model[/]      {size.variables} variables ({size.binaries} binary), "
-                      f"{size.constraints} constraints")
-    console.print(f"[bold]time[/]       build {result.build_seconds:.2f} s, solve "
-                  f"{result.solve_seconds:.2f} s")
+        console.print(
+            f"[bold]model[/]      {size.variables} variables ({size.binaries} binary), "
+            f"{size.constraints} constraints"
+        )
+    console.print(
+        f"[bold]time[/]       build {result.build_seconds:.2f} s, solve "
+        f"{result.solve_seconds:.2f} s"
+    )
     if result.report is not None:
         print_report(console, result.report)
+    if result.diagnosis is not None:
+        print_diagnosis(console, result.diagnosis)
+
+
+def print_diagnosis(console: Console, diagnosis: Diagnosis) -> None:
+    """Why the mission is infeasible."""
+    for reason in diagnosis.reasons:
+        console.print(f"[bold]reason[/]     {reason}")
+    if diagnosis.conflict:
+        note = "" if diagnosis.complete else " (some checks timed out: may not be minimal)"
+        console.print(
+            f"[bold]conflict[/]   these cannot hold together: {', '.join(diagnosis.conflict)}{note}"
+        )

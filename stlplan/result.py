@@ -114,6 +114,18 @@ class Assignment:
     run_length: int | None = None
 
 
+@dataclass(frozen=True)
+class Diagnosis:
+    """Why a mission is infeasible."""
+
+    reasons: tuple[str, ...] = ()
+    """Cheap reasons found without solving (e.g. a region no capable agent can reach in time)."""
+    conflict: tuple[str, ...] = ()
+    """A minimal set of tasks and constraints ('separation' included) that cannot hold together."""
+    complete: bool = True
+    """False when some feasibility solve ran out of time, so the set may not be minimal."""
+
+
 @dataclass(frozen=True, eq=False)
 class PlanResult:
     """The outcome of planning a mission."""
@@ -139,3 +151,5 @@ class PlanResult:
     """The independent monitor's verdicts on ``trajectory``."""
     steps: int = 1
     """1 or 2: whether step 2 (effort minimization) ran."""
+    diagnosis: Diagnosis | None = None
+    """For an infeasible mission: what cannot be met together."""

@@ -63,4 +63,5 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "solve_seconds": result.solve_seconds,
         "options": options,
         "monitor": None if result.report is None else report_dict(result.report),
+        "diagnosis": None if result.diagnosis is None else vars(result.diagnosis),
     }

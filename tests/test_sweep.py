@@ -60,11 +60,16 @@ def test_sweep_on_a_local_dask_cluster_matches_local_runs(tmp_path: Path) -> Non
     import distributed
 
     cluster = distributed.LocalCluster(
-        host="127.0.0.1", n_workers=2, threads_per_worker=1, processes=True,
+        host="127.0.0.1",
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
         dashboard_address=None,
     )
     try:
-        api.sweep([PAIR], runs=2, seed=5, out=tmp_path / "dask", scheduler=cluster.scheduler_address)
+        api.sweep(
+            [PAIR], runs=2, seed=5, out=tmp_path / "dask", scheduler=cluster.scheduler_address
+        )
     finally:
         cluster.close()
     api.sweep([PAIR], runs=2, seed=5, out=tmp_path / "local", workers=2)

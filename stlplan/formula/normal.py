@@ -38,8 +38,10 @@ def _inside(role: str, region: HalfSpaces, position: tuple[int, int]) -> And:
     # z in {G z <= h}  <=>  for every row i: -G_i z + h_i >= 0
     rows, rhs = region
     preds = []
-    for g, h in zip(rows, rhs):
-        terms = tuple(Term(-float(c), role, comp) for c, comp in zip(g, position) if c != 0)
+    for g, h in zip(rows, rhs, strict=False):
+        terms = tuple(
+            Term(-float(c), role, comp) for c, comp in zip(g, position, strict=False) if c != 0
+        )
         preds.append(Predicate(terms, -float(h)))
     return And(tuple(preds))
 
@@ -47,7 +49,7 @@ def _inside(role: str, region: HalfSpaces, position: tuple[int, int]) -> And:
 def _near(atom: Distance, positions: Mapping[str, tuple[int, int]]) -> And:
     # ||z_l - z_r||_inf <= r  <=>  for each axis, r - (z_l - z_r) >= 0 and r + (z_l - z_r) >= 0
     preds = []
-    for left, right in zip(positions[atom.left], positions[atom.right]):
+    for left, right in zip(positions[atom.left], positions[atom.right], strict=False):
         diff = (Term(1.0, atom.left, left), Term(-1.0, atom.right, right))
         preds.append(_flip(Predicate(diff, atom.radius)))
         preds.append(Predicate(diff, -atom.radius))

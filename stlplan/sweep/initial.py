@@ -23,7 +23,7 @@ def _bounding_box(rows: np.ndarray, rhs: np.ndarray, mission: Mission) -> np.nda
     """Box to sample from: the workspace of the first agent's dynamics, tightened by axis rows."""
     dyn = mission.dynamics[mission.agents[0].dynamics]
     box = np.array([dyn.state_bounds[i] for i in dyn.position], dtype=float)
-    for g, h in zip(rows, rhs):
+    for g, h in zip(rows, rhs, strict=False):
         for axis in (0, 1):
             if abs(g[axis]) > 0 and abs(g[1 - axis]) == 0:
                 if g[axis] > 0:
@@ -36,8 +36,9 @@ def _bounding_box(rows: np.ndarray, rhs: np.ndarray, mission: Mission) -> np.nda
 def draw_positions(mission: Mission, seed: int, run: int) -> np.ndarray:
     """Positions (agents x 2) drawn uniformly in the initial region, pairwise separated."""
     if mission.sweep is None:
-        raise MissionError("a sweep needs 'sweep: {initial_region: NAME}' in the mission",
-                           where="sweep")
+        raise MissionError(
+            "a sweep needs 'sweep: {initial_region: NAME}' in the mission", where="sweep"
+        )
     rows_t, rhs_t = region_halfspaces(mission.regions[mission.sweep.initial_region])
     rows, rhs = np.array(rows_t, dtype=float), np.array(rhs_t, dtype=float)
     box = _bounding_box(rows, rhs, mission)
@@ -50,7 +51,9 @@ def draw_positions(mission: Mission, seed: int, run: int) -> np.ndarray:
         if tries > MAX_TRIES:
             raise MissionError(
                 f"cannot place {len(mission.agents)} agents {separation} apart in region "
-                f"'{mission.sweep.initial_region}'", where="sweep.initial_region")
+                f"'{mission.sweep.initial_region}'",
+                where="sweep.initial_region",
+            )
         z = box[:, 0] + rng.random(2) * (box[:, 1] - box[:, 0])
         if not _inside(rows, rhs, z):
             continue
@@ -62,7 +65,7 @@ def draw_positions(mission: Mission, seed: int, run: int) -> np.ndarray:
 def with_initial_positions(mission: Mission, positions: np.ndarray) -> Mission:
     """A copy of ``mission`` whose agents start at ``positions``, at rest."""
     agents: list[Agent] = []
-    for agent, z in zip(mission.agents, positions):
+    for agent, z in zip(mission.agents, positions, strict=False):
         dyn = mission.dynamics[agent.dynamics]
         state = [min(max(0.0, lo), hi) for lo, hi in dyn.state_bounds]
         for axis, component in enumerate(dyn.position):

@@ -17,8 +17,12 @@ class SweepProgress:
 
     def __init__(self, console: Console) -> None:
         self._progress = Progress(
-            TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
-            TextColumn("{task.fields[last]}"), TimeRemainingColumn(), console=console,
+            TextColumn("sweep"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("{task.fields[last]}"),
+            TimeRemainingColumn(),
+            console=console,
             transient=False,
         )
         self._task: Any = None
@@ -27,8 +31,12 @@ class SweepProgress:
         self._progress.__enter__()
         return self
 
-    def __exit__(self, kind: type[BaseException] | None, value: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        value: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
         self._progress.__exit__(kind, value, tb)
 
     def start(self, total: int) -> None:

@@ -28,20 +28,24 @@ def summarize(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
         mine = [r for r in records if r["mission"] == mission]
         times = np.array([_time(r) for r in mine if "solve_seconds" in r] or [np.nan])
         rho = [_fmt(r.get("rho_s")) for r in mine if r.get("rho_s") is not None]
-        rows.append({
-            "mission": mission,
-            "runs": len(mine),
-            "statuses": _counts([r["status"] for r in mine]),
-            "mean_s": round(float(np.nanmean(times)), 2) if np.isfinite(times).any() else None,
-            "median_s": round(float(np.nanmedian(times)), 2) if np.isfinite(times).any() else None,
-            "max_s": round(float(np.nanmax(times)), 2) if np.isfinite(times).any() else None,
-            "rho_s": _counts(rho) or "-",
-            "monitor_ok": sum(1 for r in mine if r.get("monitor_satisfied")),
-        })
+        rows.append(
+            {
+                "mission": mission,
+                "runs": len(mine),
+                "statuses": _counts([r["status"] for r in mine]),
+                "mean_s": round(float(np.nanmean(times)), 2) if np.isfinite(times).any() else None,
+                "median_s": round(float(np.nanmedian(times)), 2)
+                if np.isfinite(times).any()
+                else None,
+                "max_s": round(float(np.nanmax(times)), 2) if np.isfinite(times).any() else None,
+                "rho_s": _counts(rho) or "-",
+                "monitor_ok": sum(1 for r in mine if r.get("monitor_satisfied")),
+            }
+        )
     return rows
 
 
-def _fmt(value: float) -> str:
+def _fmt(value: Any) -> str:
     return str(int(value)) if float(value).is_integer() else f"{value:.3g}"
 
 
@@ -58,7 +62,9 @@ def to_markdown(rows: list[dict[str, Any]]) -> str:
     """The table as a Markdown table (build + solve seconds, mean / median / max)."""
     lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
     for row in rows:
-        lines.append("| " + " | ".join("-" if row[c] is None else str(row[c]) for c in COLUMNS) + " |")
+        lines.append(
+            "| " + " | ".join("-" if row[c] is None else str(row[c]) for c in COLUMNS) + " |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -67,8 +73,9 @@ def plot_times(records: list[dict[str, Any]], path: Path) -> None:
     from matplotlib.figure import Figure
 
     missions = sorted({r["mission"] for r in records})
-    data = [[_time(r) for r in records if r["mission"] == m and "solve_seconds" in r]
-            for m in missions]
+    data = [
+        [_time(r) for r in records if r["mission"] == m and "solve_seconds" in r] for m in missions
+    ]
     fig = Figure(figsize=(max(4.0, 1.6 * len(missions) + 2), 4), dpi=150)
     ax = fig.add_subplot()
     ax.boxplot([d or [np.nan] for d in data], showfliers=False)

@@ -45,8 +45,9 @@ def run_one(spec: RunSpec) -> dict[str, Any]:
     try:
         base = problem_from_text(spec.mission_text, spec.source).mission
         positions = draw_positions(base, spec.seed, spec.run)
-        record["initial_positions"] = {a.name: [float(v) for v in z]
-                                       for a, z in zip(base.agents, positions)}
+        record["initial_positions"] = {
+            a.name: [float(v) for v in z] for a, z in zip(base.agents, positions, strict=False)
+        }
         problem = build_problem(with_initial_positions(base, positions), source=spec.source)
         _, result = plan(problem, **spec.overrides)
     except StlplanError as exc:
@@ -60,8 +61,11 @@ def run_one(spec: RunSpec) -> dict[str, Any]:
         objective=result.objective,
         gap=result.gap,
         rho_s=None if report is None else report.rho_s,
-        runs={v.name: [v.run_start, v.run_length] for v in (report.verdicts if report else ())
-              if v.rho_s is not None},
+        runs={
+            v.name: [v.run_start, v.run_length]
+            for v in (report.verdicts if report else ())
+            if v.rho_s is not None
+        },
         effort=result.effort,
         monitor_satisfied=None if report is None else report.satisfied,
         variables=None if size is None else size.variables,
@@ -92,8 +96,10 @@ def pending(specs: Sequence[RunSpec], out: Path, resume: bool) -> list[RunSpec]:
     """The specs still to run; refuses to mix with an earlier sweep unless ``resume``."""
     done = {(r["mission"], r["run"], r["seed"]) for r in read_records(out)}
     if done and not resume:
-        raise UsageError(f"{out / RECORDS} already holds {len(done)} runs; pass --resume to "
-                         "continue that sweep or choose another --out")
+        raise UsageError(
+            f"{out / RECORDS} already holds {len(done)} runs; pass --resume to "
+            "continue that sweep or choose another --out"
+        )
     return [s for s in specs if (s.mission_key, s.run, s.seed) not in done]
 
 
