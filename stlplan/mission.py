@@ -8,7 +8,7 @@ checked in :mod:`stlplan.checks`, after these models accept the document.
 from __future__ import annotations
 
 import json
-from typing import Literal, Union
+from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -75,7 +75,7 @@ class PinnedRole(_Strict):
     """Name of the agent that fills the role."""
 
 
-RoleRule = Union[str, list[str], PinnedRole]
+RoleRule = str | list[str] | PinnedRole
 
 
 class Synchronous(_Strict):

@@ -8,7 +8,7 @@ encoder and the monitor see. Negation is written on atoms only; :func:`negate` p
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal, Union
+from typing import Literal
 
 from stlplan.errors import FormulaError
 
@@ -74,7 +74,7 @@ class Predicate:
     bound: float
 
 
-Atom = Union[InRegion, Distance, Linear, Predicate]
+Atom = InRegion | Distance | Linear | Predicate
 
 
 @dataclass(frozen=True)
@@ -123,7 +123,7 @@ class Until:
     right: Formula
 
 
-Formula = Union[InRegion, Distance, Linear, Predicate, Not, And, Or, Always, Eventually, Until]
+Formula = InRegion | Distance | Linear | Predicate | Not | And | Or | Always | Eventually | Until
 ATOM_TYPES = (InRegion, Distance, Linear, Predicate)
 
 
