@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import time
 from types import TracebackType
 from typing import Any
@@ -15,7 +16,8 @@ class ProgressLine:
     """Shows phase, elapsed time, incumbent, bound and gap while the solver works."""
 
     def __init__(self, console: Console, enabled: bool = True) -> None:
-        self._console = console
+        # The solver's wrapper swaps sys.stderr while HiGHS runs; write to the process's own stderr.
+        self._console = Console(file=sys.__stderr__) if console.is_terminal else console
         self._enabled = enabled and console.is_terminal
         self._live: Live | None = None
         self._start = time.monotonic()
