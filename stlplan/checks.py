@@ -8,6 +8,7 @@ constraints, objective.
 from __future__ import annotations
 
 import math
+import re
 from difflib import get_close_matches
 from typing import NoReturn
 
@@ -26,7 +27,15 @@ from stlplan.formula.tree import (
     regions,
     roles,
 )
-from stlplan.mission import Constraint, Dynamics, Mission, PinnedRole, Synchronous
+from stlplan.mission import Constraint, Dynamics, Mission, PinnedRole, Synchronous, Task
+
+MAX_HORIZON = 100_000
+"""Largest horizon H (states are stored for every step)."""
+MAX_ELEMENTS = 10_000
+"""Elements a task's roles may admit (they are enumerated)."""
+MAX_GROUPS = 1_000_000
+"""Bound on the groups (and partial groups) enumerated for one task."""
+ROLE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 
 def _fail(message: str, where: str, source: str | None) -> NoReturn:
@@ -150,6 +159,8 @@ def check_regions(mission: Mission, source: str | None) -> None:
                     f"{where}.h",
                     source,
                 )
+            if not region.G:
+                _fail("a polytope needs at least one row [g_x, g_y] in G", f"{where}.G", source)
             if any(np.hypot(*g) == 0 for g in region.G):
                 _fail("a row of G is zero", f"{where}.G", source)
 
@@ -210,6 +221,8 @@ def check_task(mission: Mission, name: str, formula: Formula, source: str | None
     task = mission.tasks[name]
     where = f"tasks.{name}"
     used, declared = roles(formula), list(task.roles)
+    for role in declared:
+        _check_role_name(role, f"{where}.roles.{role}", source)
     for role in used:
         if role not in task.roles:
             raise FormulaError(
@@ -229,6 +242,7 @@ def check_task(mission: Mission, name: str, formula: Formula, source: str | None
     role_agents = {
         r: _role_agents(mission, task.roles[r], f"{where}.roles.{r}", source) for r in used
     }
+    _check_pattern_size(task, role_agents, where, source)
     _formula_fits(mission, formula, f"{where}.formula", role_agents, horizon(formula), source)
     if task.synchronous is not None:
         check_window(
@@ -238,6 +252,36 @@ def check_task(mission: Mission, name: str, formula: Formula, source: str | None
             f"{where}.synchronous.within",
             source,
         )
+
+
+def _check_role_name(role: str, where: str, source: str | None) -> None:
+    if not ROLE_NAME.fullmatch(role):
+        _fail(f"expected a role name (letters, digits, '_'), found '{role}'", where, source)
+
+
+def _check_pattern_size(
+    task: Task, role_agents: dict[str, list[str]], where: str, source: str | None
+) -> None:
+    """Bound what :mod:`stlplan.groups` enumerates: elements <= product of the role pools,
+    (partial) groups <= sum_{k <= count} C(elements, k)."""
+    n_elements = math.prod(len(agents) for agents in role_agents.values())
+    if n_elements > MAX_ELEMENTS:
+        _fail(
+            f"the roles admit up to {n_elements} elements; expected at most {MAX_ELEMENTS} "
+            "(narrow the roles' capabilities)",
+            f"{where}.roles",
+            source,
+        )
+    partial = 0
+    for k in range(min(task.count, n_elements) + 1):
+        partial += math.comb(n_elements, k)
+        if partial > MAX_GROUPS:
+            _fail(
+                f"count {task.count} over up to {n_elements} elements allows more than "
+                f"{MAX_GROUPS} groups; expected fewer (lower count or narrow the roles)",
+                f"{where}.count",
+                source,
+            )
 
 
 def check_window(
@@ -323,6 +367,10 @@ def check_constraint(mission: Mission, name: str, formula: Formula, source: str 
     spec = mission.constraints[name]
     where = f"constraints.{name}"
     names = [a.name for a in mission.agents]
+    for role in spec.roles:
+        _check_role_name(role, f"{where}.roles.{role}", source)
+    if spec.for_each is not None:
+        _check_role_name(spec.for_each, f"{where}.for_each", source)
     for role, agent in spec.roles.items():
         if agent not in names:
             _fail(_undefined("agent", agent, names), f"{where}.roles.{role}", source)
@@ -373,6 +421,12 @@ def _constraint_roles(
 
 def check_mission(mission: Mission, source: str | None) -> None:
     """Every whole-mission check that needs no parsed formula."""
+    if mission.horizon > MAX_HORIZON:
+        _fail(
+            f"expected a horizon of at most {MAX_HORIZON} steps, found {mission.horizon}",
+            "horizon",
+            source,
+        )
     check_dynamics(mission, source)
     check_agents(mission, source)
     check_regions(mission, source)

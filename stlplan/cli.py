@@ -1,6 +1,7 @@
 """The ``stlplan`` command line: a thin shell over :mod:`stlplan.api`.
 
-Exit codes: 0 satisfied / valid; 1 a checked trajectory violates the mission; 2 usage error;
+Exit codes: 0 satisfied / valid; 1 a checked trajectory violates the mission; 2 usage error
+(including a file the operating system refuses to read or write);
 3 bad input (mission, formula, trajectory); 4 infeasible; 5 no plan within the time limit;
 6 solver error or a plan the monitor rejects; 70 internal error; 130 interrupted.
 """
@@ -13,14 +14,14 @@ import sys
 from collections.abc import Callable
 from enum import Enum
 from pathlib import Path
-from typing import Annotated, Any, Optional
+from typing import Annotated, Any
 
 import typer
 from rich.console import Console
 from rich.markup import escape
 
 from stlplan import api
-from stlplan.errors import StlplanError
+from stlplan.errors import StlplanError, UsageError
 from stlplan.result import PlanStatus
 
 app = typer.Typer(
@@ -43,6 +44,7 @@ STATUS_EXIT = {
 }
 SCHEMA_PATH = Path("schemas") / "mission.schema.json"
 
+
 def handled(command: Callable[..., None]) -> Callable[..., None]:
     """Turn stlplan errors into one message on stderr and their exit code; never a traceback."""
 
@@ -51,15 +53,27 @@ def handled(command: Callable[..., None]) -> Callable[..., None]:
         try:
             command(*args, **kwargs)
         except StlplanError as exc:
-            err_console.print(f"[red]error[/]: {escape(str(exc))}", highlight=False)
+            err_console.print(f"[red]error[/]: {escape(str(exc))}", highlight=False, soft_wrap=True)
             raise typer.Exit(exc.exit_code) from None
         except (typer.Exit, KeyboardInterrupt):
             raise
+        except OSError as exc:  # a file the operating system refused (disk full, permissions)
+            where = f"{exc.filename}: " if exc.filename else ""
+            err_console.print(
+                f"[red]error[/]: {escape(where + (exc.strerror or str(exc)))}",
+                highlight=False,
+                soft_wrap=True,
+            )
+            raise typer.Exit(UsageError.exit_code) from None
         except Exception as exc:  # noqa: BLE001 - the edge of the program
             if os.environ.get("STLPLAN_DEBUG"):
                 raise
-            err_console.print(f"[red]internal error[/]: {type(exc).__name__}: {escape(str(exc))} "
-                              "(set STLPLAN_DEBUG=1 for a traceback)", highlight=False)
+            err_console.print(
+                f"[red]internal error[/]: {type(exc).__name__}: {escape(str(exc))} "
+                "(set STLPLAN_DEBUG=1 for a traceback)",
+                highlight=False,
+                soft_wrap=True,
+            )
             raise typer.Exit(EXIT_INTERNAL) from None
 
     return run
@@ -81,9 +95,11 @@ def validate(mission: MissionArg) -> None:
     """Check a mission file: schema, names, shapes, horizons and Patterns."""
     problem = api.validate(mission)
     groups = ", ".join(f"{t.name}: {len(t.groups)}" for t in problem.tasks)
-    out_console.print(f"[green]valid[/]: {mission} ({len(problem.agents)} agents, "
-                      f"{len(problem.tasks)} tasks, {len(problem.constraints)} constraints; "
-                      f"groups {groups or 'none'})")
+    out_console.print(
+        f"[green]valid[/]: {mission} ({len(problem.agents)} agents, "
+        f"{len(problem.tasks)} tasks, {len(problem.constraints)} constraints; "
+        f"groups {groups or 'none'})"
+    )
 
 
 @app.command()
@@ -119,21 +135,36 @@ def schema(
 def solve(
     mission: MissionArg,
     out: Annotated[Path, typer.Option(help="Output directory.")] = Path("out"),
-    time_limit: Annotated[Optional[float], typer.Option(help="Seconds per solve (default: mission's).", min=0.001)] = None,
-    gap: Annotated[Optional[float], typer.Option(help="Relative optimality gap (default: mission's).", min=0.0)] = None,
-    threads: Annotated[Optional[int], typer.Option(help="HiGHS threads (default: mission's or HiGHS').", min=1)] = None,
-    seed: Annotated[Optional[int], typer.Option(help="HiGHS random seed.", min=0)] = None,
-    one_step: Annotated[bool, typer.Option("--one-step", help="Skip step 2 (effort minimization with decisions fixed).")] = False,
-    encoding: Annotated[Optional[Encoding], typer.Option(help="Disjunction encoding.")] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="Print only the one-line result.")] = False,
+    time_limit: Annotated[
+        float | None, typer.Option(help="Seconds per solve (default: mission's).", min=0.001)
+    ] = None,
+    gap: Annotated[
+        float | None, typer.Option(help="Relative optimality gap (default: mission's).", min=0.0)
+    ] = None,
+    threads: Annotated[
+        int | None, typer.Option(help="HiGHS threads (default: mission's or HiGHS').", min=1)
+    ] = None,
+    seed: Annotated[int | None, typer.Option(help="HiGHS random seed.", min=0)] = None,
+    one_step: Annotated[
+        bool,
+        typer.Option("--one-step", help="Skip step 2 (effort minimization with decisions fixed)."),
+    ] = False,
+    encoding: Annotated[Encoding | None, typer.Option(help="Disjunction encoding.")] = None,
+    quiet: Annotated[
+        bool, typer.Option("--quiet", "-q", help="Print only the one-line result.")
+    ] = False,
 ) -> None:
     """Plan a mission: solve the MILP, verify with the monitor, write CSV, JSON and plots."""
     from stlplan.progress import ProgressLine
     from stlplan.render import print_plan
 
     overrides: dict[str, Any] = dict(
-        time_limit=time_limit, gap=gap, threads=threads, seed=seed,
-        encoding=None if encoding is None else encoding.value, two_step=False if one_step else None,
+        time_limit=time_limit,
+        gap=gap,
+        threads=threads,
+        seed=seed,
+        encoding=None if encoding is None else encoding.value,
+        two_step=False if one_step else None,
     )
     with ProgressLine(err_console, enabled=not quiet) as line:
         result = api.solve(mission, out=out, progress=line.update, **overrides)
@@ -149,21 +180,41 @@ def solve(
 @app.command()
 @handled
 def sweep(
-    missions: Annotated[list[Path], typer.Argument(help="Mission files (YAML).", show_default=False)],
+    missions: Annotated[
+        list[Path], typer.Argument(help="Mission files (YAML).", show_default=False)
+    ],
     runs: Annotated[int, typer.Option(help="Random initial states per mission.", min=1)] = 30,
-    seed: Annotated[int, typer.Option(help="Seed: run i of seed S always gets the same state.", min=0)] = 0,
-    workers: Annotated[Optional[int], typer.Option(help="Local worker processes (default: cores).", min=1)] = None,
-    scheduler: Annotated[Optional[str], typer.Option(help="Dask scheduler address, e.g. tcp://host:8786.")] = None,
+    seed: Annotated[
+        int, typer.Option(help="Seed: run i of seed S always gets the same state.", min=0)
+    ] = 0,
+    workers: Annotated[
+        int | None, typer.Option(help="Local worker processes (default: cores).", min=1)
+    ] = None,
+    scheduler: Annotated[
+        str | None, typer.Option(help="Dask scheduler address, e.g. tcp://host:8786.")
+    ] = None,
     out: Annotated[Path, typer.Option(help="Output directory.")] = Path("out/sweep"),
-    time_limit: Annotated[Optional[float], typer.Option(help="Seconds per solve.", min=0.001)] = None,
-    resume: Annotated[bool, typer.Option("--resume", help="Skip runs already in OUT/runs.jsonl.")] = False,
+    time_limit: Annotated[float | None, typer.Option(help="Seconds per solve.", min=0.001)] = None,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="Skip runs already in OUT/runs.jsonl.")
+    ] = False,
 ) -> None:
     """Solve missions from random initial states; print and write the paper's Table 3."""
     from stlplan.sweep.progress import SweepProgress
 
     with SweepProgress(err_console) as bar:
-        rows = api.sweep(list(missions), runs, seed, out, workers, scheduler, resume,
-                         on_record=bar.advance, on_start=bar.start, time_limit=time_limit)
+        rows = api.sweep(
+            list(missions),
+            runs,
+            seed,
+            out,
+            workers,
+            scheduler,
+            resume,
+            on_record=bar.advance,
+            on_start=bar.start,
+            time_limit=time_limit,
+        )
     from stlplan.sweep.progress import print_table
 
     print_table(out_console, rows)

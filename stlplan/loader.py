@@ -25,37 +25,65 @@ Path_ = tuple[str | int, ...]
 
 MAX_REPORTED = 5
 """Schema errors listed in one message; the rest are counted."""
+MAX_NESTING = 32
+"""Levels of nested lists and mappings a mission file may have (a mission needs about 6)."""
+MAX_VALUES = 200_000
+"""Values a mission file may hold once YAML aliases (``*name``) are expanded."""
 
 
 def _read_text(path: Path) -> str:
     try:
-        return path.read_text(encoding="utf-8")
+        raw = path.read_bytes()
     except FileNotFoundError:
         raise MissionError("no such file", source=str(path)) from None
     except IsADirectoryError:
         raise MissionError(
             "is a directory, expected a mission file (.yaml)", source=str(path)
         ) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise MissionError(f"cannot read the file: {exc}", source=str(path)) from None
+    except OSError as exc:
+        reason = (exc.strerror or str(exc)).lower()
+        raise MissionError(
+            f"cannot read the file ({reason}); expected a readable mission file (.yaml)",
+            source=str(path),
+        ) from None
+    return decode_utf8(raw, str(path), MissionError, "a YAML mission file")
+
+
+def decode_utf8(raw: bytes, source: str, error: type[StlplanError], expected: str) -> str:
+    """``raw`` as UTF-8 text (a leading byte-order mark is dropped), or ``error`` naming the
+    line and column of the first byte that is not UTF-8."""
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        start = raw.rfind(b"\n", 0, exc.start) + 1
+        line = raw.count(b"\n", 0, exc.start) + 1
+        column = len(raw[start : exc.start].decode("utf-8", errors="replace")) + 1
+        raise error(
+            f"not UTF-8 text (byte 0x{raw[exc.start]:02x}); expected {expected} in UTF-8",
+            source=source,
+            where=f"line {line}, column {column}",
+        ) from None
 
 
 def _parse_yaml(text: str, source: str) -> tuple[Any, yaml.Node | None]:
     try:
+        _check_nesting(text, source)
         node = yaml.compose(text, Loader=yaml.SafeLoader)
+        _check_expansion(node, source)
         data = yaml.safe_load(text)
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else None
         raise MissionError(
-            f"YAML syntax error: {exc.problem or exc}{_yaml_context(exc)}",
+            f"YAML syntax error: {(exc.problem or str(exc)).removeprefix('but ')}"
+            f"{_yaml_context(exc)}",
             source=source,
             where=where,
         ) from None
     except yaml.YAMLError as exc:
         raise MissionError(f"YAML error: {exc}", source=source) from None
     if not isinstance(data, dict):
-        found = "an empty file" if data is None else f"a {type(data).__name__}"
+        found = "an empty file" if data is None else _found(data)
         raise MissionError(
             f"expected a mapping of mission fields at the top level, found {found}",
             source=source,
@@ -63,6 +91,63 @@ def _parse_yaml(text: str, source: str) -> tuple[Any, yaml.Node | None]:
         )
     _reject_duplicate_keys(node, (), source)
     return data, node
+
+
+def _check_nesting(text: str, source: str) -> None:
+    """Lists and mappings nest at most ``MAX_NESTING`` deep (checked on the event stream,
+    before the recursive composer could exhaust Python's stack)."""
+    depth = 0
+    for event in yaml.parse(text, Loader=yaml.SafeLoader):
+        if isinstance(event, yaml.CollectionStartEvent):
+            depth += 1
+            if depth > MAX_NESTING:
+                raise MissionError(
+                    f"lists and mappings nested more than {MAX_NESTING} levels deep; expected "
+                    "a mission file (about 6 levels)",
+                    source=source,
+                    where=_mark(event),
+                )
+        elif isinstance(event, yaml.CollectionEndEvent):
+            depth -= 1
+
+
+def _check_expansion(root: yaml.Node | None, source: str) -> None:
+    """Aliases (``*name``) must not form a cycle, nest deeper than ``MAX_NESTING`` or expand
+    the document past ``MAX_VALUES`` values; each node is measured once (no recursion)."""
+    measured: dict[int, tuple[int, int]] = {}  # id(node) -> (values, depth) once expanded
+    open_nodes: set[int] = set()
+    stack: list[tuple[yaml.Node, bool]] = [] if root is None else [(root, False)]
+    while stack:
+        node, finished = stack.pop()
+        kids = _children(node)
+        if finished:
+            open_nodes.discard(id(node))
+            size = 1 + sum(measured[id(k)][0] for k in kids)
+            depth = 1 + max((measured[id(k)][1] for k in kids), default=0)
+            measured[id(node)] = (size, depth)
+            if size > MAX_VALUES or depth > MAX_NESTING:
+                raise MissionError(
+                    f"this value expands through YAML aliases (*name) to more than "
+                    f"{MAX_VALUES} values or {MAX_NESTING} levels; expected a mission file",
+                    source=source,
+                    where=_mark(node),
+                )
+        elif id(node) in open_nodes:
+            raise MissionError(
+                "a YAML alias (*name) refers to a value that contains it; expected no cycles",
+                source=source,
+                where=_mark(node),
+            )
+        elif id(node) not in measured:
+            open_nodes.add(id(node))
+            stack.append((node, True))
+            stack.extend((k, False) for k in kids)
+
+
+def _children(node: yaml.Node) -> list[yaml.Node]:
+    if isinstance(node, yaml.MappingNode):
+        return [part for pair in node.value for part in pair]
+    return list(node.value) if isinstance(node, yaml.SequenceNode) else []
 
 
 def _yaml_context(exc: yaml.MarkedYAMLError) -> str:
@@ -93,8 +178,9 @@ def _reject_duplicate_keys(node: yaml.Node | None, path: Path_, source: str) -> 
             _reject_duplicate_keys(value, (*path, key.value), source)
 
 
-def _mark(node: yaml.Node) -> str:
-    return f"line {node.start_mark.line + 1}, column {node.start_mark.column + 1}"
+def _mark(node: yaml.Node | yaml.Event) -> str:
+    mark = node.start_mark
+    return "line ?" if mark is None else f"line {mark.line + 1}, column {mark.column + 1}"
 
 
 def locate(node: yaml.Node | None, path: Path_, *, key: bool = False) -> str | None:
@@ -183,7 +269,7 @@ def _tuple_size(path: Path_) -> int | None:
 _EXPECTED = {
     kind: text
     for text, kinds in (
-        ("an integer", ("int_type", "int_parsing", "int_from_float")),
+        ("an integer", ("int_type", "int_parsing", "int_from_float", "int_parsing_size")),
         ("a number", ("float_type", "float_parsing")),
         ("a finite number (no .inf or .nan)", ("finite_number",)),
         ("true or false", ("bool_type", "bool_parsing")),

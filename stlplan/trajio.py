@@ -10,6 +10,7 @@ Further columns may follow; the reader ignores them.
 from __future__ import annotations
 
 import csv
+import io
 import math
 import os
 import tempfile
@@ -19,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from stlplan.errors import TrajectoryError
+from stlplan.loader import decode_utf8
 from stlplan.problem import AgentModel, Problem
 from stlplan.result import Trajectory
 
@@ -105,7 +107,7 @@ class _Reader:
             raise self.fail(line, "column agent: expected an agent name, found an empty cell")
         if name not in self.states:
             known = ", ".join(a.name for a in self.problem.agents)
-            raise self.fail(line, f"unknown agent '{name}'; agents of the mission: {known}")
+            raise self.fail(line, f"unknown agent {_cell(name)}; agents of the mission: {known}")
         k = self._step(line, row.get("k"))
         if (name, k) in self.seen:
             raise self.fail(
@@ -124,7 +126,7 @@ class _Reader:
     def _step(self, line: int, text: str | None) -> int:
         text = (text or "").strip()
         if not (text.isascii() and text.isdigit()) or int(text) > self.H:
-            shown = repr(text) if text else "an empty cell"
+            shown = _cell(text) if text else "an empty cell"
             raise self.fail(
                 line, f"column k: expected an integer step in 0..{self.H}, found {shown}"
             )
@@ -147,10 +149,10 @@ class _Reader:
             value = float(text)
         except ValueError:
             raise self.fail(
-                line, f"column {column}: expected a finite number, found {text!r}"
+                line, f"column {column}: expected a finite number, found {_cell(text)}"
             ) from None
         if not math.isfinite(value):
-            raise self.fail(line, f"column {column}: expected a finite number, found {text!r}")
+            raise self.fail(line, f"column {column}: expected a finite number, found {_cell(text)}")
         return value
 
     def finish(self, last_line: int) -> Trajectory:
@@ -172,6 +174,12 @@ class _Reader:
         return Trajectory(self.H, self.states, self.inputs)
 
 
+def _cell(text: str, limit: int = 40) -> str:
+    """A cell quoted for a message: shortened, with a hint when it spans lines."""
+    shown = repr(text if len(text) <= limit else text[:limit] + "...")
+    return shown + (" (a '\"' left open on an earlier line?)" if "\n" in text else "")
+
+
 def read_trajectory_csv(problem: Problem, path: str | Path) -> Trajectory:
     """Read a trajectory of ``problem`` written by :func:`write_trajectory_csv` (or by hand).
 
@@ -185,16 +193,23 @@ def read_trajectory_csv(problem: Problem, path: str | Path) -> Trajectory:
     path = Path(path)
     reader = _Reader(problem, path)
     try:
-        with path.open(newline="", encoding="utf-8") as handle:
-            table = csv.DictReader(handle)
-            reader.header(list(table.fieldnames) if table.fieldnames else None)
-            for row in table:
-                reader.row(table.line_num, row)
-            last = table.line_num
+        raw = path.read_bytes()
     except FileNotFoundError:
         raise TrajectoryError("no such file", source=str(path)) from None
     except IsADirectoryError:
         raise TrajectoryError("is a directory, expected a CSV file", source=str(path)) from None
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        raise TrajectoryError(f"cannot read the file: {exc}", source=str(path)) from None
-    return reader.finish(last)
+    except OSError as exc:
+        reason = (exc.strerror or str(exc)).lower()
+        raise TrajectoryError(
+            f"cannot read the file ({reason}); expected a readable trajectory CSV file",
+            source=str(path),
+        ) from None
+    text = decode_utf8(raw, str(path), TrajectoryError, "a trajectory CSV file")
+    table = csv.DictReader(io.StringIO(text, newline=""))
+    try:
+        reader.header(list(table.fieldnames) if table.fieldnames else None)
+        for row in table:
+            reader.row(table.line_num, row)
+    except csv.Error as exc:
+        raise reader.fail(table.line_num, f"not a readable CSV file: {exc}") from None
+    return reader.finish(table.line_num)

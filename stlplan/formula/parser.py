@@ -5,7 +5,7 @@ from __future__ import annotations
 from functools import cache
 from importlib import resources
 
-from lark import Lark, Token, Transformer, v_args
+from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, VisitError
 
 from stlplan.errors import FormulaError
@@ -28,6 +28,8 @@ from stlplan.formula.tree import (
 )
 
 RESERVED = frozenset({"G", "F", "U", "in", "dist", "x"})
+MAX_NESTING = 100
+"""Levels of nested operators a formula may have; deeper trees would exhaust Python's stack."""
 
 
 @cache
@@ -112,7 +114,9 @@ def parse(text: str, *, source: str | None = None, where: str | None = None) -> 
         With the line and column of a syntax error and a caret under it.
     """
     try:
-        return _ToTree().transform(_lark().parse(text))  # type: ignore[no-any-return]
+        tree = _lark().parse(text)
+        _check_nesting(tree)
+        return _ToTree().transform(tree)  # type: ignore[no-any-return]
     except VisitError as exc:
         if isinstance(exc.orig_exc, FormulaError):
             raise FormulaError(exc.orig_exc.message, source=source, where=where) from None
@@ -121,6 +125,21 @@ def parse(text: str, *, source: str | None = None, where: str | None = None) -> 
         raise FormulaError(exc.message, source=source, where=where) from None
     except UnexpectedInput as exc:
         raise FormulaError(_syntax_message(text, exc), source=source, where=where) from None
+
+
+def _check_nesting(tree: Tree[Token]) -> None:
+    """Reject parse trees deeper than ``MAX_NESTING`` (walked without recursion)."""
+    stack = [(tree, 0)]
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_NESTING:
+            token = next(node.scan_values(lambda v: isinstance(v, Token)), None)
+            at = f" at line {token.line}, column {token.column}" if token is not None else ""
+            raise FormulaError(
+                f"formula nests operators more than {MAX_NESTING} levels deep{at}; expected at "
+                f"most {MAX_NESTING} levels (split it or remove redundant operators)"
+            )
+        stack.extend((child, depth + 1) for child in node.children if isinstance(child, Tree))
 
 
 def _syntax_message(text: str, exc: UnexpectedInput) -> str:
@@ -142,11 +161,28 @@ def _syntax_message(text: str, exc: UnexpectedInput) -> str:
 
 
 _TERMINAL_TEXT = {
-    "LPAR": "'('", "RPAR": "')'", "COMMA": "','", "LSQB": "'['", "RSQB": "']'",
-    "NOT": "'!'", "ALWAYS": "'G'", "EVENTUALLY": "'F'", "UNTIL": "'U'", "AMPERSAND": "'&'",
-    "VBAR": "'|'", "STAR": "'*'", "DOT": "'.'", "SIGN": "'+' or '-'",
-    "COMPARISON": "'<=' or '>='", "UNSIGNED": "a number", "INT": "an integer", "NAME": "a name",
-    "IN": "'in'", "DIST": "'dist'", "X": "'x'", "$END": "end of formula",
+    "LPAR": "'('",
+    "RPAR": "')'",
+    "COMMA": "','",
+    "LSQB": "'['",
+    "RSQB": "']'",
+    "NOT": "'!'",
+    "ALWAYS": "'G'",
+    "EVENTUALLY": "'F'",
+    "UNTIL": "'U'",
+    "AMPERSAND": "'&'",
+    "VBAR": "'|'",
+    "STAR": "'*'",
+    "DOT": "'.'",
+    "SIGN": "'+' or '-'",
+    "COMPARISON": "'<=' or '>='",
+    "UNSIGNED": "a number",
+    "INT": "an integer",
+    "NAME": "a name",
+    "IN": "'in'",
+    "DIST": "'dist'",
+    "X": "'x'",
+    "$END": "end of formula",
 }
 
 
@@ -155,7 +191,9 @@ def _pretty(terminal: str) -> str:
 
 
 def _num(value: float) -> str:
-    return str(int(value)) if float(value).is_integer() and abs(value) < 1e15 else repr(float(value))
+    return (
+        str(int(value)) if float(value).is_integer() and abs(value) < 1e15 else repr(float(value))
+    )
 
 
 def _terms_text(terms: tuple[Term, ...]) -> str:
@@ -163,7 +201,9 @@ def _terms_text(terms: tuple[Term, ...]) -> str:
     for i, t in enumerate(terms):
         sign = "-" if t.coef < 0 else "+"
         mag = abs(t.coef)
-        body = f"{t.role}.x[{t.component}]" if mag == 1 else f"{_num(mag)}*{t.role}.x[{t.component}]"
+        body = (
+            f"{t.role}.x[{t.component}]" if mag == 1 else f"{_num(mag)}*{t.role}.x[{t.component}]"
+        )
         parts.append(("-" if sign == "-" else "") + body if i == 0 else f" {sign} {body}")
     return "".join(parts)
 
