@@ -117,9 +117,10 @@ def solve(
     **overrides: Any,
 ) -> PlanResult:
     """Plan, verify and (with ``out``) write the plan directory; returns the verified result."""
+    problem = load_problem(mission)  # a bad mission leaves no output folder behind
     if out is not None:
         prepare_directory(Path(out))
-    problem, result = plan(mission, progress=progress, **overrides)
+    problem, result = plan(problem, progress=progress, **overrides)
     if out is not None:
         write_plan(problem, result, out, {k: v for k, v in overrides.items() if v is not None})
     return result

@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, StrictInt, model_validator
 
 Bounds = tuple[float, float]
 
@@ -28,7 +28,7 @@ class Dynamics(_Strict):
     """State matrix, n x n."""
     B: list[list[float]]
     """Input matrix, n x m."""
-    position: tuple[int, int] = (0, 1)
+    position: tuple[StrictInt, StrictInt] = (0, 1)
     """The two state components that are the planar position z (0-based)."""
     state_bounds: list[Bounds]
     """[low, high] for each of the n state components."""
@@ -81,9 +81,9 @@ RoleRule = str | list[str] | PinnedRole
 class Synchronous(_Strict):
     """Makes a task synchronous: ``F[a,b] <G[0,d] phi, count, Pattern>``."""
 
-    within: tuple[int, int]
+    within: tuple[StrictInt, StrictInt]
     """[a, b]: the steps at which the synchronized run may start."""
-    hold: int = Field(default=0, ge=0)
+    hold: StrictInt = Field(default=0, ge=0)
     """d: every element must satisfy phi for d+1 consecutive steps together."""
     gamma: float | None = Field(default=None, ge=0)
     """Upper bound on this task's synchronous robustness (default: objective.gamma)."""
@@ -94,7 +94,7 @@ class Task(_Strict):
 
     formula: str
     """Inner logic phi over the roles (see the formula language in the README)."""
-    count: int = Field(default=1, ge=1)
+    count: StrictInt = Field(default=1, ge=1)
     """c: how many elements must satisfy phi."""
     roles: dict[str, RoleRule]
     """Pattern: each role's capability, list of capabilities (all required), or {agent: name}."""
@@ -150,9 +150,9 @@ class SolverOptions(_Strict):
     """Wall-clock limit of one solve, seconds."""
     gap: float = Field(default=1e-4, ge=0)
     """Relative optimality gap at which HiGHS stops."""
-    threads: int | None = Field(default=None, ge=1)
+    threads: StrictInt | None = Field(default=None, ge=1)
     """Threads HiGHS may use (default: HiGHS decides)."""
-    seed: int = Field(default=0, ge=0)
+    seed: StrictInt = Field(default=0, ge=0)
     """HiGHS random seed."""
     encoding: Literal["log", "standard"] = "log"
     """Disjunctions as a logarithmic SOS1 or one binary per disjunct."""
@@ -172,7 +172,7 @@ class Mission(_Strict):
     """Short name of the mission."""
     description: str = ""
     """Free text."""
-    horizon: int = Field(ge=1)
+    horizon: StrictInt = Field(ge=1)
     """H: states x(0..H), inputs u(0..H-1)."""
     dynamics: dict[str, Dynamics]
     """Named dynamics models agents refer to."""

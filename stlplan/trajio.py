@@ -46,6 +46,12 @@ def _rows(problem: Problem, trajectory: Trajectory, width: int) -> Iterator[list
             yield row + [""] * (width - len(row))
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def write_trajectory_csv(problem: Problem, trajectory: Trajectory, path: str | Path) -> None:
     """Write ``trajectory`` to ``path`` atomically (a temporary file, then ``os.replace``).
 
@@ -65,6 +71,7 @@ def write_trajectory_csv(problem: Problem, trajectory: Trajectory, path: str | P
             writer = csv.writer(handle, lineterminator="\n")
             writer.writerow(header)
             writer.writerows(_rows(problem, trajectory, len(header)))
+        os.chmod(temp, 0o666 & ~_umask())
         os.replace(temp, path)
     except BaseException as exc:
         Path(temp).unlink(missing_ok=True)
