@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from stlplan.errors import TrajectoryError
-from stlplan.loader import decode_utf8
 from stlplan.problem import AgentModel, Problem
 from stlplan.result import Trajectory
+from stlplan.yamldoc import decode_utf8
 
 
 def columns(problem: Problem) -> list[str]:
