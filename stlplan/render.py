@@ -11,6 +11,8 @@ from stlplan.result import Diagnosis, MonitorReport, PlanResult, Verdict
 def _num(value: float | None, digits: int = 3) -> str:
     if value is None:
         return "-"
+    if abs(value) < 1e-9:
+        return "0"  # round-off of a predicate held exactly on its boundary
     return f"{value:.{digits}g}" if abs(value) < 1e4 else f"{value:.3e}"
 
 
