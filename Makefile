@@ -6,7 +6,7 @@ STAMP  := $(VENV)/.installed
 OUT    ?= out/farm
 
 .DEFAULT_GOAL := help
-.PHONY: help install farm test test-slow smoke lint format schema clean
+.PHONY: help install farm test test-slow fuzz smoke bench bench-quick lint format schema clean
 
 help:  ## List the targets
 	@grep -E '^[a-zA-Z_-]+:.*?## ' $(MAKEFILE_LIST) | awk 'BEGIN {FS = ":.*?## "}; {printf "  %-12s %s\n", $$1, $$2}'
@@ -28,11 +28,20 @@ test: $(STAMP)  ## Run the test suite (without the slow solves)
 test-slow: $(STAMP)  ## Run only the slow tests (full farm solves)
 	$(BIN)/pytest -q -m slow
 
+fuzz: $(STAMP)  ## Fuzz formulas and mission files with 5000 Hypothesis examples per test
+	STLPLAN_FUZZ_EXAMPLES=5000 $(BIN)/pytest -q tests/test_fuzz.py
+
 SMOKE_LIMIT ?= 180
 smoke: $(STAMP)  ## Solve Cases I-III once each under a time limit; fail unless every plan is accepted
 	@for m in farm farm-case2 farm-case3; do \
 	  $(BIN)/stlplan solve missions/$$m.yaml --out out/smoke/$$m --time-limit $(SMOKE_LIMIT) --quiet || exit 1; \
 	done
+
+bench: $(STAMP)  ## Benchmark Cases I-III: 30 random states each, straightforward formulation on 3 (hours)
+	$(BIN)/python -m stlplan.bench --runs 30 --compare-runs 3
+
+bench-quick: $(STAMP)  ## Benchmark Cases I-III on 2 states each, straightforward on 1 of Case I (~10 min)
+	$(BIN)/python -m stlplan.bench --runs 2 --compare-runs 1 --compare-cases farm --compare-time-limit 300 --name bench-quick
 
 lint: $(STAMP)  ## ruff check, ruff format --check, mypy
 	$(BIN)/ruff check stlplan tests

@@ -6,8 +6,10 @@ bad input; nothing here prints.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
-from collections.abc import Callable
+import logging
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +55,18 @@ def _verified(problem: Problem, result: PlanResult) -> PlanResult:
     return dataclasses.replace(result, report=report)
 
 
+@contextlib.contextmanager
+def _quiet_pyomo() -> Iterator[None]:
+    """Silence Pyomo's warnings about solver values a hair outside bounds (solver round-off)."""
+    logger = logging.getLogger("pyomo.core")
+    level = logger.level
+    logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
 def plan(
     mission: str | Path | Problem,
     progress: Callable[[Any], None] | None = None,
@@ -76,7 +90,8 @@ def plan(
         diagnosis = Diagnosis(reasons, tuple(dict.fromkeys(r.split("'")[1] for r in reasons)))
         message = f"infeasible before solving: {len(reasons)} requirement(s) cannot be met in time"
         return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis)
-    result = solve_plan(problem, options, progress=progress)
+    with _quiet_pyomo():
+        result = solve_plan(problem, options, progress=progress)
     if result.status is PlanStatus.INFEASIBLE and diagnose_infeasible:
         probe = dataclasses.replace(
             options, time_limit=min(30.0, options.time_limit), two_step=False

@@ -15,8 +15,8 @@ tasks.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -32,8 +32,10 @@ from pyomo.environ import (
     maximize,
 )
 
-from stlplan.encoding.sos1 import Encoding, sos1_block
-from stlplan.encoding.stl import Ledger, StlContext, margin_ceiling
+from stlplan.encoding.deferred import Deferral, defer
+from stlplan.encoding.floors import add_effort_floors
+from stlplan.encoding.sos1 import Encoding, gray_code, sos1_block
+from stlplan.encoding.stl import Ledger, StlContext, margin_ceiling, require
 from stlplan.encoding.tasks import (
     SyncEncoding,
     TaskEncoding,
@@ -68,6 +70,9 @@ class PlanModel:
         ``"log"`` or ``"standard"`` SOS1.
     ledger
         Every predicate the encoding placed (for step 2).
+    context, deferral, added, parts
+        For a lazy model: the encoding context, the step requirements left out of the model,
+        which of them were added later and their variables.
     """
 
     model: ConcreteModel
@@ -78,6 +83,20 @@ class PlanModel:
     margin: Any
     encoding: Encoding
     ledger: Ledger
+    context: StlContext | None = None
+    """Where the lazy loop encodes the requirements it adds (lazy models only)."""
+    deferral: Deferral | None = None
+    """Requirements left out of the model (lazy models only)."""
+    added: set[int] = field(default_factory=set)
+    """Indices of the lazy requirements added to the model since."""
+    parts: dict[int, LazyPart] = field(default_factory=dict)
+    """The variables each added requirement brought (see :func:`assign_side`)."""
+
+    def pending(self) -> list[int]:
+        """Indices of the lazy requirements not in the model (none for an up-front model)."""
+        if self.deferral is None:
+            return []
+        return [n for n in range(len(self.deferral.lazy)) if n not in self.added]
 
     def states(self, agent: AgentModel) -> list[list[Any]]:
         """``x_p(k)[i]`` variables, ``k = 0..H``."""
@@ -198,7 +217,9 @@ def add_objective(
     return t
 
 
-def build_model(problem: Problem, encoding: Encoding = "log") -> PlanModel:
+def build_model(
+    problem: Problem, encoding: Encoding = "log", lazy: bool = False, floors: bool = False
+) -> PlanModel:
     """Encode ``problem`` as the MILP of step 1.
 
     Parameters
@@ -208,6 +229,11 @@ def build_model(problem: Problem, encoding: Encoding = "log") -> PlanModel:
     encoding
         Disjunctions and group choices as a logarithmic SOS1 (``"log"``) or with one binary per
         entry (``"standard"``).
+    lazy
+        Leave the step requirements of constraints and separation out (see
+        :mod:`stlplan.encoding.deferred`); :func:`add_requirements` adds them on demand.
+    floors
+        Add the effort floors of :mod:`stlplan.encoding.floors` (valid cuts; with ``beta > 0``).
     """
     model = ConcreteModel(name=problem.mission.name)
     boxes = reachable_boxes(problem)
@@ -226,7 +252,67 @@ def build_model(problem: Problem, encoding: Encoding = "log") -> PlanModel:
     )
     tasks = tuple(encode_task(ctx, problem, t) for t in problem.tasks if t.sync is None)
     synchronous = tuple(encode_synchronous(ctx, problem, t) for t in problem.tasks if t.sync)
-    encode_constraints(ctx, problem)
-    encode_separation(ctx, problem)
+    deferral = None
+    if lazy:
+        deferral = defer(problem, boxes, ceiling)
+        for formula, k, binding in deferral.eager:
+            require(formula, k, ctx.bound(binding))
+    else:
+        encode_constraints(ctx, problem)
+        encode_separation(ctx, problem)
     t = add_objective(model, problem, synchronous, margin)
-    return PlanModel(model, problem, tasks, synchronous, t, margin, encoding, ctx.ledger)
+    if floors and problem.mission.objective.beta > 0:
+        add_effort_floors(model, problem, ctx.ledger, float(problem.mission.objective.margin.minimum))
+    return PlanModel(
+        model, problem, tasks, synchronous, t, margin, encoding, ctx.ledger, ctx, deferral
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class LazyPart:
+    """What one added requirement brought: ``z_i`` per half-plane, ``w_i <= z_i``, SOS1 binaries."""
+
+    indicators: list[Any]
+    chosen: list[Any]
+    binaries: list[Any]
+
+
+def add_requirements(pm: PlanModel, indices: Iterable[int]) -> None:
+    """Encode the lazy requirements ``indices`` into a lazy model, as :func:`build_model` would.
+
+    Each ``OR_i alpha_i - r >= 0`` becomes an SOS1 over fresh ``w_i <= z_i`` (one binary per
+    half-plane with the standard encoding), exactly as an up-front constraint. Indices already
+    added are skipped.
+    """
+    assert pm.context is not None and pm.deferral is not None, "the model was built lazy"
+    ctx = pm.context
+    for n in sorted(set(indices) - pm.added):
+        req = pm.deferral.lazy[n]
+        first_binary, first_choice = len(ctx.sos.binaries), len(ctx.ledger.choices)
+        require(req.formula, req.k, ctx.bound(req.binding))
+        pm.added.add(n)
+        if len(ctx.ledger.choices) > first_choice:
+            _, indicators, chosen = ctx.ledger.choices[-1]
+            binaries = [ctx.sos.binaries[i + 1] for i in range(first_binary, len(ctx.sos.binaries))]
+            pm.parts[n] = LazyPart(indicators, chosen, binaries)
+
+
+def assign_side(pm: PlanModel, n: int, side: int) -> None:
+    """Set the variables of added requirement ``n`` to enforce its half-plane ``side``.
+
+    ``z_side = w_side = 1``, the other ``w_i = 0``, and the SOS1 binaries that select ``side``
+    (``b_i = [i = side]``, or the bits of the Gray code of ``side``).
+    """
+    part = pm.parts.get(n)
+    if part is None:
+        return
+    part.indicators[side].set_value(1.0)
+    for i, w in enumerate(part.chosen):
+        w.set_value(1.0 if i == side else 0.0)
+    if pm.encoding == "standard":
+        bits = [1.0 if i == side else 0.0 for i in range(len(part.binaries))]
+    else:
+        code = gray_code(side)
+        bits = [float(code >> bit & 1) for bit in range(len(part.binaries))]
+    for y, bit in zip(part.binaries, bits, strict=True):
+        y.set_value(bit)

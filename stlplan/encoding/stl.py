@@ -47,16 +47,21 @@ Enforced = tuple[Predicate, int, Mapping[str, str]]
 
 @dataclass(eq=False)
 class Ledger:
-    """Every predicate the encoding placed: indicator-guarded ones and unconditional ones.
+    """Every predicate the encoding placed, and how the indicators above them are linked.
 
     Step 2 rebuilds a small continuous model from it: the predicates whose indicators the fixed
-    decisions force to 1, plus the unconditional ones.
+    decisions force to 1, plus the unconditional ones. The effort floors
+    (:mod:`stlplan.encoding.floors`) read the links: conjunctions and choices.
     """
 
     guarded: list[tuple[Any, Enforced]] = field(default_factory=list)
     """``(z, (node, k, binding))``: ``z = 1`` enforces the predicate."""
     required: list[Enforced] = field(default_factory=list)
     """Predicates enforced outright."""
+    conjunctions: list[tuple[Any, list[Any]]] = field(default_factory=list)
+    """``(z, [z_1..z_n])`` with ``z <= z_i``: ``z = 1`` enforces every child."""
+    choices: list[tuple[Any, list[Any], list[Any]]] = field(default_factory=list)
+    """``(z, [z_1..z_n], [w_1..w_n])`` with ``w_i <= z_i`` and ``sum w = z`` (``z`` None: 1)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,18 +124,20 @@ def conjunction(ctx: StlContext, children: Sequence[Any]) -> Any:
     z = indicator(ctx)
     for child in children:
         ctx.block.rows.add(z <= child)
+    ctx.ledger.conjunctions.append((z, list(children)))
     return z
 
 
-def choice(ctx: StlContext, children: Sequence[Any], off: Any = None) -> list[Any]:
-    """SOS1 ``{off, w_1..w_n}`` with fresh ``w_i <= z_i``; returns the ``w_i``.
+def choice(ctx: StlContext, children: Sequence[Any], owner: Any = None) -> list[Any]:
+    """SOS1 ``{1 - owner, w_1..w_n}`` with fresh ``w_i <= z_i``; returns the ``w_i``.
 
-    Without ``off`` the vector is ``{w_1..w_n}``: exactly one child is enforced.
+    Without ``owner`` the vector is ``{w_1..w_n}``: exactly one child is enforced.
     """
     chosen = [indicator(ctx) for _ in children]
     for w, child in zip(chosen, children, strict=True):
         ctx.block.rows.add(w <= child)
-    sos1(ctx.sos, chosen if off is None else [off, *chosen], ctx.encoding)
+    sos1(ctx.sos, chosen if owner is None else [1 - owner, *chosen], ctx.encoding)
+    ctx.ledger.choices.append((owner, list(children), chosen))
     return chosen
 
 
@@ -139,7 +146,7 @@ def disjunction(ctx: StlContext, children: Sequence[Any]) -> Any:
     if len(children) == 1:
         return children[0]
     z = indicator(ctx)
-    choice(ctx, children, off=1 - z)
+    choice(ctx, children, owner=z)
     return z
 
 

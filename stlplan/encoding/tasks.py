@@ -92,7 +92,9 @@ def encode_task(ctx: StlContext, problem: Problem, task: TaskModel) -> TaskEncod
     for h_group, group in zip(h_groups, task.groups, strict=True):
         for i in group:
             ctx.block.rows.add(h_group <= h_element[i])
+        ctx.ledger.conjunctions.append((h_group, [h_element[i] for i in group]))
     sos1(ctx.sos, [1 - h_task, *h_groups], ctx.encoding)
+    ctx.ledger.choices.append((h_task, h_groups, h_groups))
     return TaskEncoding(task, tuple(h_groups))
 
 
@@ -125,6 +127,7 @@ def group_runs(
             q = ctx.block.binaries.add()
             for i in group:
                 ctx.block.rows.add(q <= h[i, k])
+            ctx.ledger.conjunctions.append((q, [h[i, k] for i in group]))
             following = counts[j, k] = count_run(ctx, q, following, last - k + 1)
     return counts
 

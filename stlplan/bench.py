@@ -1,0 +1,235 @@
+"""Benchmark of the farm cases: the default formulation against the straightforward one.
+
+Each case (``missions/<case>.yaml``) is solved from random initial states drawn as a sweep draws
+them (:func:`stlplan.sweep.initial.draw_positions` with a fixed seed, runs ``0..n-1``): uniform in
+the initial area, at rest, pairwise at least ``d_col`` apart. Every run is solved with the default
+formulation (the planner's defaults: lazy obstacle and collision rows, effort floors) and the first
+few runs of each case also with the straightforward formulation (every row up front, no floors)
+under a generous time limit, so the two can be compared on the same states. Every plan goes
+through the monitor.
+
+This is a benchmark, not a test: it only measures. Solves run one after another (the machine's
+cores go to HiGHS's threads); results are appended to ``bench.csv`` as they come and the table is
+rewritten as ``bench.md`` after each solve, in ``bench-results/`` by default.
+
+Run ``python -m stlplan.bench --help`` for the options; ``make bench`` and ``make bench-quick``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import shlex
+import sys
+import time
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from stlplan.errors import StlplanError
+
+MISSIONS = Path(__file__).resolve().parents[1] / "missions"
+CASES = ("farm", "farm-case2", "farm-case3")
+
+FORMULATIONS: dict[str, dict[str, Any]] = {
+    "default": {},
+    "straightforward": {"lazy": False, "floors": False},
+    "lazy": {"lazy": True, "floors": False},
+    "floors": {"lazy": False, "floors": True},
+    "lazy-window1": {"lazy_window": 1},
+    "lazy-pair": {"lazy_window": None},
+    "log": {"encoding": "log"},
+}
+"""Formulation name to :class:`stlplan.solve.PlanOptions` overrides."""
+
+COLUMNS = (
+    "case", "run", "formulation", "variables", "binaries", "constraints", "build_s", "solve_s",
+    "wall_s", "rounds", "status", "accepted", "gap", "rho_s", "objective", "effort", "message",
+)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Job:
+    """One solve of the benchmark."""
+
+    case: str
+    run: int
+    formulation: str
+    time_limit: float
+
+
+def _initial_problem(case: str, seed: int, run: int) -> Any:
+    from stlplan.loader import load_problem
+    from stlplan.problem import build_problem
+    from stlplan.sweep.initial import draw_positions, with_initial_positions
+
+    path = MISSIONS / f"{case}.yaml"
+    mission = load_problem(path).mission
+    positions = draw_positions(mission, seed, run)
+    return build_problem(with_initial_positions(mission, positions), source=str(path))
+
+
+def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
+    """Solve one job through the API (plan, then the monitor); never raises for a bad solve."""
+    from stlplan import api
+
+    row: dict[str, Any] = {"case": job.case, "run": job.run, "formulation": job.formulation}
+    rounds = [1]
+
+    def on_progress(progress: Any) -> None:
+        rounds[0] = max(rounds[0], progress.round or 1)
+
+    problem = _initial_problem(job.case, seed, job.run)
+    overrides = {"time_limit": job.time_limit, "threads": threads, **FORMULATIONS[job.formulation]}
+    tick = time.perf_counter()
+    try:
+        _, result = api.plan(problem, progress=on_progress, **overrides)
+    except StlplanError as exc:  # the monitor rejected the plan, or HiGHS failed
+        row.update(status="error", accepted=False, message=str(exc))
+        row["wall_s"] = round(time.perf_counter() - tick, 2)
+        return row
+    size = result.model_size
+    report = result.report
+    row.update(
+        variables=size.variables if size else None,
+        binaries=size.binaries if size else None,
+        constraints=size.constraints if size else None,
+        build_s=round(result.build_seconds or 0.0, 2),
+        solve_s=round(result.solve_seconds or 0.0, 2),
+        wall_s=round(time.perf_counter() - tick, 2),
+        rounds=rounds[0],
+        status=result.status.value,
+        accepted=bool(report is not None and report.satisfied),
+        gap=None if result.gap is None else f"{result.gap:.2e}",
+        rho_s=None if report is None else report.rho_s,
+        objective=None if result.objective is None else round(result.objective, 6),
+        effort=None if result.effort is None else round(result.effort, 4),
+        message=result.message,
+    )
+    return row
+
+
+def plan_jobs(args: argparse.Namespace) -> Iterator[Job]:
+    """Every run with each formulation, then the first runs with the comparison ones."""
+    for case in args.cases:
+        for run in range(args.first_run, args.first_run + args.runs):
+            for name in args.formulations:
+                yield Job(case, run, name, args.time_limit)
+            if run < args.first_run + args.compare_runs and case in args.compare_cases:
+                for name in args.compare:
+                    yield Job(case, run, name, args.compare_time_limit)
+
+
+def summary_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Per case and formulation: runs, optimal and accepted counts, mean/median/max wall time."""
+    out = []
+    keys = sorted({(r["case"], r["formulation"]) for r in rows}, key=lambda k: (k[0], k[1]))
+    for case, name in keys:
+        mine = [r for r in rows if r["case"] == case and r["formulation"] == name]
+        times = np.array([float(r["wall_s"]) for r in mine])
+        out.append({
+            "case": case,
+            "formulation": name,
+            "runs": len(mine),
+            "optimal": sum(1 for r in mine if r.get("status") == "optimal"),
+            "accepted": sum(1 for r in mine if r.get("accepted") in (True, "True")),
+            "mean_s": round(float(times.mean()), 1),
+            "median_s": round(float(np.median(times)), 1),
+            "max_s": round(float(times.max()), 1),
+            "mean_rounds": round(float(np.mean([float(r.get("rounds") or 1) for r in mine])), 1),
+        })  # fmt: skip
+    return out
+
+
+def markdown(rows: Sequence[dict[str, Any]], command: str, header: str) -> str:
+    """The summary table, then one row per solve, as Markdown."""
+
+    def table(records: Sequence[dict[str, Any]], columns: Sequence[str]) -> list[str]:
+        lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+        for r in records:
+            lines.append("| " + " | ".join(_cell(r.get(c)) for c in columns) + " |")
+        return lines
+
+    summary = summary_rows(rows)
+    lines = [f"# stlplan benchmark\n\n{header}\n\nCommand: `{command}`\n", "## Summary\n"]
+    lines += table(summary, list(summary[0]) if summary else ["case"])
+    lines += ["", "## Runs (wall_s: plan + monitor, seconds)\n"]
+    lines += table(rows, [c for c in COLUMNS if c != "message"])
+    return "\n".join(lines) + "\n"
+
+
+def _cell(value: Any) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def machine_header(threads: int | None, gap: float = 1e-4) -> str:
+    """One line on the solver and machine the figures come from."""
+    import os
+    import platform
+
+    import highspy
+
+    version = f"{highspy.HIGHS_VERSION_MAJOR}.{highspy.HIGHS_VERSION_MINOR}"
+    return (
+        f"HiGHS {version}, threads {threads or 'auto'}, relative gap {gap:g} (the missions'), "
+        f"{os.cpu_count()} cores, Python {platform.python_version()}, "
+        f"{time.strftime('%Y-%m-%d %H:%M')}"
+    )
+
+
+def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
+    """Command-line options (see ``python -m stlplan.bench --help``)."""
+    parser = argparse.ArgumentParser(prog="python -m stlplan.bench", description=__doc__.split(
+        "\n\n")[0])  # fmt: skip
+    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=CASES)
+    parser.add_argument("--runs", type=int, default=30, help="initial states per case")
+    parser.add_argument("--first-run", type=int, default=0, help="index of the first state")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the initial states")
+    parser.add_argument("--formulations", nargs="+", default=["default"], choices=FORMULATIONS)
+    parser.add_argument("--time-limit", type=float, default=600.0, help="per solve, s")
+    parser.add_argument("--compare", nargs="*", default=["straightforward"], choices=FORMULATIONS,
+                        help="formulations also solved on the first --compare-runs states")  # fmt: skip
+    parser.add_argument("--compare-runs", type=int, default=3)
+    parser.add_argument("--compare-cases", nargs="*", default=list(CASES), choices=CASES)
+    parser.add_argument("--compare-time-limit", type=float, default=900.0)
+    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--out", type=Path, default=Path("bench-results"))
+    parser.add_argument("--name", default="bench", help="file stem of the CSV and Markdown")
+    return parser.parse_args(argv)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the benchmark; returns 0 when every plan was accepted by the monitor."""
+    args = parse_args(argv)
+    command = "python -m stlplan.bench " + shlex.join(sys.argv[1:] if argv is None else argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    csv_path, md_path = args.out / f"{args.name}.csv", args.out / f"{args.name}.md"
+    header = machine_header(args.threads)
+    rows: list[dict[str, Any]] = []
+    jobs = list(plan_jobs(args))
+    with open(csv_path, "w", newline="", encoding="utf-8") as handle:
+        writer = csv.DictWriter(handle, fieldnames=COLUMNS, extrasaction="ignore")
+        writer.writeheader()
+        for n, job in enumerate(jobs, 1):
+            row = solve_job(job, args.seed, args.threads)
+            rows.append(row)
+            writer.writerow(row)
+            handle.flush()
+            md_path.write_text(markdown(rows, command, header), encoding="utf-8")
+            print(f"[{n}/{len(jobs)}] {job.case} run {job.run} {job.formulation}: "
+                  f"{row.get('status')} in {row.get('wall_s')} s, objective "
+                  f"{row.get('objective')}, rounds {row.get('rounds')}", file=sys.stderr,
+                  flush=True)  # fmt: skip
+    print(md_path.read_text(encoding="utf-8") if rows else "no solves")
+    return 0 if all(r.get("accepted") for r in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,317 @@
+"""HiGHS through Pyomo: planning options, progress reports, and a model kept loaded across solves.
+
+A :class:`HighsSession` loads a Pyomo model into one ``highspy.Highs`` object once; later solves
+of the same model send HiGHS only what changed (Pyomo's persistent interface detects added rows
+and variables, and changed bounds), which the lazy loop of :mod:`stlplan.lazy` relies on.
+
+Progress: HiGHS callbacks (improving solution, MIP interrupt) are registered on the
+``highspy.Highs`` object inside Pyomo's solver; Pyomo redirects stdout/stderr during a solve,
+so whatever the progress callback prints then is forwarded to the real stderr.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, fields
+from typing import Any, Literal
+
+import highspy
+from highspy import cb
+from pyomo.contrib.solver.common.results import Results, SolutionStatus, TerminationCondition
+from pyomo.contrib.solver.solvers.highs import Highs
+from pyomo.environ import ConcreteModel
+
+from stlplan.encoding.sos1 import Encoding
+from stlplan.mission import Mission
+from stlplan.result import PlanStatus
+
+Phase = Literal["build", "step1", "step2", "polish", "done"]
+
+
+@dataclass(frozen=True)
+class Progress:
+    """A progress report while planning.
+
+    Attributes
+    ----------
+    phase
+        ``build`` (encoding), ``step1`` (MILP), ``step2`` (effort), ``polish``, ``done``.
+    elapsed
+        Seconds since planning started.
+    incumbent, bound, gap
+        Best objective found, best bound and relative gap of the MILP (None when unknown).
+    round
+        Lazy round of step 1 (1, 2, ...), None outside step 1.
+    """
+
+    phase: Phase
+    elapsed: float
+    incumbent: float | None = None
+    bound: float | None = None
+    gap: float | None = None
+    round: int | None = None
+
+
+ProgressCallback = Callable[[Progress], None]
+
+
+@dataclass(frozen=True)
+class PlanOptions:
+    """Options of one planning run.
+
+    Attributes
+    ----------
+    time_limit
+        Wall-clock limit of step 1 (all lazy rounds together) and of each continuous solve, s.
+    gap
+        Relative optimality gap at which HiGHS stops step 1.
+    threads
+        Threads HiGHS may use (None: HiGHS decides).
+    seed
+        HiGHS random seed.
+    encoding
+        Disjunctions as a logarithmic SOS1 (``log``) or one binary per entry (``standard``).
+    two_step
+        Run step 2 (fix step 1's decisions, minimize the mission's effort norm).
+    lazy
+        Leave the step requirements of constraints and separation (obstacle avoidance, collision
+        avoidance) out of the MILP and add those a plan violates, re-solving until none is
+        violated (:mod:`stlplan.lazy`); False encodes them all up front.
+    lazy_window
+        With ``lazy``: a violated requirement also brings the requirements of the same agent (or
+        pair) within this many steps; None brings every step.
+    lazy_margin
+        With ``lazy``: when a round's plan violates requirements, every requirement it meets by
+        less than this margin is added too.
+    decompose
+        With ``lazy``: solve independent parts of the team apart (:mod:`stlplan.components`).
+    floors
+        Add the effort floors of :mod:`stlplan.encoding.floors` (valid inequalities).
+    highs_options
+        Extra HiGHS options, ``(name, value)`` pairs, for experiments.
+    """
+
+    time_limit: float = 300.0
+    gap: float = 1e-4
+    threads: int | None = None
+    seed: int = 0
+    encoding: Encoding = "log"
+    two_step: bool = True
+    lazy: bool = True
+    lazy_window: int | None = 0
+    lazy_margin: float = 0.0
+    decompose: bool = True
+    floors: bool = True
+    highs_options: tuple[tuple[str, Any], ...] = ()
+
+    @classmethod
+    def from_mission(cls, mission: Mission, **overrides: Any) -> PlanOptions:
+        """Defaults from ``mission.solver`` and ``mission.objective``; None overrides are ignored.
+
+        ``lazy_window`` is taken as given (None means "every step").
+        """
+        known = {f.name for f in fields(cls)}
+        unknown = set(overrides) - known
+        if unknown:
+            raise TypeError(f"unknown plan option(s): {', '.join(sorted(unknown))}")
+        base: dict[str, Any] = {
+            "time_limit": mission.solver.time_limit,
+            "gap": mission.solver.gap,
+            "threads": mission.solver.threads,
+            "seed": mission.solver.seed,
+            "encoding": mission.solver.encoding,
+            "two_step": mission.objective.two_step,
+        }
+        base.update({k: v for k, v in overrides.items() if v is not None or k == "lazy_window"})
+        return cls(**base)
+
+
+TC = TerminationCondition
+_STATUS: dict[TerminationCondition, tuple[PlanStatus, PlanStatus]] = {
+    # termination condition: (status with a plan, status without one)
+    TC.convergenceCriteriaSatisfied: (PlanStatus.OPTIMAL, PlanStatus.ERROR),
+    TC.maxTimeLimit: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
+    TC.iterationLimit: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
+    TC.objectiveLimit: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
+    TC.interrupted: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
+    TC.provenInfeasible: (PlanStatus.INFEASIBLE, PlanStatus.INFEASIBLE),
+    TC.infeasibleOrUnbounded: (PlanStatus.INFEASIBLE, PlanStatus.INFEASIBLE),
+}
+
+
+def plan_status(results: Results) -> PlanStatus:
+    """The :class:`PlanStatus` of a HiGHS result (one table, :data:`_STATUS`)."""
+    with_plan, without = _STATUS.get(
+        results.termination_condition, (PlanStatus.ERROR, PlanStatus.ERROR)
+    )
+    return with_plan if has_solution(results) else without
+
+
+def has_solution(results: Results) -> bool:
+    """Whether HiGHS returned a primal feasible point."""
+    return results.solution_status in (SolutionStatus.optimal, SolutionStatus.feasible)
+
+
+@dataclass
+class Clock:
+    """Planning start time, the user's progress callback with its first error, the lazy round."""
+
+    start: float
+    progress: ProgressCallback | None
+    error: BaseException | None = None
+    round: int | None = None
+
+    def elapsed(self) -> float:
+        """Seconds since planning started."""
+        return time.perf_counter() - self.start
+
+    def report(
+        self,
+        phase: Phase,
+        incumbent: float | None = None,
+        bound: float | None = None,
+        gap: float | None = None,
+    ) -> None:
+        if self.progress is None or self.error is not None:
+            return
+        step_round = self.round if phase == "step1" else None
+        try:
+            self.progress(Progress(phase, self.elapsed(), incumbent, bound, gap, step_round))
+        except Exception as exc:  # re-raised once HiGHS has returned
+            self.error = exc
+
+
+def _watch(highs: Any, clock: Clock, phase: Phase) -> None:
+    """Report HiGHS's MIP progress to ``clock`` (callbacks on the ``highspy.Highs`` object)."""
+    if highs is None or clock.progress is None or not hasattr(highs, "cbMipInterrupt"):
+        return
+    last = [0.0]
+
+    def on_event(event: Any) -> None:
+        now = time.perf_counter()
+        improving = event.callback_type == cb.HighsCallbackType.kCallbackMipImprovingSolution
+        if improving or now - last[0] >= 0.5:
+            last[0] = now
+            out = event.data_out
+            found = abs(out.mip_primal_bound) < 1e30
+            incumbent = out.objective_function_value if found else None
+            clock.report(phase, incumbent, out.mip_dual_bound, out.mip_gap if found else None)
+        if clock.error is not None:
+            event.interrupt()  # the callback failed: stop HiGHS, re-raise after the solve
+
+    highs.cbMipImprovingSolution += on_event
+    highs.cbMipInterrupt += on_event
+
+
+_SCHEDULER: dict[str, int | None] = {}
+
+
+def use_threads(threads: int | None) -> None:
+    """Restart HiGHS's process-wide thread pool when the thread count changes.
+
+    HiGHS sizes one global scheduler at its first solve and fails later solves that ask for a
+    different ``threads``; a planning run in the same process must not inherit that.
+    """
+    if _SCHEDULER.get("threads", threads) != threads:
+        highspy.Highs.resetGlobalScheduler(True)
+    _SCHEDULER["threads"] = threads
+
+
+def forget_threads() -> None:
+    """Restart the thread pool now (after solves that did not go through :func:`use_threads`)."""
+    highspy.Highs.resetGlobalScheduler(True)
+    _SCHEDULER.clear()
+
+
+@dataclass(frozen=True)
+class Solved:
+    """One HiGHS solve: its results (solution loaded when there is one), wall time, MIP gap."""
+
+    results: Results
+    seconds: float
+    gap: float | None
+
+
+class HighsSession:
+    """A Pyomo model loaded into HiGHS once and solved as often as needed.
+
+    Parameters
+    ----------
+    model
+        The model; rows and variables added to it later reach HiGHS at the next solve.
+    options
+        Time limit, gap, threads, seed and extra HiGHS options.
+    clock
+        Progress reporting.
+    phase
+        Phase named in progress reports.
+    mip
+        Apply the relative gap (a MILP).
+    """
+
+    def __init__(
+        self,
+        model: ConcreteModel,
+        options: PlanOptions,
+        clock: Clock,
+        phase: Phase,
+        mip: bool = True,
+    ) -> None:
+        self.model, self.options, self.clock, self.phase, self.mip = (
+            model, options, clock, phase, mip
+        )  # fmt: skip
+        self.solver = Highs()
+        config = self.solver.config
+        config.load_solutions = False
+        config.raise_exception_on_nonoptimal_result = False
+        config.threads = options.threads
+        config.solver_options = {
+            "random_seed": options.seed,
+            "output_flag": False,
+            **dict(options.highs_options),
+        }
+        if mip:
+            config.rel_gap = options.gap
+        clock.report(phase)
+        use_threads(options.threads)
+        self.solver.set_instance(model)
+        self.highs = getattr(self.solver, "_solver_model", None)
+        _watch(self.highs, clock, phase)
+
+    def columns(self) -> dict[int, int]:
+        """HiGHS column of each Pyomo variable in the model, by ``id`` (fixed ones have none)."""
+        return dict(self.solver._pyomo_var_to_solver_var_map)
+
+    def solve(self, time_limit: float | None = None) -> Solved:
+        """Solve (again) within ``time_limit`` seconds (default: the options' limit)."""
+        self.solver.config.time_limit = max(
+            1.0, self.options.time_limit if time_limit is None else time_limit
+        )
+        tick = time.perf_counter()
+        use_threads(self.options.threads)
+        # Pyomo redirects the process's stdout/stderr while HiGHS runs; send what the progress
+        # callback writes meanwhile to the real stderr (HiGHS's own log is off).
+        results = self.solver.solve(self.model, tee=[sys.stderr] if self.clock.progress else [])
+        seconds = time.perf_counter() - tick
+        if self.clock.error is not None:
+            raise self.clock.error
+        gap = None
+        if self.mip and self.highs is not None and has_solution(results):
+            gap = float(self.highs.getInfo().mip_gap)  # HiGHS reports inf without an integer
+            if not math.isfinite(gap):
+                optimal = results.termination_condition == TC.convergenceCriteriaSatisfied
+                gap = 0.0 if optimal else None
+        if has_solution(results):
+            results.solution_loader.load_vars()
+        return Solved(results, seconds, gap)
+
+
+def solve_once(
+    model: ConcreteModel, options: PlanOptions, clock: Clock, phase: Phase, mip: bool = True
+) -> tuple[Results, float, float | None]:
+    """One HiGHS solve of ``model``; returns the results, its wall time and HiGHS's MIP gap."""
+    solved = HighsSession(model, options, clock, phase, mip).solve()
+    return solved.results, solved.seconds, solved.gap

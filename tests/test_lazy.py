@@ -1,0 +1,165 @@
+"""Lazy obstacle and collision rows, and effort floors: the same optimum as the up-front model."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from stlplan.encoding.deferred import SEPARATION, defer, neighbours, split_steps, violated
+from stlplan.encoding.model import build_model, reachable_boxes
+from stlplan.formula.parser import parse
+from stlplan.mission import Mission
+from stlplan.monitor import check
+from stlplan.problem import Problem, build_problem
+from stlplan.result import PlanResult, PlanStatus
+from stlplan.solve import PlanOptions, Progress, plan
+
+SINGLE_INTEGRATOR = {
+    "A": [[1, 0], [0, 1]],
+    "B": [[1, 0], [0, 1]],
+    "state_bounds": [[-5, 5], [-5, 5]],
+    "input_bounds": [[-1, 1], [-1, 1]],
+}
+
+
+def mission(**fields: Any) -> Problem:
+    """A checked problem from mission fields (single integrators, ``|u| <= 1`` per axis)."""
+    return build_problem(
+        Mission.model_validate({"name": "tiny", "dynamics": {"si": SINGLE_INTEGRATOR}, **fields})
+    )
+
+
+def swap_problem(separation: float | None, horizon: int = 2) -> Problem:
+    # a and b trade places on the x axis, arriving at step H; with H = 2 both are within 0.2 of
+    # x = 1 at step 1, so a separation of 0.5 costs a detour in y: up/down 0.25, back 0.15 each
+    return mission(
+        horizon=horizon,
+        agents=[
+            {"name": "a", "dynamics": "si", "initial_state": [0, 0]},
+            {"name": "b", "dynamics": "si", "initial_state": [2, 0]},
+        ],
+        regions={"East": {"box": [[1.9, 2.1], [-0.1, 0.1]]}, "West": {"box": [[-0.1, 0.1], [-0.1, 0.1]]}},
+        tasks={
+            "east": {"formula": f"F[{horizon},{horizon}] in(p, East)", "roles": {"p": {"agent": "a"}}},
+            "west": {"formula": f"F[{horizon},{horizon}] in(p, West)", "roles": {"p": {"agent": "b"}}},
+        },
+        separation=separation,
+        objective={"beta": 1.0, "effort": "l1"},
+    )
+
+
+def detour_problem(with_obstacle: bool) -> Problem:
+    # the straight way to the goal crosses the obstacle, 1.6 wide: no step of 1 hops over it, so
+    # one step has |y| >= 1 (a detour of 1 up and 0.9 back)
+    return mission(
+        horizon=6,
+        agents=[{"name": "a", "dynamics": "si", "initial_state": [0, 0]}],
+        regions={
+            "Goal": {"box": [[3.9, 4.1], [-0.1, 0.1]]},
+            "Obs": {"box": [[1.2, 2.8], [-1, 1]]},
+        },
+        tasks={"reach": {"formula": "F[4,6] in(p, Goal)", "roles": {"p": {"agent": "a"}}}},
+        constraints={"avoid": {"formula": "G[0,6] !in(p, Obs)", "for_each": "p"}}
+        if with_obstacle
+        else {},
+        objective={"beta": 1.0, "effort": "l1"},
+    )
+
+
+def solve(problem: Problem, **options: Any) -> tuple[PlanResult, int]:
+    """Plan with ``options``; returns the result and the number of lazy rounds."""
+    rounds = [0]
+
+    def seen(progress: Progress) -> None:
+        rounds[0] = max(rounds[0], progress.round or 0)
+
+    result = plan(problem, PlanOptions(time_limit=60, **options), progress=seen)
+    return result, rounds[0]
+
+
+def accepted(problem: Problem, result: PlanResult) -> bool:
+    assert result.trajectory is not None
+    return check(problem, result.trajectory).satisfied
+
+
+@pytest.mark.parametrize("encoding", ["standard", "log"])
+def test_collision_binds_and_lazy_matches_up_front(encoding: str) -> None:
+    problem = swap_problem(separation=0.5)
+    free, _ = solve(swap_problem(separation=None), encoding=encoding)
+    lazy, rounds = solve(problem, encoding=encoding, lazy=True)
+    up_front, _ = solve(problem, encoding=encoding, lazy=False, floors=False)
+    assert lazy.status is up_front.status is PlanStatus.OPTIMAL
+    assert lazy.objective is not None and up_front.objective is not None
+    assert free.objective is not None and free.objective > up_front.objective + 0.1  # it binds
+    assert lazy.objective == pytest.approx(up_front.objective, abs=1e-6)
+    assert up_front.objective == pytest.approx(-(2 * 1.9 + 2 * 0.4), abs=1e-6)
+    assert rounds >= 2  # the first plan collided
+    assert accepted(problem, lazy) and accepted(problem, up_front)
+
+
+@pytest.mark.parametrize("window", [0, 1, None])
+def test_obstacle_binds_and_lazy_matches_up_front(window: int | None) -> None:
+    problem = detour_problem(with_obstacle=True)
+    free, _ = solve(detour_problem(with_obstacle=False))
+    lazy, rounds = solve(problem, lazy=True, lazy_window=window)
+    up_front, _ = solve(problem, lazy=False, floors=False)
+    assert lazy.status is up_front.status is PlanStatus.OPTIMAL
+    assert lazy.objective is not None and up_front.objective is not None
+    assert free.objective is not None and free.objective > up_front.objective + 0.1
+    assert lazy.objective == pytest.approx(up_front.objective, abs=1e-6)
+    assert up_front.objective == pytest.approx(-(3.9 + 1.9), abs=1e-6)
+    assert rounds >= 2
+    assert accepted(problem, lazy)
+
+
+@pytest.mark.parametrize("lazy", [True, False])
+def test_effort_floors_keep_the_optimum(lazy: bool) -> None:
+    problem = swap_problem(separation=0.5)
+    with_floors, _ = solve(problem, lazy=lazy, floors=True)
+    without, _ = solve(problem, lazy=lazy, floors=False)
+    assert with_floors.objective == pytest.approx(without.objective, abs=1e-6)
+
+
+def test_floors_add_rows_and_fix_unreachable_indicators() -> None:
+    problem = swap_problem(separation=0.5)
+    plain = build_model(problem, "standard", floors=False)
+    floored = build_model(problem, "standard", floors=True)
+    assert not hasattr(plain.model, "effort_floors")
+    assert len(floored.model.effort_floors) > len(problem.agents)  # e_p rows and cuts
+    # East is 2 away from a: unreachable at step 1 with |u| <= 1, so that disjunct is fixed off
+    bodies = [str(c.body) for c in floored.model.effort_floors.values() if c.upper == 0]
+    assert bodies
+
+
+def test_split_steps_unrolls_always_and_and() -> None:
+    formula = parse("G[1,3] (p.x[0] >= 1 & p.x[1] >= 2)")
+    parts = list(split_steps(formula, 0))
+    assert sorted(k for _, k in parts) == [1, 1, 2, 2, 3, 3]
+
+
+def test_defer_drops_requirements_reachability_proves() -> None:
+    problem = detour_problem(with_obstacle=True)
+    boxes = reachable_boxes(problem)
+    deferral = defer(problem, boxes, margin_ceiling=0.0)
+    # from x = 0 with |u| <= 1 the obstacle (x >= 1.2) is out of reach at steps 0 and 1
+    assert deferral.dropped == 2
+    assert sorted(r.k for r in deferral.lazy) == [2, 3, 4, 5, 6]
+    assert not deferral.eager
+
+
+def test_violations_and_neighbours() -> None:
+    problem = swap_problem(separation=0.5, horizon=4)
+    deferral = defer(problem, reachable_boxes(problem), margin_ceiling=0.0)
+    assert {r.source for r in deferral.lazy} == {SEPARATION}
+    line = np.linspace(0, 2, 5)
+    states = {
+        "a": np.column_stack([line, np.zeros(5)]),
+        "b": np.column_stack([line[::-1], np.zeros(5)]),
+    }
+    bad = violated(deferral.lazy, states, margin=0.0, tolerance=1e-9)
+    assert [deferral.lazy[n].k for n in bad] == [2]  # both at x = 1 at step 2
+    assert [deferral.lazy[n].k for n in neighbours(deferral.lazy, bad, 1)] == [1, 2, 3]
+    assert len(neighbours(deferral.lazy, bad, None)) == len(deferral.lazy)
+    assert neighbours(deferral.lazy, bad, 0) == bad
