@@ -37,11 +37,15 @@ CASES = ("farm", "farm-case2", "farm-case3")
 FORMULATIONS: dict[str, dict[str, Any]] = {
     "default": {},
     "straightforward": {"lazy": False, "floors": False},
-    "lazy": {"lazy": True, "floors": False},
-    "floors": {"lazy": False, "floors": True},
-    "lazy-window1": {"lazy_window": 1},
-    "lazy-pair": {"lazy_window": None},
+    "no-floors": {"floors": False},
+    "no-parts": {"decompose": False},
+    "lazy-only": {"decompose": False, "floors": False},
+    "pair-window": {"lazy_window": None},
+    "window1": {"lazy_window": 1},
+    "near-0.1": {"lazy_margin": 0.1},
     "log": {"encoding": "log"},
+    "heuristics-0.01": {"highs_options": (("mip_heuristic_effort", 0.01),)},
+    "heuristics-0.2": {"highs_options": (("mip_heuristic_effort", 0.2),)},
 }
 """Formulation name to :class:`stlplan.solve.PlanOptions` overrides."""
 

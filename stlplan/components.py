@@ -18,8 +18,9 @@ With no such violation left, the union of the parts' plans is feasible for the f
 objective is the sum ``F = sum_c F_c``, while ``U = sum_c U_c`` bounds the full optimum. A part is
 solved again with an absolute gap while ``(U - F) / |F|`` exceeds the gap, so the result is the
 full problem's optimum to the same tolerance as one solve. Finally the parts' requirements are
-encoded in one model of the full problem, its states held at the parts' plans, and one small solve
-sets every indicator; step 2 runs on that model as usual.
+encoded in one model of the full problem, its states held near the parts' plans, and one small
+solve sets every indicator (its objective, a point of the full problem, is the one reported);
+step 2 runs on that model as usual.
 """
 
 from __future__ import annotations
@@ -37,8 +38,11 @@ from stlplan.problem import Problem
 from stlplan.result import PlanStatus
 from stlplan.session import Clock, HighsSession, PlanOptions
 
-HOLD = 1e-6
-"""How far the assembly may move a state or input from the parts' plans (solver round-off)."""
+HOLD = 1e-4
+"""How far the assembly may move a state or input from the parts' plans.
+
+HiGHS accepts binaries within 1e-6 of 0 or 1, so a part's plan may miss an enforced predicate by
+``big-M * 1e-6``; the assembly, whose indicators are exact, needs room to repair that."""
 
 ASSEMBLY_LIMIT = 60.0
 """Time limit of the assembly solve, seconds."""
@@ -77,9 +81,7 @@ def agent_parts(problem: Problem) -> list[tuple[str, ...]]:
 def sub_problem(problem: Problem, agents: Iterable[str]) -> Problem:
     """``problem`` restricted to ``agents``: their tasks, constraint bindings and separation."""
     keep = set(agents)
-    tasks = tuple(
-        t for t in problem.tasks if {a for e in t.elements for a in e} <= keep
-    )
+    tasks = tuple(t for t in problem.tasks if {a for e in t.elements for a in e} <= keep)
     constraints = []
     for c in problem.constraints:
         bindings = tuple(b for b in c.bindings if set(b.values()) <= keep)
@@ -125,9 +127,7 @@ def _part(
     sub = sub_problem(problem, agents)
     pm = build_model(sub, options.encoding, lazy=True, floors=options.floors)
     assert pm.deferral is not None
-    add_requirements(
-        pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed]
-    )
+    add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
     return Part(tuple(agents), pm, LazySolver(pm, options, clock))
 
 
@@ -224,11 +224,13 @@ def _hold(full: PlanModel, parts: Sequence[Part]) -> list[tuple[Any, Any, Any]]:
     return held
 
 
-def assemble(full: PlanModel, parts: Sequence[Part], options: PlanOptions, clock: Clock) -> bool:
-    """Load the parts' plans into ``full`` with every indicator set; True on success.
+def assemble(
+    full: PlanModel, parts: Sequence[Part], options: PlanOptions, clock: Clock
+) -> float | None:
+    """Load the parts' plans into ``full`` with every indicator set; returns its objective.
 
-    The parts' requirements are encoded in ``full``, its states and inputs held at the parts'
-    plans (:func:`_hold`), and one solve chooses the indicators and binaries.
+    The parts' requirements are encoded in ``full``, its states and inputs held near the parts'
+    plans (:func:`_hold`), and one solve chooses the indicators and binaries. None on failure.
     """
     assert full.deferral is not None
     index = {requirement_key(r): n for n, r in enumerate(full.deferral.lazy)}
@@ -240,7 +242,8 @@ def assemble(full: PlanModel, parts: Sequence[Part], options: PlanOptions, clock
     for var, lo, hi in held:
         var.setlb(lo)
         var.setub(hi)
-    return solved.results.incumbent_objective is not None
+    objective = solved.results.incumbent_objective
+    return None if objective is None else float(objective)
 
 
 def solve_parts(
@@ -270,9 +273,17 @@ def solve_parts(
         parts = _merged(problem, parts, crossing, options, clock)
     _tighten(parts, options, deadline)
     done = _combined(parts, options, time.perf_counter() - tick, clock.round or 1)
-    if not assemble(full, parts, options, clock):
-        done = dataclasses.replace(done, status=PlanStatus.ERROR, stop="assembly failed")
-    return full, dataclasses.replace(done, seconds=time.perf_counter() - tick)
+    objective = assemble(full, parts, options, clock)
+    seconds = time.perf_counter() - tick
+    if objective is None:
+        return full, dataclasses.replace(done, status=PlanStatus.ERROR, stop="assembly failed")
+    gap = relative_gap(objective, done.bound)
+    status = done.status
+    if status is PlanStatus.OPTIMAL and (gap is None or gap > options.gap * (1 + 1e-9)):
+        status = PlanStatus.FEASIBLE
+    return full, dataclasses.replace(
+        done, status=status, objective=objective, gap=gap, seconds=seconds
+    )
 
 
 def _merged(

@@ -240,9 +240,15 @@ class LazySolver:
             solved = self.session.solve(remaining)
             rounds, seconds = (clock.round or 1) - first + 1, time.perf_counter() - tick
             results = solved.results
-            _log.debug("round %d: %.1f s, %s, bound %s, best %s, added %d", clock.round,
-                       solved.seconds, results.termination_condition.name,
-                       results.objective_bound, watch.best and watch.best[0], len(pm.added))
+            _log.debug(
+                "round %d: %.1f s, %s, bound %s, best %s, added %d",
+                clock.round,
+                solved.seconds,
+                results.termination_condition.name,
+                results.objective_bound,
+                watch.best and watch.best[0],
+                len(pm.added),
+            )
             if watch.best is not None and watch.closed(results.objective_bound):
                 return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
             converged = results.termination_condition == TC.convergenceCriteriaSatisfied
@@ -343,7 +349,7 @@ def _complete(
     solved = _fix_and_solve(pm, session, values, max(10.0, COMPLETION_SHARE * options.time_limit))
     seconds = time.perf_counter() - tick
     stop = last.results.termination_condition.name
-    if not plan_status(solved.results).has_plan:
+    if not has_solution(solved.results):  # (an interrupt by the watch still leaves a plan)
         return Step1(PlanStatus.NO_PLAN, None, bound, None, seconds, rounds + 1, len(pm.added),
                      stop, completed=True)  # fmt: skip
     objective = float(solved.results.incumbent_objective)

@@ -279,7 +279,16 @@ class HighsSession:
         use_threads(options.threads)
         self.solver.set_instance(model)
         self.highs = getattr(self.solver, "_solver_model", None)
+        self._fresh = True
+        if self.highs is not None and hasattr(self.highs, "cbMipInterrupt"):
+            self.highs.cbMipInterrupt += self._clear_stale_interrupt
         _watch(self.highs, clock, phase)
+
+    def _clear_stale_interrupt(self, event: Any) -> None:
+        """HiGHS keeps an interrupt flag set by an earlier solve; clear it once per solve."""
+        if self._fresh and event.data_in is not None:
+            event.interrupt(False)
+            self._fresh = False
 
     def columns(self) -> dict[int, int]:
         """HiGHS column of each Pyomo variable in the model, by ``id`` (fixed ones have none)."""
@@ -291,6 +300,7 @@ class HighsSession:
             1.0, self.options.time_limit if time_limit is None else time_limit
         )
         tick = time.perf_counter()
+        self._fresh = True
         use_threads(self.options.threads)
         # Pyomo redirects the process's stdout/stderr while HiGHS runs; send what the progress
         # callback writes meanwhile to the real stderr (HiGHS's own log is off).

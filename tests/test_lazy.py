@@ -40,10 +40,19 @@ def swap_problem(separation: float | None, horizon: int = 2) -> Problem:
             {"name": "a", "dynamics": "si", "initial_state": [0, 0]},
             {"name": "b", "dynamics": "si", "initial_state": [2, 0]},
         ],
-        regions={"East": {"box": [[1.9, 2.1], [-0.1, 0.1]]}, "West": {"box": [[-0.1, 0.1], [-0.1, 0.1]]}},
+        regions={
+            "East": {"box": [[1.9, 2.1], [-0.1, 0.1]]},
+            "West": {"box": [[-0.1, 0.1], [-0.1, 0.1]]},
+        },
         tasks={
-            "east": {"formula": f"F[{horizon},{horizon}] in(p, East)", "roles": {"p": {"agent": "a"}}},
-            "west": {"formula": f"F[{horizon},{horizon}] in(p, West)", "roles": {"p": {"agent": "b"}}},
+            "east": {
+                "formula": f"F[{horizon},{horizon}] in(p, East)",
+                "roles": {"p": {"agent": "a"}},
+            },
+            "west": {
+                "formula": f"F[{horizon},{horizon}] in(p, West)",
+                "roles": {"p": {"agent": "b"}},
+            },
         },
         separation=separation,
         objective={"beta": 1.0, "effort": "l1"},

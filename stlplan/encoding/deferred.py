@@ -153,15 +153,15 @@ def defer(problem: Problem, boxes: Boxes, margin_ceiling: float) -> Deferral:
     return Deferral(tuple(lazy), tuple(eager), dropped)
 
 
-def alpha_values(
-    requirement: Requirement, states: Mapping[str, np.ndarray]
-) -> np.ndarray:
+def alpha_values(requirement: Requirement, states: Mapping[str, np.ndarray]) -> np.ndarray:
     """``alpha_i(x(k))`` of every half-plane on a trajectory (agent name to (H+1, n) states)."""
     out = np.empty(len(requirement.alternatives))
     for i, alt in enumerate(requirement.alternatives):
         total = -alt.bound
         for term in alt.terms:
-            total += term.coef * states[requirement.binding[term.role]][requirement.k, term.component]
+            total += (
+                term.coef * states[requirement.binding[term.role]][requirement.k, term.component]
+            )
         out[i] = total
     return out
 

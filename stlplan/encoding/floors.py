@@ -199,9 +199,7 @@ class FloorGraph:
         return out
 
 
-def add_effort_floors(
-    model: ConcreteModel, problem: Problem, ledger: Ledger, margin: float
-) -> int:
+def add_effort_floors(model: ConcreteModel, problem: Problem, ledger: Ledger, margin: float) -> int:
     """Add ``e_p = sum s_p`` and the floor cuts of every conjunction and choice; returns the count.
 
     ``model.s[p, k, j]`` are the absolute inputs; ``margin`` is the smallest admissible ``r``.

@@ -262,7 +262,9 @@ def build_model(
         encode_separation(ctx, problem)
     t = add_objective(model, problem, synchronous, margin)
     if floors and problem.mission.objective.beta > 0:
-        add_effort_floors(model, problem, ctx.ledger, float(problem.mission.objective.margin.minimum))
+        add_effort_floors(
+            model, problem, ctx.ledger, float(problem.mission.objective.margin.minimum)
+        )
     return PlanModel(
         model, problem, tasks, synchronous, t, margin, encoding, ctx.ledger, ctx, deferral
     )

@@ -1,0 +1,119 @@
+"""Solving independent parts of the team apart: parts, merging on collisions, the gap, the result."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from stlplan.components import Part, _tighten, agent_parts, solve_parts, sub_problem
+from stlplan.lazy import Step1
+from stlplan.result import PlanStatus
+from stlplan.session import Clock, PlanOptions
+from stlplan.solve import plan
+from tests.test_lazy import accepted, mission, swap_problem
+
+
+def two_teams(separation: float | None = 0.05) -> Any:
+    # a and b share a task; c and d share another; e has none: three parts
+    agents = [
+        {"name": n, "dynamics": "si", "capabilities": [cap], "initial_state": [x, 0]}
+        for n, cap, x in [("a", "X", 0), ("b", "X", 1), ("c", "Y", 2), ("d", "Y", 3), ("e", "Z", 4)]
+    ]
+    return mission(
+        horizon=3,
+        agents=agents,
+        regions={"R": {"box": [[0, 1], [2, 3]]}, "S": {"box": [[2, 3], [-3, -2]]}},
+        tasks={
+            "north": {"formula": "F[2,3] in(p, R)", "roles": {"p": "X"}},
+            "south": {"formula": "F[2,3] in(p, S)", "roles": {"p": "Y"}},
+        },
+        separation=separation,
+        objective={"beta": 1.0, "effort": "l1"},
+    )
+
+
+def test_parts_follow_tasks_and_constraints() -> None:
+    assert agent_parts(two_teams()) == [("a", "b"), ("c", "d"), ("e",)]
+    assert agent_parts(swap_problem(0.5)) == [("a",), ("b",)]
+    linked = mission(
+        horizon=2,
+        agents=[{"name": n, "dynamics": "si", "initial_state": [i, 0]} for i, n in enumerate("ab")],
+        constraints={"near": {"formula": "G[0,2] dist(p, q) <= 3", "roles": {"p": {"agent": "a"},
+                                                                          "q": {"agent": "b"}}}},
+    )  # fmt: skip
+    assert agent_parts(linked) == [("a", "b")]
+
+
+def test_a_maximized_margin_keeps_one_part() -> None:
+    problem = mission(
+        horizon=2,
+        agents=[{"name": n, "dynamics": "si", "initial_state": [i, 0]} for i, n in enumerate("ab")],
+        objective={"margin": {"maximize": True}},
+    )
+    assert agent_parts(problem) == [("a", "b")]
+
+
+def test_sub_problem_keeps_only_its_agents() -> None:
+    problem = two_teams()
+    sub = sub_problem(problem, ["c", "d"])
+    assert [a.name for a in sub.agents] == ["c", "d"]
+    assert [t.name for t in sub.tasks] == ["south"]
+    assert sub.agent("c") is problem.agent("c")
+
+
+def test_parts_give_the_up_front_optimum() -> None:
+    problem = two_teams()
+    options = PlanOptions(time_limit=60)
+    by_parts = solve_parts(problem, options, Clock(0.0, None))
+    assert by_parts is not None
+    whole = plan(problem, PlanOptions(time_limit=60, lazy=False, floors=False))
+    parted = plan(problem, options)
+    assert by_parts[1].status is PlanStatus.OPTIMAL
+    assert by_parts[1].objective == pytest.approx(whole.objective, abs=1e-5)
+    assert parted.objective == pytest.approx(whole.objective, abs=1e-5)
+    assert accepted(problem, parted)
+
+
+def test_a_collision_between_parts_merges_them() -> None:
+    # a and b are separate parts whose straight plans collide at step 1
+    problem = swap_problem(separation=0.5)
+    found = solve_parts(problem, PlanOptions(time_limit=60), Clock(0.0, None))
+    assert found is not None
+    full, step1 = found
+    assert step1.status is PlanStatus.OPTIMAL
+    assert step1.objective == pytest.approx(-(2 * 1.9 + 2 * 0.4), abs=1e-6)
+    assert full.deferral is not None
+    assert any(full.deferral.lazy[n].source == "separation" for n in full.added)
+    result = plan(problem, PlanOptions(time_limit=60))
+    assert accepted(problem, result)
+
+
+class _Solver:
+    """Stands in for a part's LazySolver: records the absolute gap it is asked for."""
+
+    def __init__(self, tighter: Step1) -> None:
+        self.tighter = tighter
+        self.asked: list[float | None] = []
+
+    def run(self, time_limit: float, abs_gap: float | None = None) -> Step1:
+        self.asked.append(abs_gap)
+        return self.tighter
+
+
+def _step(objective: float, bound: float) -> Step1:
+    return Step1(PlanStatus.OPTIMAL, objective, bound, None, 0.0, 1, 0, "optimal")
+
+
+def test_tighten_solves_the_loosest_part_again_with_an_absolute_gap() -> None:
+    # sum F = 4 - 0.3 = 3.7; U - F = 4e-4 + 1e-5 > 1e-4 * 3.7: the first part is re-solved
+    loose = _Solver(_step(4.0, 4.0002))
+    exact = _Solver(_step(-0.3, -0.3))
+    parts = [
+        Part(("v",), None, loose, _step(4.0, 4.0004)),  # type: ignore[arg-type]
+        Part(("u",), None, exact, _step(-0.3, -0.29999)),  # type: ignore[arg-type]
+    ]
+    _tighten(parts, PlanOptions(gap=1e-4), deadline=1e9)
+    assert exact.asked == []
+    assert loose.asked == [pytest.approx(1e-4 * 3.7 - 1e-5)]
+    assert parts[0].step1 is not None and parts[0].step1.bound == 4.0002
