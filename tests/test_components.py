@@ -39,8 +39,7 @@ def test_parts_follow_tasks_and_constraints() -> None:
     linked = mission(
         horizon=2,
         agents=[{"name": n, "dynamics": "si", "initial_state": [i, 0]} for i, n in enumerate("ab")],
-        constraints={"near": {"formula": "G[0,2] dist(p, q) <= 3", "roles": {"p": {"agent": "a"},
-                                                                          "q": {"agent": "b"}}}},
+        constraints={"near": {"formula": "G[0,2] dist(p, q) <= 3", "roles": {"p": "a", "q": "b"}}},
     )  # fmt: skip
     assert agent_parts(linked) == [("a", "b")]
 
