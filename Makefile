@@ -37,8 +37,8 @@ smoke: $(STAMP)  ## Solve Cases I-III once each under a time limit; fail unless 
 	  $(BIN)/stlplan solve missions/$$m.yaml --out out/smoke/$$m --time-limit $(SMOKE_LIMIT) --quiet || exit 1; \
 	done
 
-bench: $(STAMP)  ## Benchmark Cases I-III: 30 random states each, straightforward formulation on 3 (hours)
-	$(BIN)/python -m stlplan.bench --runs 30 --compare-runs 3
+bench: $(STAMP)  ## Benchmark Cases I-III: 30 random states each, straightforward formulation on 2 (~1.5 h)
+	$(BIN)/python -m stlplan.bench --runs 30 --compare-runs 2 --compare-time-limit 600
 
 bench-quick: $(STAMP)  ## Benchmark Cases I-III on 2 states each, straightforward on 1 of Case I (~10 min)
 	$(BIN)/python -m stlplan.bench --runs 2 --compare-runs 1 --compare-cases farm --compare-time-limit 300 --name bench-quick

@@ -163,6 +163,14 @@ def _totals(parts: Sequence[Part]) -> tuple[float | None, float | None]:
     return sum(objectives), sum(bounds)  # type: ignore[arg-type]
 
 
+def _slack(part: Part) -> float:
+    """Bound minus objective of a part's last result (0 without one)."""
+    step1 = part.step1
+    if step1 is None:
+        return 0.0
+    return (step1.bound or 0.0) - (step1.objective or 0.0)
+
+
 def _tighten(parts: Sequence[Part], options: PlanOptions, deadline: float) -> None:
     """Solve parts again with absolute gaps until ``(U - F) / |F|`` meets the gap."""
     for _ in range(len(parts)):
@@ -172,9 +180,8 @@ def _tighten(parts: Sequence[Part], options: PlanOptions, deadline: float) -> No
         gap = relative_gap(objective, bound)
         if gap is None or gap <= options.gap:
             return
-        worst = max(parts, key=lambda p: (p.step1.bound or 0) - (p.step1.objective or 0))
-        others = sum((p.step1.bound or 0) - (p.step1.objective or 0) for p in parts
-                     if p is not worst)  # fmt: skip
+        worst = max(parts, key=_slack)
+        others = sum(_slack(p) for p in parts if p is not worst)
         allowed = max(options.gap * abs(objective) - others, 1e-9)
         worst.step1 = worst.solver.run(deadline - time.perf_counter(), abs_gap=allowed)
 

@@ -278,7 +278,7 @@ class HighsSession:
         clock.report(phase)
         use_threads(options.threads)
         self.solver.set_instance(model)
-        self.highs = getattr(self.solver, "_solver_model", None)
+        self.highs: Any = getattr(self.solver, "_solver_model", None)
         self._fresh = True
         if self.highs is not None and hasattr(self.highs, "cbMipInterrupt"):
             self.highs.cbMipInterrupt += self._clear_stale_interrupt

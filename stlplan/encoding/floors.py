@@ -92,7 +92,9 @@ class EffortLp:
         self.base_rows = self.highs.getNumRow()
 
     def _add_rows(self, matrix: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
-        starts, index, values = [], [], []
+        starts: list[int] = []
+        index: list[int] = []
+        values: list[float] = []
         for row in matrix:
             starts.append(len(index))
             nonzero = np.flatnonzero(np.abs(row) > 1e-12)
