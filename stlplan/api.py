@@ -13,6 +13,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+from stlplan import stops
 from stlplan.diagnose import cheap_reasons, diagnose
 from stlplan.errors import SolverError
 from stlplan.loader import load_problem
@@ -79,6 +80,10 @@ def plan(
     ``threads``, ``seed``, ``encoding``, ``two_step``); None keeps the mission's value. An
     infeasible mission comes back with a :class:`~stlplan.result.Diagnosis` (cheap reasons found
     before solving, or a minimal conflict found by feasibility solves).
+
+    In the main thread, SIGINT and SIGTERM during a solve stop HiGHS and the best plan so far
+    comes back verified with status ``interrupted`` (:mod:`stlplan.stops`); a second signal, or
+    one outside a solve, raises :class:`stlplan.stops.Interrupted`.
     """
     from stlplan.solve import PlanOptions
     from stlplan.solve import plan as solve_plan
@@ -90,18 +95,33 @@ def plan(
         diagnosis = Diagnosis(reasons, tuple(dict.fromkeys(r.split("'")[1] for r in reasons)))
         message = f"infeasible before solving: {len(reasons)} requirement(s) cannot be met in time"
         return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis)
-    with _quiet_pyomo():
+    with stops.stop_on_signals(), _quiet_pyomo():
         result = solve_plan(problem, options, progress=progress)
-    if result.status is PlanStatus.INFEASIBLE and diagnose_infeasible:
-        probe = dataclasses.replace(
-            options, time_limit=min(30.0, options.time_limit), two_step=False
-        )
+        if result.status is PlanStatus.INFEASIBLE and diagnose_infeasible:
+            result = _diagnosed(problem, options, result)
+        return problem, _verified(problem, result)
 
-        def feasibility(subset: Problem) -> PlanStatus:
-            return solve_plan(subset, probe).status
 
-        result = dataclasses.replace(result, diagnosis=diagnose(problem, feasibility))
-    return problem, _verified(problem, result)
+class _DiagnosisStopped(Exception):
+    """A stop request ended the diagnosis."""
+
+
+def _diagnosed(problem: Problem, options: Any, result: PlanResult) -> PlanResult:
+    """``result`` with a minimal conflict found by feasibility solves (deletion filter)."""
+    from stlplan.solve import plan as solve_plan
+
+    probe = dataclasses.replace(options, time_limit=min(30.0, options.time_limit), two_step=False)
+
+    def feasibility(subset: Problem) -> PlanStatus:
+        status = solve_plan(subset, probe).status
+        if status.interrupted:
+            raise _DiagnosisStopped
+        return status
+
+    try:
+        return dataclasses.replace(result, diagnosis=diagnose(problem, feasibility))
+    except _DiagnosisStopped:
+        return dataclasses.replace(result, message=result.message + " (diagnosis interrupted)")
 
 
 def write_plan(
@@ -133,11 +153,20 @@ def solve(
 ) -> PlanResult:
     """Plan, verify and (with ``out``) write the plan directory; returns the verified result."""
     problem = load_problem(mission)  # a bad mission leaves no output folder behind
+    created = out is not None and not Path(out).exists()
     if out is not None:
         prepare_directory(Path(out))
-    problem, result = plan(problem, progress=progress, **overrides)
-    if out is not None:
-        write_plan(problem, result, out, {k: v for k, v in overrides.items() if v is not None})
+    try:
+        with stops.stop_on_signals():  # a signal while writing: nothing is written
+            problem, result = plan(problem, progress=progress, **overrides)
+            if out is not None:
+                options = {k: v for k, v in overrides.items() if v is not None}
+                write_plan(problem, result, out, options)
+    except KeyboardInterrupt:
+        if created and out is not None:
+            with contextlib.suppress(OSError):
+                Path(out).rmdir()  # only when still empty
+        raise
     return result
 
 

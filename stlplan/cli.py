@@ -3,7 +3,9 @@
 Exit codes: 0 satisfied / valid; 1 a checked trajectory violates the mission; 2 usage error
 (including a file the operating system refuses to read or write);
 3 bad input (mission, formula, trajectory); 4 infeasible; 5 no plan within the time limit;
-6 solver error or a plan the monitor rejects; 70 internal error; 130 interrupted.
+6 solver error or a plan the monitor rejects; 70 internal error; 128 + the signal's number when
+a signal stopped the run (130 for Ctrl-C, 143 for SIGTERM), with the best plan so far written
+when there was one.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
-from stlplan import api
+from stlplan import api, stops
 from stlplan.errors import StlplanError, UsageError
 from stlplan.result import PlanStatus
 
@@ -41,6 +43,8 @@ STATUS_EXIT = {
     PlanStatus.INFEASIBLE: EXIT_INFEASIBLE,
     PlanStatus.NO_PLAN: EXIT_NO_PLAN,
     PlanStatus.ERROR: EXIT_SOLVER,
+    PlanStatus.INTERRUPTED: EXIT_INTERRUPTED,
+    PlanStatus.INTERRUPTED_NO_PLAN: EXIT_INTERRUPTED,
 }
 SCHEMA_PATH = Path("schemas") / "mission.schema.json"
 
@@ -55,8 +59,12 @@ def handled(command: Callable[..., None]) -> Callable[..., None]:
         except StlplanError as exc:
             err_console.print(f"[red]error[/]: {escape(str(exc))}", highlight=False, soft_wrap=True)
             raise typer.Exit(exc.exit_code) from None
-        except (typer.Exit, KeyboardInterrupt):
+        except typer.Exit:
             raise
+        except KeyboardInterrupt as exc:  # a signal outside a solve, or a second one
+            err_console.print("interrupted", highlight=False)
+            code = exc.exit_code if isinstance(exc, stops.Interrupted) else EXIT_INTERRUPTED
+            raise typer.Exit(code) from None
         except OSError as exc:  # a file the operating system refused (disk full, permissions)
             where = f"{exc.filename}: " if exc.filename else ""
             err_console.print(
@@ -171,6 +179,9 @@ def solve(
     if not quiet:
         print_plan(out_console, result)
     code = STATUS_EXIT[result.status]
+    stopped_by = stops.last_signal()
+    if stopped_by is not None:  # the shell's convention: 130 for Ctrl-C, 143 for SIGTERM
+        code = 128 + stopped_by
     verdict = "satisfied" if code == 0 else result.status.value
     target = err_console if code else out_console
     target.print(f"{verdict}: {result.message}; outputs in {out}")
@@ -225,6 +236,6 @@ def main() -> None:
     """Console entry point (``stlplan``)."""
     try:
         app()
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         err_console.print("interrupted")
-        sys.exit(EXIT_INTERRUPTED)
+        sys.exit(exc.exit_code if isinstance(exc, stops.Interrupted) else EXIT_INTERRUPTED)

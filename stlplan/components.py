@@ -31,6 +31,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from stlplan import stops
 from stlplan.encoding.deferred import Requirement, violated
 from stlplan.encoding.model import PlanModel, add_requirements, build_model
 from stlplan.lazy import VIOLATION_TOL, LazySolver, Step1, relative_gap, trajectory_states
@@ -193,13 +194,18 @@ def _combined(parts: Sequence[Part], options: PlanOptions, seconds: float, round
     if failed or len(steps) < len(parts):
         first = failed[0] if failed else None
         status = first.status if first else PlanStatus.ERROR
+        if stops.requested():
+            status = PlanStatus.INTERRUPTED_NO_PLAN
         return Step1(status, None, None, None, seconds, rounds, 0, first.stop if first else "")
     objective, bound = _totals(parts)
     gap = relative_gap(objective, bound)
     optimal = all(s.status is PlanStatus.OPTIMAL for s in steps)
     optimal = optimal and gap is not None and gap <= options.gap * (1 + 1e-9)
+    status = PlanStatus.OPTIMAL if optimal else PlanStatus.FEASIBLE
+    if stops.requested() and not optimal:
+        status = PlanStatus.INTERRUPTED
     return Step1(
-        status=PlanStatus.OPTIMAL if optimal else PlanStatus.FEASIBLE,
+        status=status,
         objective=objective,
         bound=bound,
         gap=gap,
@@ -245,7 +251,8 @@ def assemble(
     add_requirements(full, [index[k] for k in keys if k in index])
     held = _hold(full, parts)
     limited = dataclasses.replace(options, time_limit=ASSEMBLY_LIMIT)
-    solved = HighsSession(full.model, limited, clock, "step1").solve()
+    with stops.finishing():  # the plan is found: a stop request lets this solve end
+        solved = HighsSession(full.model, limited, clock, "step1").solve()
     for var, lo, hi in held:
         var.setlb(lo)
         var.setub(hi)
@@ -269,7 +276,7 @@ def solve_parts(
     parts = [_part(problem, agents, options, clock) for agents in names]
     while True:
         for part in parts:
-            if part.step1 is None:
+            if part.step1 is None and not stops.requested():
                 part.step1 = part.solver.run(deadline - time.perf_counter())
         done = _combined(parts, options, time.perf_counter() - tick, clock.round or 1)
         if not done.status.has_plan:
@@ -277,8 +284,11 @@ def solve_parts(
         crossing = _crossing(full, parts)
         if not crossing:
             break
+        if stops.requested():  # the parts' plans collide: no plan of the full problem
+            return full, dataclasses.replace(done, status=PlanStatus.INTERRUPTED_NO_PLAN)
         parts = _merged(problem, parts, crossing, options, clock)
-    _tighten(parts, options, deadline)
+    if not stops.requested():
+        _tighten(parts, options, deadline)
     done = _combined(parts, options, time.perf_counter() - tick, clock.round or 1)
     objective = assemble(full, parts, options, clock)
     seconds = time.perf_counter() - tick
@@ -287,7 +297,7 @@ def solve_parts(
     gap = relative_gap(objective, done.bound)
     status = done.status
     if status is PlanStatus.OPTIMAL and (gap is None or gap > options.gap * (1 + 1e-9)):
-        status = PlanStatus.FEASIBLE
+        status = PlanStatus.INTERRUPTED if stops.requested() else PlanStatus.FEASIBLE
     return full, dataclasses.replace(
         done, status=status, objective=objective, gap=gap, seconds=seconds
     )

@@ -21,6 +21,7 @@ a plan with those decisions (a small MILP) in a short extra time.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from dataclasses import dataclass
@@ -182,11 +183,6 @@ class Watch:
             self.fresh = False
 
 
-def _quiet_pyomo() -> None:
-    """Pyomo warns on HiGHS's "interrupted" status; the loop interrupts on purpose."""
-    logging.getLogger("pyomo.contrib.solver.solvers.highs").setLevel(logging.ERROR)
-
-
 class LazySolver:
     """The loop of the module docstring on one model; :meth:`run` may be called again.
 
@@ -206,7 +202,6 @@ class LazySolver:
         self.session = HighsSession(pm.model, options, clock, "step1")
         self.watch: Watch | None = None
         if pm.deferral is not None:
-            _quiet_pyomo()
             self.watch = Watch(pm, self.session.columns(), options.gap)
             self.session.highs.cbMipImprovingSolution += self.watch.on_plan
             self.session.highs.cbMipInterrupt += self.watch.maybe_stop
@@ -252,19 +247,35 @@ class LazySolver:
             if watch.best is not None and watch.closed(results.objective_bound):
                 return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
             converged = results.termination_condition == TC.convergenceCriteriaSatisfied
-            if not plan_status(results).has_plan and not watch.stopped:
-                return _ended(solved, seconds, rounds, len(pm.added))
             bad = pending_violations(pm) if has_solution(results) else []
             if converged and not bad:
                 return _ended(solved, seconds, rounds, len(pm.added))
-            if not (converged or watch.stopped) or time_limit - seconds < 1.0:  # time is out
-                if watch.best is not None:
-                    return self._from_best(solved, tick, rounds, PlanStatus.FEASIBLE)
-                return _complete(pm, self.session, solved, options, tick, rounds)
+            out_of_time = not (converged or watch.stopped) or time_limit - seconds < 1.0
+            if solved.stopped or out_of_time:
+                return self._last(solved, tick, rounds)
             add_requirements(pm, neighbours(pm.deferral.lazy, bad, options.lazy_window))
             if options.lazy_margin > 0:
                 add_requirements(pm, near_violations(pm, options.lazy_margin))
             clock.round = (clock.round or 0) + 1
+
+    def _last(self, last: Solved, tick: float, rounds: int) -> Step1:
+        """The loop ends short of the optimum (time, a stop request, infeasible, an error).
+
+        The best plan feasible for the full problem is kept. Without one, the last round's plan
+        (which violates some requirement left out) is completed (:func:`_complete`), unless the
+        user asked to stop: then there is no plan.
+        """
+        status = PlanStatus.INTERRUPTED if last.stopped else PlanStatus.FEASIBLE
+        if self.watch is not None and self.watch.best is not None:
+            return self._from_best(last, tick, rounds, status)
+        ended = _ended(last, time.perf_counter() - tick, rounds, len(self.pm.added))
+        if last.stopped:
+            return dataclasses.replace(
+                ended, status=PlanStatus.INTERRUPTED_NO_PLAN, objective=None, gap=None
+            )
+        if not has_solution(last.results):
+            return ended
+        return _complete(self.pm, self.session, last, self.options, tick, rounds)
 
     def _from_best(self, last: Solved, tick: float, rounds: int, status: PlanStatus) -> Step1:
         """Load the best plan feasible for the full problem; the bound is the last round's.
@@ -304,7 +315,7 @@ def solve_step1(pm: PlanModel, options: PlanOptions, clock: Clock) -> Step1:
 def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Step1:
     results = solved.results
     return Step1(
-        status=plan_status(results),
+        status=plan_status(results, solved.stopped),
         objective=results.incumbent_objective,
         bound=results.objective_bound,
         gap=solved.gap,

@@ -83,15 +83,22 @@ class PlanStatus(str, Enum):
     """What a solve produced."""
 
     OPTIMAL = "optimal"
-    FEASIBLE = "feasible"  # a plan, not proven optimal (time limit or interrupt)
+    FEASIBLE = "feasible"  # a plan, not proven optimal (time limit)
     INFEASIBLE = "infeasible"
     NO_PLAN = "no_plan"  # the time limit ended the solve before any plan was found
     ERROR = "error"
+    INTERRUPTED = "interrupted"  # stopped by a signal; the best plan so far
+    INTERRUPTED_NO_PLAN = "interrupted_no_plan"  # stopped by a signal before any plan
 
     @property
     def has_plan(self) -> bool:
         """Whether a trajectory comes with this status."""
-        return self in (PlanStatus.OPTIMAL, PlanStatus.FEASIBLE)
+        return self in (PlanStatus.OPTIMAL, PlanStatus.FEASIBLE, PlanStatus.INTERRUPTED)
+
+    @property
+    def interrupted(self) -> bool:
+        """Whether a signal cut the solve short."""
+        return self in (PlanStatus.INTERRUPTED, PlanStatus.INTERRUPTED_NO_PLAN)
 
 
 @dataclass(frozen=True)

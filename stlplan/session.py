@@ -11,6 +11,7 @@ so whatever the progress callback prints then is forwarded to the real stderr.
 
 from __future__ import annotations
 
+import logging
 import math
 import sys
 import time
@@ -24,6 +25,7 @@ from pyomo.contrib.solver.common.results import Results, SolutionStatus, Termina
 from pyomo.contrib.solver.solvers.highs import Highs
 from pyomo.environ import ConcreteModel
 
+from stlplan import stops
 from stlplan.encoding.sos1 import Encoding
 from stlplan.mission import Mission
 from stlplan.result import PlanStatus
@@ -142,12 +144,18 @@ _STATUS: dict[TerminationCondition, tuple[PlanStatus, PlanStatus]] = {
 }
 
 
-def plan_status(results: Results) -> PlanStatus:
-    """The :class:`PlanStatus` of a HiGHS result (one table, :data:`_STATUS`)."""
+def plan_status(results: Results, stopped: bool = False) -> PlanStatus:
+    """The :class:`PlanStatus` of a HiGHS result (one table, :data:`_STATUS`).
+
+    ``stopped``: the user asked to stop, so a solve cut short is "interrupted".
+    """
     with_plan, without = _STATUS.get(
         results.termination_condition, (PlanStatus.ERROR, PlanStatus.ERROR)
     )
-    return with_plan if has_solution(results) else without
+    status = with_plan if has_solution(results) else without
+    if stopped and status not in (PlanStatus.OPTIMAL, PlanStatus.INFEASIBLE):
+        return PlanStatus.INTERRUPTED if has_solution(results) else PlanStatus.INTERRUPTED_NO_PLAN
+    return status
 
 
 def has_solution(results: Results) -> bool:
@@ -233,6 +241,8 @@ class Solved:
     results: Results
     seconds: float
     gap: float | None
+    stopped: bool = False
+    """Whether the user asked to stop (:mod:`stlplan.stops`): the solve was cut short."""
 
 
 class HighsSession:
@@ -276,13 +286,24 @@ class HighsSession:
         if mip:
             config.rel_gap = options.gap
         clock.report(phase)
+        # Pyomo warns on HiGHS's "interrupted" status; every interrupt here is on purpose (the
+        # lazy loop's, a stop request) and mapped by plan_status.
+        logging.getLogger("pyomo.contrib.solver.solvers.highs").setLevel(logging.ERROR)
         use_threads(options.threads)
         self.solver.set_instance(model)
         self.highs: Any = getattr(self.solver, "_solver_model", None)
         self._fresh = True
         if self.highs is not None and hasattr(self.highs, "cbMipInterrupt"):
             self.highs.cbMipInterrupt += self._clear_stale_interrupt
+            for name in ("cbMipInterrupt", "cbSimplexInterrupt", "cbIpmInterrupt"):
+                callbacks = getattr(self.highs, name)
+                callbacks += self._stop_if_asked
         _watch(self.highs, clock, phase)
+
+    def _stop_if_asked(self, event: Any) -> None:
+        """Interrupt HiGHS when the user asked to stop (:mod:`stlplan.stops`)."""
+        if stops.should_interrupt():
+            event.interrupt()
 
     def _clear_stale_interrupt(self, event: Any) -> None:
         """HiGHS keeps an interrupt flag set by an earlier solve; clear it once per solve."""
@@ -304,8 +325,10 @@ class HighsSession:
         use_threads(self.options.threads)
         # Pyomo redirects the process's stdout/stderr while HiGHS runs; send what the progress
         # callback writes meanwhile to the real stderr (HiGHS's own log is off).
-        results = self.solver.solve(self.model, tee=[sys.stderr] if self.clock.progress else [])
+        with stops.solving():
+            results = self.solver.solve(self.model, tee=[sys.stderr] if self.clock.progress else [])
         seconds = time.perf_counter() - tick
+        stops.raise_if_hard()
         if self.clock.error is not None:
             raise self.clock.error
         gap = None
@@ -316,7 +339,7 @@ class HighsSession:
                 gap = 0.0 if optimal else None
         if has_solution(results):
             results.solution_loader.load_vars()
-        return Solved(results, seconds, gap)
+        return Solved(results, seconds, gap, stops.should_interrupt())
 
 
 def solve_once(

@@ -17,10 +17,12 @@ stage, the half-plane the step-1 plan meets best: the side an up-front encoding 
 
 from __future__ import annotations
 
+import math
 import time
 
 from pyomo.environ import ConcreteModel, Constraint, Objective, Reals, Var, minimize, value
 
+from stlplan import stops
 from stlplan.components import solve_parts
 from stlplan.encoding.continuous import continuous_model, copy_plan
 from stlplan.encoding.deferred import best_option
@@ -176,7 +178,8 @@ def plan(
             build_seconds=build_seconds,
             solve_seconds=step1.seconds,
         )
-    polished, seconds = _continuous(pm, options, clock)
+    with stops.finishing():  # after a stop request too: step 2 is a quick LP or QP
+        polished, seconds = _continuous(pm, options, clock)
     clock.report("done", step1.objective, step1.bound, step1.gap)
     message = _message(step1, options)
     if not polished:
@@ -199,13 +202,16 @@ def plan(
 def _message(step1: Step1, options: PlanOptions) -> str:
     """One line on how step 1 ended (with its lazy rounds)."""
     bound, gap = step1.bound, step1.gap
-    where = f"gap {gap:.2%}, bound {bound:.6g}" if gap is not None and bound is not None else ""
+    known = gap is not None and bound is not None and math.isfinite(bound)
+    where = f"gap {gap:.2%}, bound {bound:.6g}" if known else "no bound yet"
     texts = {
         PlanStatus.OPTIMAL: "optimal plan",
         PlanStatus.FEASIBLE: f"a plan, not proven optimal: HiGHS stopped ({step1.stop}; {where})",
         PlanStatus.INFEASIBLE: "the tasks and constraints cannot be met together",
         PlanStatus.NO_PLAN: f"no plan found within the time limit of {options.time_limit:g} s",
         PlanStatus.ERROR: f"HiGHS failed: {step1.stop}",
+        PlanStatus.INTERRUPTED: f"the best plan found before the stop request ({where})",
+        PlanStatus.INTERRUPTED_NO_PLAN: "interrupted before a plan meeting every requirement was found",
     }
     text = texts[step1.status]
     if options.lazy and step1.rounds > 1:

@@ -53,6 +53,8 @@ def run_one(spec: RunSpec) -> dict[str, Any]:
     except StlplanError as exc:
         record.update(status="error", message=str(exc), wall_seconds=time.monotonic() - started)
         return record
+    if result.status.interrupted:  # a stopped run is not a result: --resume runs it again
+        raise KeyboardInterrupt
     report = result.report
     size = result.model_size
     record.update(
@@ -94,7 +96,11 @@ def read_records(out: Path) -> list[dict[str, Any]]:
 
 def pending(specs: Sequence[RunSpec], out: Path, resume: bool) -> list[RunSpec]:
     """The specs still to run; refuses to mix with an earlier sweep unless ``resume``."""
-    done = {(r["mission"], r["run"], r["seed"]) for r in read_records(out)}
+    done = {
+        (r["mission"], r["run"], r["seed"])
+        for r in read_records(out)
+        if not str(r.get("status", "")).startswith("interrupted")
+    }
     if done and not resume:
         raise UsageError(
             f"{out / RECORDS} already holds {len(done)} runs; pass --resume to "

@@ -1,0 +1,141 @@
+"""Ctrl-C and SIGTERM: a solve stops cleanly, keeps its best verified plan or nothing, exits 128+N.
+
+The signal is sent from the planner's progress callback, which HiGHS calls while it works, so it
+arrives mid-solve at a reproducible point (the first plan HiGHS reports).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from typer.testing import CliRunner
+
+from stlplan import api, stops
+from stlplan.cli import app
+from stlplan.result import PlanStatus
+from stlplan.sweep.runner import pending
+from tests.conftest import MISSIONS
+
+PAIR = MISSIONS / "sync-pair.yaml"
+CASE2 = MISSIONS / "farm-case2.yaml"
+
+
+@pytest.fixture(autouse=True)
+def _default_handlers() -> Iterator[None]:
+    """Run each test with Python's default SIGINT and SIGTERM handlers, and restore them."""
+    saved = {s: signal.getsignal(s) for s in stops.CAUGHT}
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    yield
+    for s, handler in saved.items():
+        signal.signal(s, handler)
+
+
+def signal_at_first_plan(signum: int = signal.SIGINT, times: int = 1) -> Callable[[Any], None]:
+    """A progress callback that sends ``signum`` ``times`` when step 1 first reports a plan."""
+    sent: list[int] = []
+
+    def progress(update: Any) -> None:
+        if update.phase == "step1" and update.incumbent is not None and not sent:
+            sent.append(signum)
+            for _ in range(times):
+                os.kill(os.getpid(), signum)
+
+    return progress
+
+
+def test_signal_outside_a_solve_raises_with_the_shell_exit_code() -> None:
+    with stops.stop_on_signals(), pytest.raises(stops.Interrupted) as caught:
+        os.kill(os.getpid(), signal.SIGTERM)
+    assert caught.value.exit_code == 143
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # restored
+    assert stops.Interrupted(signal.SIGINT).exit_code == 130
+
+
+def test_signal_during_a_solve_is_recorded_and_a_second_one_is_hard() -> None:
+    with stops.stop_on_signals(), stops.solving():
+        os.kill(os.getpid(), signal.SIGINT)
+        assert stops.requested() and stops.should_interrupt()
+        with stops.finishing():
+            assert not stops.should_interrupt()  # a first request lets finishing solves end
+            os.kill(os.getpid(), signal.SIGINT)
+            assert stops.should_interrupt()
+        with pytest.raises(stops.Interrupted):
+            stops.raise_if_hard()
+
+
+def test_an_ignored_signal_stays_ignored() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    with stops.stop_on_signals():
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        os.kill(os.getpid(), signal.SIGINT)
+        assert not stops.requested()
+
+
+def test_interrupted_solve_keeps_its_best_plan_verified() -> None:
+    _, result = api.plan(PAIR, progress=signal_at_first_plan(), threads=1)
+    assert result.status is PlanStatus.INTERRUPTED
+    assert result.trajectory is not None
+    assert result.report is not None and result.report.satisfied
+    assert "stop request" in result.message
+
+
+def test_interrupted_lazy_round_without_a_full_plan_keeps_nothing() -> None:
+    # Case II's first round leaves obstacle and collision rows out: its first plan violates
+    # some, so it is not a plan of the mission and is not kept.
+    _, result = api.plan(CASE2, progress=signal_at_first_plan(), threads=1)
+    assert result.status is PlanStatus.INTERRUPTED_NO_PLAN
+    assert result.trajectory is None and result.report is None
+
+
+def test_cli_ctrl_c_writes_the_plan_marked_interrupted(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from stlplan.progress import ProgressLine
+
+    monkeypatch.setattr(ProgressLine, "update", lambda self, p: hook(p))
+    hook = signal_at_first_plan()
+    out = tmp_path / "plan"
+    result = CliRunner().invoke(app, ["solve", str(PAIR), "--out", str(out), "--threads", "1"])
+    assert result.exit_code == 130, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted"
+    assert (out / "trajectory.csv").exists()
+    checked = CliRunner().invoke(app, ["check", str(PAIR), str(out / "trajectory.csv")])
+    assert checked.exit_code == 0, checked.output
+
+
+def test_cli_sigterm_exits_143(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from stlplan.progress import ProgressLine
+
+    hook = signal_at_first_plan(signal.SIGTERM)
+    monkeypatch.setattr(ProgressLine, "update", lambda self, p: hook(p))
+    out = tmp_path / "plan"
+    result = CliRunner().invoke(app, ["solve", str(PAIR), "--out", str(out), "--threads", "1"])
+    assert result.exit_code == 143, result.output
+    assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
+
+
+def test_second_signal_stops_hard_and_writes_nothing(tmp_path: Path) -> None:
+    out = tmp_path / "plan"
+    with pytest.raises(stops.Interrupted):
+        api.solve(PAIR, out=out, progress=signal_at_first_plan(times=2), threads=1)
+    assert not out.exists()
+
+
+def test_resume_runs_interrupted_records_again(tmp_path: Path) -> None:
+    from stlplan.sweep.runner import RunSpec
+
+    specs = [RunSpec("pair", "", "pair.yaml", run, 0) for run in range(3)]
+    lines = [
+        {"mission": "pair", "run": 0, "seed": 0, "status": "optimal"},
+        {"mission": "pair", "run": 1, "seed": 0, "status": "interrupted"},
+    ]
+    (tmp_path / "runs.jsonl").write_text("".join(json.dumps(r) + "\n" for r in lines))
+    assert [s.run for s in pending(specs, tmp_path, resume=True)] == [1, 2]
