@@ -52,6 +52,8 @@ class StopState:
         Nested :func:`stop_on_signals` calls (the outermost owns the handlers).
     finishing
         Nested :func:`finishing` blocks: solves that turn the best plan so far into an output.
+    enabled
+        False in processes whose parent handles signals (:func:`leave_signals_alone`).
     """
 
     signum: int | None = None
@@ -59,6 +61,7 @@ class StopState:
     solving: int = 0
     depth: int = 0
     finishing: int = 0
+    enabled: bool = True
 
 
 STATE = StopState()
@@ -115,6 +118,11 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
         STATE.signum = signum
 
 
+def leave_signals_alone() -> None:
+    """Never install handlers in this process (a pool worker, stopped by its parent)."""
+    STATE.enabled, STATE.depth, STATE.signum, STATE.hard = False, 0, None, False
+
+
 @contextmanager
 def stop_on_signals() -> Iterator[None]:
     """Handle SIGINT and SIGTERM as stop requests for the duration of one planning call.
@@ -123,7 +131,11 @@ def stop_on_signals() -> Iterator[None]:
     that ignores SIGINT, like a pool worker, keeps ignoring it). The previous handlers come back
     on exit. The request state is reset on entry; nested calls share the outer one.
     """
-    if STATE.depth or threading.current_thread() is not threading.main_thread():
+    if (
+        STATE.depth
+        or not STATE.enabled
+        or threading.current_thread() is not threading.main_thread()
+    ):
         yield
         return
     STATE.signum, STATE.hard, STATE.solving, STATE.finishing = None, False, 0, 0

@@ -139,3 +139,26 @@ def test_resume_runs_interrupted_records_again(tmp_path: Path) -> None:
     ]
     (tmp_path / "runs.jsonl").write_text("".join(json.dumps(r) + "\n" for r in lines))
     assert [s.run for s in pending(specs, tmp_path, resume=True)] == [1, 2]
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_interrupted_sweep_keeps_finished_runs_stops_workers_and_resumes(
+    tmp_path: Path, workers: int
+) -> None:
+    import multiprocessing
+
+    from stlplan.sweep.runner import read_records
+
+    def stop_after_three(record: dict[str, Any]) -> None:
+        if len(read_records(tmp_path)) == 3:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    with pytest.raises(stops.Interrupted):
+        api.sweep([PAIR], 40, 0, tmp_path, workers, on_record=stop_after_three)
+    assert multiprocessing.active_children() == []
+    kept = read_records(tmp_path)
+    assert 3 <= len(kept) < 40
+    assert all(r["status"] == "optimal" for r in kept)
+    api.sweep([PAIR], 6, 0, tmp_path, workers, resume=True)
+    runs = [r["run"] for r in read_records(tmp_path)]
+    assert set(runs) >= set(range(6)) and len(runs) == len(set(runs))

@@ -8,14 +8,16 @@ in flight, and ``resume`` skips the runs already recorded.
 from __future__ import annotations
 
 import json
+import multiprocessing
 import os
+import signal
 import time
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from stlplan import stops
 from stlplan.errors import StlplanError, UsageError
 
 RECORDS = "runs.jsonl"
@@ -116,18 +118,21 @@ def _append(out: Path, record: dict[str, Any]) -> None:
         os.fsync(handle.fileno())
 
 
+def _leave_interrupts_to_parent() -> None:
+    """Pool workers ignore Ctrl-C and die on SIGTERM: the parent stops them all (terminating
+    the pool) and says so."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler, inherited by fork
+    stops.leave_signals_alone()
+
+
 def _local(specs: Sequence[RunSpec], workers: int) -> Iterator[dict[str, Any]]:
     if workers <= 1:
         yield from (run_one(s) for s in specs)
         return
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        futures = [pool.submit(run_one, s) for s in specs]
-        try:
-            for future in as_completed(futures):
-                yield future.result()
-        finally:
-            for future in futures:
-                future.cancel()
+    # Leaving the block (the sweep ended, failed or was interrupted) terminates the workers.
+    with multiprocessing.Pool(workers, initializer=_leave_interrupts_to_parent) as pool:
+        yield from pool.imap_unordered(run_one, specs)
 
 
 def _dask(specs: Sequence[RunSpec], scheduler: str) -> Iterator[dict[str, Any]]:
@@ -151,10 +156,15 @@ def execute(
     scheduler: str | None = None,
     on_record: Callable[[dict[str, Any]], None] | None = None,
 ) -> None:
-    """Run ``specs`` and append each record to ``out/runs.jsonl`` as it finishes."""
+    """Run ``specs`` and append each record to ``out/runs.jsonl`` as it finishes.
+
+    Ctrl-C or SIGTERM stops the sweep (:class:`stlplan.stops.Interrupted`); the runs in flight
+    are lost, the recorded ones kept.
+    """
     out.mkdir(parents=True, exist_ok=True)
-    stream = _dask(specs, scheduler) if scheduler else _local(specs, workers)
-    for record in stream:
-        _append(out, record)
-        if on_record is not None:
-            on_record(record)
+    with stops.stop_on_signals():
+        stream = _dask(specs, scheduler) if scheduler else _local(specs, workers)
+        for record in stream:
+            _append(out, record)
+            if on_record is not None:
+                on_record(record)
