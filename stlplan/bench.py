@@ -49,6 +49,9 @@ FORMULATIONS: dict[str, dict[str, Any]] = {
 }
 """Formulation name to :class:`stlplan.solve.PlanOptions` overrides."""
 
+GAP = 1e-4
+"""The missions' relative gap: two optimal objectives of one state agree within it."""
+
 COLUMNS = (
     "case", "run", "formulation", "variables", "binaries", "constraints", "build_s", "solve_s",
     "wall_s", "rounds", "status", "accepted", "gap", "rho_s", "objective", "effort", "message",
@@ -148,8 +151,39 @@ def summary_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
+def side_by_side(rows: Sequence[dict[str, Any]], base: str = "default") -> list[dict[str, Any]]:
+    """Per state solved by ``base`` and another formulation: both times, their ratio, objectives.
+
+    ``agree``: both optimal and the objectives within the relative gap of each other, or the
+    other stopped at its limit with an objective no better than ``base``'s (a maximization).
+    """
+    index = {(r["case"], r["run"], r["formulation"]): r for r in rows}
+    out = []
+    for (case, run, name), other in index.items():
+        mine = index.get((case, run, base))
+        if name == base or mine is None:
+            continue
+        a, b = _number(mine.get("objective")), _number(other.get("objective"))
+        ta, tb = float(mine["wall_s"]), float(other["wall_s"])
+        agree = None
+        if a is not None and b is not None:
+            both = mine.get("status") == other.get("status") == "optimal"
+            agree = abs(a - b) <= GAP * max(abs(a), abs(b)) if both else b <= a + GAP * abs(a)
+        out.append({
+            "case": case, "run": run, "formulation": name, f"{base}_s": ta,
+            f"{name}_s": tb, "speed_up": round(tb / ta, 1) if ta > 0 else None,
+            f"{name}_status": other.get("status"), f"{base}_objective": a,
+            f"{name}_objective": b, "agree": agree,
+        })  # fmt: skip
+    return out
+
+
+def _number(value: Any) -> float | None:
+    return None if value in (None, "") else float(value)
+
+
 def markdown(rows: Sequence[dict[str, Any]], command: str, header: str) -> str:
-    """The summary table, then one row per solve, as Markdown."""
+    """The summary table, the side-by-side comparison, then one row per solve, as Markdown."""
 
     def table(records: Sequence[dict[str, Any]], columns: Sequence[str]) -> list[str]:
         lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
@@ -160,13 +194,17 @@ def markdown(rows: Sequence[dict[str, Any]], command: str, header: str) -> str:
     summary = summary_rows(rows)
     lines = [f"# stlplan benchmark\n\n{header}\n\nCommand: `{command}`\n", "## Summary\n"]
     lines += table(summary, list(summary[0]) if summary else ["case"])
+    pairs = side_by_side(rows)
+    if pairs:
+        lines += ["", "## Side by side (same states; speed_up = other time / default time)\n"]
+        lines += table(pairs, list(pairs[0]))
     lines += ["", "## Runs (wall_s: plan + monitor, seconds)\n"]
     lines += table(rows, [c for c in COLUMNS if c != "message"])
     return "\n".join(lines) + "\n"
 
 
 def _cell(value: Any) -> str:
-    if value is None:
+    if value is None or value == "":
         return "-"
     if isinstance(value, float):
         return f"{value:g}"
@@ -206,7 +244,19 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("bench-results"))
     parser.add_argument("--name", default="bench", help="file stem of the CSV and Markdown")
+    parser.add_argument("--render", action="store_true",
+                        help="solve nothing: rewrite NAME.md from NAME.csv")  # fmt: skip
     return parser.parse_args(argv)
+
+
+def render(csv_path: Path, md_path: Path) -> None:
+    """Rewrite the Markdown of an earlier run from its CSV (header and command kept)."""
+    with open(csv_path, newline="", encoding="utf-8") as handle:
+        rows: list[dict[str, Any]] = [{**r, "run": int(r["run"])} for r in csv.DictReader(handle)]
+    old = md_path.read_text(encoding="utf-8").splitlines() if md_path.exists() else []
+    header = next((line for line in old if line.startswith("HiGHS ")), "(machine not recorded)")
+    command = next((line[10:-1] for line in old if line.startswith("Command: `")), "(unknown)")
+    md_path.write_text(markdown(rows, command, header), encoding="utf-8")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -215,6 +265,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     command = "python -m stlplan.bench " + shlex.join(sys.argv[1:] if argv is None else argv)
     args.out.mkdir(parents=True, exist_ok=True)
     csv_path, md_path = args.out / f"{args.name}.csv", args.out / f"{args.name}.md"
+    if args.render:
+        render(csv_path, md_path)
+        print(md_path.read_text(encoding="utf-8"))
+        return 0
     header = machine_header(args.threads)
     rows: list[dict[str, Any]] = []
     jobs = list(plan_jobs(args))

@@ -1,0 +1,47 @@
+"""The benchmark's report: side-by-side comparison of formulations on the same states."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from stlplan import bench
+
+
+def row(run: int, name: str, wall: float, status: str, objective: float | None) -> dict:
+    return {"case": "farm", "run": run, "formulation": name, "wall_s": wall,
+            "status": status, "objective": objective, "accepted": True}  # fmt: skip
+
+
+def test_side_by_side_ratio_and_agreement() -> None:
+    rows = [
+        row(0, "default", 10.0, "optimal", 4.2000),
+        row(0, "straightforward", 150.0, "optimal", 4.19999),
+        row(1, "default", 20.0, "optimal", 4.1),
+        row(1, "straightforward", 600.0, "feasible", 4.0),  # stopped at its limit, lower
+        row(2, "default", 5.0, "optimal", 4.0),
+        row(2, "straightforward", 50.0, "optimal", 4.1),  # a better optimum: disagreement
+        row(3, "default", 5.0, "optimal", 4.0),  # no comparison for this state
+    ]
+    pairs = {p["run"]: p for p in bench.side_by_side(rows)}
+    assert sorted(pairs) == [0, 1, 2]
+    assert pairs[0]["speed_up"] == 15.0 and pairs[0]["agree"] is True
+    assert pairs[1]["speed_up"] == 30.0 and pairs[1]["agree"] is True
+    assert pairs[2]["agree"] is False
+
+
+def test_render_rewrites_markdown_from_csv(tmp_path: Path) -> None:
+    import csv
+
+    rows = [
+        row(0, "default", 10.0, "optimal", 4.2),
+        row(0, "straightforward", 90.0, "optimal", 4.2),
+    ]
+    with open(tmp_path / "b.csv", "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=bench.COLUMNS, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+    (tmp_path / "b.md").write_text("# old\n\nHiGHS 9.9, machine\n\nCommand: `python -m x`\n")
+    assert bench.main(["--out", str(tmp_path), "--name", "b", "--render"]) == 0
+    text = (tmp_path / "b.md").read_text()
+    assert "HiGHS 9.9, machine" in text and "`python -m x`" in text
+    assert "| farm | 0 | straightforward | 10 | 90 | 9 | optimal |" in text
