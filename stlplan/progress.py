@@ -11,6 +11,8 @@ from rich.console import Console
 from rich.live import Live
 from rich.text import Text
 
+from stlplan import stops
+
 
 class ProgressLine:
     """Shows phase, elapsed time, incumbent, bound and gap while the solver works."""
@@ -55,4 +57,6 @@ class ProgressLine:
         gap = getattr(progress, "gap", None)
         if gap is not None:
             parts.append(f"gap {100 * gap:.2f}%")
+        if stops.requested():
+            parts.append("stopping: keeping the best plan so far (press Ctrl-C again to abort)")
         self._live.update(Text(" | ".join(parts)))
