@@ -180,7 +180,7 @@ def solve(
         print_plan(out_console, result)
     code = STATUS_EXIT[result.status]
     stopped_by = stops.last_signal()
-    if stopped_by is not None:  # the shell's convention: 130 for Ctrl-C, 143 for SIGTERM
+    if result.status.interrupted and stopped_by is not None:  # 130 for Ctrl-C, 143 for TERM
         code = 128 + stopped_by
     verdict = "satisfied" if code == 0 else result.status.value
     target = err_console if code else out_console

@@ -361,8 +361,10 @@ def _complete(
     seconds = time.perf_counter() - tick
     stop = last.results.termination_condition.name
     if not has_solution(solved.results):  # (an interrupt by the watch still leaves a plan)
-        return Step1(PlanStatus.NO_PLAN, None, bound, None, seconds, rounds + 1, len(pm.added),
+        status = PlanStatus.INTERRUPTED_NO_PLAN if solved.stopped else PlanStatus.NO_PLAN
+        return Step1(status, None, bound, None, seconds, rounds + 1, len(pm.added),
                      stop, completed=True)  # fmt: skip
     objective = float(solved.results.incumbent_objective)
-    return Step1(PlanStatus.FEASIBLE, objective, bound, relative_gap(objective, bound), seconds,
+    status = PlanStatus.INTERRUPTED if solved.stopped else PlanStatus.FEASIBLE
+    return Step1(status, objective, bound, relative_gap(objective, bound), seconds,
                  rounds + 1, len(pm.added), stop, completed=True)  # fmt: skip

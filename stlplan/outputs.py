@@ -9,6 +9,7 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
+from stlplan import stops
 from stlplan.errors import UsageError
 
 Writer = Callable[[Path], None]
@@ -49,9 +50,10 @@ def write_all(out: Path, files: dict[str, Writer]) -> list[Path]:
         for name, write in files.items():
             write(staging / name)
         written = []
-        for name in files:
-            os.replace(staging / name, out / name)
-            written.append(out / name)
+        with stops.held():  # a stop request waits until every file is in place
+            for name in files:
+                os.replace(staging / name, out / name)
+                written.append(out / name)
         return written
     finally:
         shutil.rmtree(staging, ignore_errors=True)

@@ -118,6 +118,19 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
         STATE.signum = signum
 
 
+@contextmanager
+def held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back during a short critical section; they arrive after it."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, CAUGHT)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
 def leave_signals_alone() -> None:
     """Never install handlers in this process (a pool worker, stopped by its parent)."""
     STATE.enabled, STATE.depth, STATE.signum, STATE.hard = False, 0, None, False
@@ -138,17 +151,19 @@ def stop_on_signals() -> Iterator[None]:
     ):
         yield
         return
-    STATE.signum, STATE.hard, STATE.solving, STATE.finishing = None, False, 0, 0
     previous: dict[int, Any] = {}
-    for caught in CAUGHT:
-        handler = signal.getsignal(caught)
-        if handler in (signal.default_int_handler, signal.SIG_DFL):
-            previous[caught] = handler
-            signal.signal(caught, _on_signal)
-    STATE.depth += 1
+    with held():  # installed together with the state, or not at all
+        STATE.signum, STATE.hard, STATE.solving, STATE.finishing = None, False, 0, 0
+        for caught in CAUGHT:
+            handler = signal.getsignal(caught)
+            if handler in (signal.default_int_handler, signal.SIG_DFL):
+                previous[caught] = handler
+                signal.signal(caught, _on_signal)
+        STATE.depth += 1
     try:
         yield
     finally:
-        STATE.depth -= 1
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
+        with held():
+            STATE.depth -= 1
+            for signum, handler in previous.items():
+                signal.signal(signum, handler)

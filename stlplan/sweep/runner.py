@@ -7,18 +7,20 @@ in flight, and ``resume`` skips the runs already recorded.
 
 from __future__ import annotations
 
+import contextlib
 import json
-import multiprocessing
 import os
 import signal
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Generator, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from stlplan import stops
-from stlplan.errors import StlplanError, UsageError
+from stlplan.errors import SolverError, StlplanError, UsageError
 
 RECORDS = "runs.jsonl"
 
@@ -55,8 +57,8 @@ def run_one(spec: RunSpec) -> dict[str, Any]:
     except StlplanError as exc:
         record.update(status="error", message=str(exc), wall_seconds=time.monotonic() - started)
         return record
-    if result.status.interrupted:  # a stopped run is not a result: --resume runs it again
-        raise KeyboardInterrupt
+    if result.status.interrupted or stops.requested():  # not a result: --resume runs it again
+        raise stops.Interrupted(stops.last_signal() or signal.SIGINT)
     report = result.report
     size = result.model_size
     record.update(
@@ -112,30 +114,48 @@ def pending(specs: Sequence[RunSpec], out: Path, resume: bool) -> list[RunSpec]:
 
 
 def _append(out: Path, record: dict[str, Any]) -> None:
-    with open(out / RECORDS, "a", encoding="utf-8") as handle:
-        handle.write(json.dumps(record) + "\n")
+    line = json.dumps(record) + "\n"
+    with stops.held(), open(out / RECORDS, "a", encoding="utf-8") as handle:
+        handle.write(line)
         handle.flush()
         os.fsync(handle.fileno())
 
 
 def _leave_interrupts_to_parent() -> None:
-    """Pool workers ignore Ctrl-C and die on SIGTERM: the parent stops them all (terminating
-    the pool) and says so."""
+    """Pool workers ignore Ctrl-C and die on SIGTERM: the parent stops them all and says so."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler, inherited by fork
     stops.leave_signals_alone()
 
 
-def _local(specs: Sequence[RunSpec], workers: int) -> Iterator[dict[str, Any]]:
+def _terminate(pool: ProcessPoolExecutor) -> None:
+    """Stop the pool's workers now, runs in flight included (no public API before 3.14)."""
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        process.terminate()
+
+
+def _local(specs: Sequence[RunSpec], workers: int) -> Generator[dict[str, Any], None, None]:
     if workers <= 1:
         yield from (run_one(s) for s in specs)
         return
-    # Leaving the block (the sweep ended, failed or was interrupted) terminates the workers.
-    with multiprocessing.Pool(workers, initializer=_leave_interrupts_to_parent) as pool:
-        yield from pool.imap_unordered(run_one, specs)
+    pool = ProcessPoolExecutor(max_workers=workers, initializer=_leave_interrupts_to_parent)
+    futures = [pool.submit(run_one, s) for s in specs]
+    try:
+        for future in as_completed(futures):
+            yield future.result()
+    except BrokenProcessPool:
+        raise SolverError(
+            "a sweep worker process died (out of memory, or killed); the finished runs are "
+            "recorded: run the sweep again with --resume"
+        ) from None
+    except BaseException:  # interrupted, or the caller stopped reading
+        _terminate(pool)
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _dask(specs: Sequence[RunSpec], scheduler: str) -> Iterator[dict[str, Any]]:
+def _dask(specs: Sequence[RunSpec], scheduler: str) -> Generator[dict[str, Any], None, None]:
     from distributed import Client
     from distributed import as_completed as dask_completed
 
@@ -162,8 +182,8 @@ def execute(
     are lost, the recorded ones kept.
     """
     out.mkdir(parents=True, exist_ok=True)
-    with stops.stop_on_signals():
-        stream = _dask(specs, scheduler) if scheduler else _local(specs, workers)
+    stream = _dask(specs, scheduler) if scheduler else _local(specs, workers)
+    with stops.stop_on_signals(), contextlib.closing(stream):
         for record in stream:
             _append(out, record)
             if on_record is not None:
