@@ -53,8 +53,8 @@ GAP = 1e-4
 """The missions' relative gap: two optimal objectives of one state agree within it."""
 
 COLUMNS = (
-    "case", "run", "formulation", "variables", "binaries", "constraints", "build_s", "solve_s",
-    "wall_s", "rounds", "status", "accepted", "gap", "rho_s", "objective", "effort", "message",
+    "case", "seed", "run", "formulation", "variables", "binaries", "constraints", "build_s",
+    "solve_s", "wall_s", "rounds", "status", "accepted", "gap", "rho_s", "objective", "effort", "message",
 )  # fmt: skip
 
 
@@ -83,7 +83,9 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
     """Solve one job through the API (plan, then the monitor); never raises for a bad solve."""
     from stlplan import api
 
-    row: dict[str, Any] = {"case": job.case, "run": job.run, "formulation": job.formulation}
+    row: dict[str, Any] = {
+        "case": job.case, "seed": seed, "run": job.run, "formulation": job.formulation
+    }  # fmt: skip
     rounds = [1]
 
     def on_progress(progress: Any) -> None:
