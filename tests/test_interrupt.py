@@ -162,3 +162,13 @@ def test_interrupted_sweep_keeps_finished_runs_stops_workers_and_resumes(
     api.sweep([PAIR], 6, 0, tmp_path, workers, resume=True)
     runs = [r["run"] for r in read_records(tmp_path)]
     assert set(runs) >= set(range(6)) and len(runs) == len(set(runs))
+
+
+def test_held_signal_arrives_after_the_critical_section() -> None:
+    done = []
+    with stops.stop_on_signals(), pytest.raises(stops.Interrupted):
+        with stops.held():
+            os.kill(os.getpid(), signal.SIGINT)
+            done.append("inside")  # not interrupted while held
+        done.append("after")  # the signal lands on leaving the section
+    assert done == ["inside"]
