@@ -138,7 +138,15 @@ def schema(
     out_console.print(f"wrote {out}")
 
 
-@app.command()
+SOLVE_EPILOG = (
+    "Exit codes: 0 a plan (optimal, or feasible at the time limit), 3 bad input, 4 infeasible "
+    "(with a diagnosis in summary.json), 5 no plan within the time limit, 6 solver error or a "
+    "plan the monitor rejects, 130 / 143 stopped by Ctrl-C / SIGTERM (the best plan so far is "
+    "written when there is one; Ctrl-C twice writes nothing)."
+)
+
+
+@app.command(epilog=SOLVE_EPILOG)
 @handled
 def solve(
     mission: MissionArg,
