@@ -136,6 +136,18 @@ def _continuous(pm: PlanModel, options: PlanOptions, clock: Clock) -> tuple[bool
     return True, seconds + more
 
 
+def _step1(problem: Problem, options: PlanOptions, clock: Clock) -> tuple[PlanModel, Step1, float]:
+    """Build and solve problem (step 1), part by part when it splits; returns the model with
+    the plan loaded, how step 1 ended, and the build time."""
+    clock.report("build")
+    by_parts = solve_parts(problem, options, clock) if options.lazy and options.decompose else None
+    if by_parts is not None:
+        return by_parts[0], by_parts[1], 0.0  # the parts' models are built as they are solved
+    pm = build_model(problem, options.encoding, lazy=options.lazy, floors=options.floors)
+    build_seconds = time.perf_counter() - clock.start
+    return pm, solve_step1(pm, options, clock), build_seconds
+
+
 def plan(
     problem: Problem, options: PlanOptions | None = None, progress: ProgressCallback | None = None
 ) -> PlanResult:
@@ -158,15 +170,7 @@ def plan(
     """
     options = options or PlanOptions.from_mission(problem.mission)
     clock = Clock(time.perf_counter(), progress)
-    clock.report("build")
-    by_parts = solve_parts(problem, options, clock) if options.lazy and options.decompose else None
-    if by_parts is not None:
-        pm, step1 = by_parts
-        build_seconds = 0.0  # the parts' models are built as the parts are solved
-    else:
-        pm = build_model(problem, options.encoding, lazy=options.lazy, floors=options.floors)
-        build_seconds = time.perf_counter() - clock.start
-        step1 = solve_step1(pm, options, clock)
+    pm, step1, build_seconds = _step1(problem, options, clock)
     size = model_size(pm.model)
     if not step1.status.has_plan:
         clock.report("done")

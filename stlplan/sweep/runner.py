@@ -21,6 +21,7 @@ from typing import Any
 
 from stlplan import stops
 from stlplan.errors import SolverError, StlplanError, UsageError
+from stlplan.result import PlanResult
 
 RECORDS = "runs.jsonl"
 
@@ -59,9 +60,15 @@ def run_one(spec: RunSpec) -> dict[str, Any]:
         return record
     if result.status.interrupted or stops.requested():  # not a result: --resume runs it again
         raise stops.Interrupted(stops.last_signal() or signal.SIGINT)
+    record.update(_figures(result), wall_seconds=time.monotonic() - started)
+    return record
+
+
+def _figures(result: PlanResult) -> dict[str, Any]:
+    """What a record keeps of a verified plan result."""
     report = result.report
     size = result.model_size
-    record.update(
+    return dict(
         status=result.status.value,
         message=result.message,
         objective=result.objective,
@@ -79,9 +86,7 @@ def run_one(spec: RunSpec) -> dict[str, Any]:
         constraints=None if size is None else size.constraints,
         build_seconds=result.build_seconds,
         solve_seconds=result.solve_seconds,
-        wall_seconds=time.monotonic() - started,
     )
-    return record
 
 
 def read_records(out: Path) -> list[dict[str, Any]]:
