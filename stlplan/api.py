@@ -194,23 +194,16 @@ def sweep(
     import os
 
     from stlplan.sweep import report
-    from stlplan.sweep.runner import RunSpec, execute, pending, read_records
+    from stlplan.sweep.runner import execute, pending, read_records
 
     out = Path(out)
     prepare_directory(out)
     workers = workers or max(1, min(os.cpu_count() or 1, runs * len(missions)))
     if workers > 1 or scheduler:
         overrides.setdefault("threads", 1)
-    specs = []
-    for path in missions:
-        problem = load_problem(path)  # fail early on a bad mission
-        if problem.mission.sweep is None:
-            from stlplan.errors import MissionError
-
-            raise MissionError("a sweep needs 'sweep: {initial_region: NAME}'", source=str(path))
-        text = Path(path).read_text(encoding="utf-8")
-        clean = {k: v for k, v in overrides.items() if v is not None}
-        specs += [RunSpec(Path(path).stem, text, str(path), i, seed, clean) for i in range(runs)]
+    specs = _sweep_specs(
+        missions, runs, seed, {k: v for k, v in overrides.items() if v is not None}
+    )
     todo = pending(specs, out, resume)
     if on_start is not None:
         on_start(len(todo))
@@ -227,3 +220,22 @@ def sweep(
         },
     )
     return rows
+
+
+def _sweep_specs(
+    missions: list[str | Path], runs: int, seed: int, overrides: dict[str, Any]
+) -> list[Any]:
+    """One :class:`stlplan.sweep.runner.RunSpec` per mission and run; a bad mission fails here."""
+    from stlplan.errors import MissionError
+    from stlplan.sweep.runner import RunSpec
+
+    specs = []
+    for path in missions:
+        problem = load_problem(path)
+        if problem.mission.sweep is None:
+            raise MissionError("a sweep needs 'sweep: {initial_region: NAME}'", source=str(path))
+        text = Path(path).read_text(encoding="utf-8")
+        specs += [
+            RunSpec(Path(path).stem, text, str(path), i, seed, overrides) for i in range(runs)
+        ]
+    return specs
