@@ -129,8 +129,6 @@ class Watch:
         An absolute gap that also closes the loop (None: the relative gap only).
     stopped
         Whether the watch interrupted the round (the best plan is within the gap).
-    fresh
-        Whether the round has not yet been checked (HiGHS's stale interrupt flag is cleared).
     """
 
     pm: PlanModel
@@ -139,7 +137,6 @@ class Watch:
     best: tuple[float, np.ndarray, frozenset[int]] | None = None
     abs_gap: float | None = None
     stopped: bool = False
-    fresh: bool = True
 
     def states(self, x: np.ndarray) -> dict[str, np.ndarray]:
         """Agent states of HiGHS's column vector ``x`` (fixed states keep their value)."""
@@ -178,9 +175,6 @@ class Watch:
         self.stopped = self.stopped or self.closed(float(event.data_out.mip_dual_bound))
         if self.stopped:
             event.interrupt()
-        elif self.fresh and event.data_in is not None:
-            event.interrupt(False)  # HiGHS keeps the flag of the last interrupted round
-            self.fresh = False
 
 
 class LazySolver:
@@ -231,7 +225,7 @@ class LazySolver:
         first = clock.round or 1
         while True:
             remaining = time_limit - (time.perf_counter() - tick)
-            watch.stopped, watch.fresh = False, True
+            watch.stopped = False  # (the session clears HiGHS's stale interrupt flag)
             solved = self.session.solve(remaining)
             rounds, seconds = (clock.round or 1) - first + 1, time.perf_counter() - tick
             results = solved.results
