@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import logging
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -16,6 +17,7 @@ from typing import Any
 from stlplan import stops
 from stlplan.diagnose import cheap_reasons, diagnose
 from stlplan.errors import SolverError
+from stlplan.figures import reported
 from stlplan.loader import load_problem
 from stlplan.monitor import check as monitor_check
 from stlplan.outputs import prepare_directory, write_all, write_json
@@ -23,8 +25,6 @@ from stlplan.problem import Problem
 from stlplan.result import Diagnosis, MonitorReport, PlanResult, PlanStatus
 from stlplan.summary import summary_dict
 from stlplan.trajio import read_trajectory_csv, write_trajectory_csv
-
-RHO_TOL = 1e-6
 
 
 def validate(mission: str | Path) -> Problem:
@@ -38,8 +38,10 @@ def check(mission: str | Path | Problem, trajectory: str | Path) -> tuple[Proble
     return problem, monitor_check(problem, read_trajectory_csv(problem, Path(trajectory)))
 
 
-def _verified(problem: Problem, result: PlanResult) -> PlanResult:
-    """Attach the monitor's report; a plan the monitor rejects is an error, never an output."""
+def _verified(problem: Problem, result: PlanResult, gap: float) -> PlanResult:
+    """Attach the monitor's report and report the written plan's figures
+    (:func:`stlplan.figures.reported`); a plan the monitor rejects is an error, never an output.
+    """
     if result.trajectory is None:
         return result
     report = monitor_check(problem, result.trajectory)
@@ -47,13 +49,7 @@ def _verified(problem: Problem, result: PlanResult) -> PlanResult:
     if failed:
         lines = "; ".join(f"{v.name}: {v.detail}" for v in failed)
         raise SolverError(f"the solver's plan is rejected by the monitor ({lines})")
-    for task, rho in result.rho_s.items():
-        seen = report.verdict(task).rho_s
-        if seen is None or seen < rho - RHO_TOL:
-            raise SolverError(
-                f"synchronous robustness of '{task}' disagrees: solver {rho}, monitor {seen}"
-            )
-    return dataclasses.replace(result, report=report)
+    return reported(problem, result, report, gap)
 
 
 @contextlib.contextmanager
@@ -77,9 +73,10 @@ def plan(
     """Solve a mission and verify the plan with the monitor.
 
     ``overrides`` are :class:`stlplan.solve.PlanOptions` fields (``time_limit``, ``gap``,
-    ``threads``, ``seed``, ``encoding``, ``two_step``); None keeps the mission's value. An
-    infeasible mission comes back with a :class:`~stlplan.result.Diagnosis` (cheap reasons found
-    before solving, or a minimal conflict found by feasibility solves).
+    ``threads``, ``seed``, ``encoding``, ``two_step``); None keeps the mission's value. The time
+    limit bounds the whole call, diagnosis included. An infeasible mission comes back with a
+    :class:`~stlplan.result.Diagnosis` (cheap reasons found before solving, or a minimal
+    conflict found by feasibility solves).
 
     In the main thread, SIGINT and SIGTERM during a solve stop HiGHS and the best plan so far
     comes back verified with status ``interrupted`` (:mod:`stlplan.stops`); a second signal, or
@@ -90,38 +87,52 @@ def plan(
 
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
     options = PlanOptions.from_mission(problem.mission, **overrides)
+    deadline = time.perf_counter() + options.time_limit
     reasons = cheap_reasons(problem)
     if reasons:
         diagnosis = Diagnosis(reasons, tuple(dict.fromkeys(r.split("'")[1] for r in reasons)))
         message = f"infeasible before solving: {len(reasons)} requirement(s) cannot be met in time"
         return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis)
     with stops.stop_on_signals(), _quiet_pyomo():
-        result = solve_plan(problem, options, progress=progress)
+        result = solve_plan(problem, options, progress=progress, deadline=deadline)
         if result.status is PlanStatus.INFEASIBLE and diagnose_infeasible:
-            result = _diagnosed(problem, options, result)
-        return problem, _verified(problem, result)
+            result = _diagnosed(problem, options, result, deadline)
+        return problem, _verified(problem, result, options.gap)
 
 
 class _DiagnosisStopped(Exception):
     """A stop request ended the diagnosis."""
 
 
-def _diagnosed(problem: Problem, options: Any, result: PlanResult) -> PlanResult:
-    """``result`` with a minimal conflict found by feasibility solves (deletion filter)."""
+PROBE_LIMIT, DIAGNOSIS_LIMIT = 30.0, 120.0
+"""Time limit of one feasibility solve of the diagnosis, and of the whole diagnosis, seconds
+(both within what is left of the run's time limit)."""
+
+
+def _diagnosed(problem: Problem, options: Any, result: PlanResult, deadline: float) -> PlanResult:
+    """``result`` with a minimal conflict found by feasibility solves (deletion filter), each
+    infeasible verdict confirmed (recorded as a diagnosis probe), all before ``deadline``."""
     from stlplan.solve import plan as solve_plan
 
-    probe = dataclasses.replace(options, time_limit=min(30.0, options.time_limit), two_step=False)
+    probe = dataclasses.replace(options, time_limit=PROBE_LIMIT, two_step=False)
+    confirmations = list(result.confirmations)
 
     def feasibility(subset: Problem) -> PlanStatus:
-        status = solve_plan(subset, probe).status
-        if status.interrupted:
+        found = solve_plan(subset, probe, deadline=deadline)
+        confirmations.extend(
+            dataclasses.replace(c, where=f"diagnosis probe, {c.where}") for c in found.confirmations
+        )
+        if found.status.interrupted:
             raise _DiagnosisStopped
-        return status
+        return found.status
 
+    budget = max(0.0, min(DIAGNOSIS_LIMIT, deadline - time.perf_counter()))
     try:
-        return dataclasses.replace(result, diagnosis=diagnose(problem, feasibility))
+        diagnosis = diagnose(problem, feasibility, budget)
+        out = dataclasses.replace(result, diagnosis=diagnosis)
     except _DiagnosisStopped:
-        return dataclasses.replace(result, message=result.message + " (diagnosis interrupted)")
+        out = dataclasses.replace(result, message=result.message + " (diagnosis interrupted)")
+    return dataclasses.replace(out, confirmations=tuple(confirmations))
 
 
 def write_plan(

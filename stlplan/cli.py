@@ -152,7 +152,8 @@ def solve(
     mission: MissionArg,
     out: Annotated[Path, typer.Option(help="Output directory.")] = Path("out"),
     time_limit: Annotated[
-        float | None, typer.Option(help="Seconds per solve (default: mission's).", min=0.001)
+        float | None,
+        typer.Option(help="Seconds for the whole run (default: mission's).", min=0.001),
     ] = None,
     gap: Annotated[
         float | None, typer.Option(help="Relative optimality gap (default: mission's).", min=0.0)

@@ -46,7 +46,8 @@ HiGHS accepts binaries within 1e-6 of 0 or 1, so a part's plan may miss an enfor
 ``big-M * 1e-6``; the assembly, whose indicators are exact, needs room to repair that."""
 
 ASSEMBLY_LIMIT = 60.0
-"""Time limit of the assembly solve, seconds."""
+"""Time limit of the assembly solve, seconds (a finishing solve: also within the run's budget
+and grace, :class:`stlplan.session.Clock`)."""
 
 
 def agent_parts(problem: Problem) -> list[tuple[str, ...]]:
@@ -126,7 +127,8 @@ def _part(
 ) -> Part:
     """Build (and seed with known requirements) the lazy model of one part."""
     sub = sub_problem(problem, agents)
-    pm = build_model(sub, options.encoding, lazy=True, floors=options.floors)
+    with clock.building():
+        pm = build_model(sub, options.encoding, lazy=True, floors=options.floors)
     assert pm.deferral is not None
     add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
     return Part(tuple(agents), pm, LazySolver(pm, options, clock))
@@ -250,9 +252,9 @@ def assemble(
     keys = set().union(*(p.added_keys() for p in parts))
     add_requirements(full, [index[k] for k in keys if k in index])
     held = _hold(full, parts)
-    limited = dataclasses.replace(options, time_limit=ASSEMBLY_LIMIT)
     with stops.finishing():  # the plan is found: a stop request lets this solve end
-        solved = HighsSession(full.model, limited, clock, "step1").solve()
+        session = HighsSession(full.model, options, clock, "step1")
+        solved = session.solve(ASSEMBLY_LIMIT, finishing=True)
     for var, lo, hi in held:
         var.setlb(lo)
         var.setub(hi)
@@ -271,8 +273,9 @@ def solve_parts(
     if len(names) < 2:
         return None
     tick = time.perf_counter()
-    deadline = tick + options.time_limit
-    full = build_model(problem, options.encoding, lazy=True, floors=False)
+    deadline = min(tick + options.time_limit, clock.deadline)
+    with clock.building():
+        full = build_model(problem, options.encoding, lazy=True, floors=False)
     parts = [_part(problem, agents, options, clock) for agents in names]
     while True:
         for part in parts:

@@ -127,7 +127,7 @@ def minimal_conflict(
         kept.append("separation")
     complete, started = True, time.monotonic()
     for item in list(kept):
-        if time.monotonic() - started > budget:
+        if time.monotonic() - started >= budget:
             return tuple(kept), False
         trial = [i for i in kept if i != item]
         status = feasibility(_subset(problem, trial))

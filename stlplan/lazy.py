@@ -16,7 +16,8 @@ optimum to the same tolerance as an up-front solve.
 
 When the time limit ends the loop without a plan feasible for the full problem, the last round's
 plan is *completed*: its binaries are fixed, all remaining requirements added, and HiGHS looks for
-a plan with those decisions (a small MILP) in a short extra time.
+a plan with those decisions (a small MILP) in the grace a finishing solve has past the run's
+deadline (:class:`stlplan.session.Clock`).
 """
 
 from __future__ import annotations
@@ -47,9 +48,6 @@ _log = logging.getLogger(__name__)
 
 VIOLATION_TOL = 1e-7
 """A requirement counts as violated when ``max_i alpha_i - r`` is below ``-VIOLATION_TOL``."""
-
-COMPLETION_SHARE = 0.1
-"""Extra time of a completion, as a share of the time limit (at least 10 s)."""
 
 
 @dataclass(frozen=True)
@@ -244,7 +242,8 @@ class LazySolver:
             bad = pending_violations(pm) if has_solution(results) else []
             if converged and not bad:
                 return _ended(solved, seconds, rounds, len(pm.added))
-            out_of_time = not (converged or watch.stopped) or time_limit - seconds < 1.0
+            left = min(time_limit - seconds, clock.remaining())
+            out_of_time = not (converged or watch.stopped) or left < 1.0
             if solved.stopped or out_of_time:
                 return self._last(solved, tick, rounds)
             add_requirements(pm, neighbours(pm.deferral.lazy, bad, options.lazy_window))
@@ -269,7 +268,7 @@ class LazySolver:
             )
         if not has_solution(last.results):
             return ended
-        return _complete(self.pm, self.session, last, self.options, tick, rounds)
+        return _complete(self.pm, self.session, last, tick, rounds)
 
     def _from_best(self, last: Solved, tick: float, rounds: int, status: PlanStatus) -> Step1:
         """Load the best plan feasible for the full problem; the bound is the last round's.
@@ -320,17 +319,16 @@ def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Step1:
     )
 
 
-def _fix_and_solve(
-    pm: PlanModel, session: HighsSession, values: dict[int, float], seconds: float
-) -> Solved:
-    """Fix the binaries with a value in ``values`` (by id), add every requirement, solve."""
+def _fix_and_solve(pm: PlanModel, session: HighsSession, values: dict[int, float]) -> Solved:
+    """Fix the binaries with a value in ``values`` (by id), add every requirement, solve (a
+    finishing solve)."""
     fixed = []
     for v in pm.model.component_data_objects(Var):
         if v.is_binary() and not v.fixed and id(v) in values:
             v.fix(float(round(values[id(v)])))
             fixed.append(v)
     add_requirements(pm, pm.pending())
-    solved = session.solve(seconds)
+    solved = session.solve(finishing=True)
     for v in fixed:
         v.unfix()
     return solved
@@ -340,7 +338,6 @@ def _complete(
     pm: PlanModel,
     session: HighsSession,
     last: Solved,
-    options: PlanOptions,
     tick: float,
     rounds: int,
 ) -> Step1:
@@ -351,7 +348,7 @@ def _complete(
     bound = last.results.objective_bound
     values = {id(v): float(v.value) for v in pm.model.component_data_objects(Var)
               if v.is_binary() and v.value is not None}  # fmt: skip
-    solved = _fix_and_solve(pm, session, values, max(10.0, COMPLETION_SHARE * options.time_limit))
+    solved = _fix_and_solve(pm, session, values)
     seconds = time.perf_counter() - tick
     stop = last.results.termination_condition.name
     if not has_solution(solved.results):  # (an interrupt by the watch still leaves a plan)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from rich.console import Console
 from rich.table import Table
 
-from stlplan.result import Diagnosis, MonitorReport, PlanResult, Verdict
+from stlplan.result import Confirmation, Diagnosis, MonitorReport, PlanResult, Verdict
 
 
 def _num(value: float | None, digits: int = 3) -> str:
@@ -79,11 +79,7 @@ def print_plan(console: Console, result: PlanResult) -> None:
     if result.status.value == "feasible":
         status += f" (not proven optimal, gap {_num(result.gap)})"
     console.print(f"[bold]status[/]     {status}: {result.message}")
-    if result.objective is not None:
-        console.print(
-            f"[bold]objective[/]  {_num(result.objective, 6)} (step 1; bound "
-            f"{_num(result.bound, 6)})"
-        )
+    print_figures(console, result)
     if result.effort is not None:
         console.print(f"[bold]effort[/]     {_num(result.effort, 6)} after step {result.steps}")
     for a in result.assignments:
@@ -112,10 +108,49 @@ def print_plan(console: Console, result: PlanResult) -> None:
         f"[bold]time[/]       build {result.build_seconds:.2f} s, solve "
         f"{result.solve_seconds:.2f} s"
     )
+    for confirmation in result.confirmations:
+        console.print(f"[bold]infeasible[/] {confirmation_text(confirmation)}")
     if result.report is not None:
         print_report(console, result.report)
     if result.diagnosis is not None:
         print_diagnosis(console, result.diagnosis)
+
+
+def _solver_note(mine: float | None, theirs: float | None) -> str:
+    """``" (solver X)"`` when the solver's value differs from the reported one."""
+    if mine is None or theirs is None or abs(mine - theirs) <= 1e-12:
+        return ""
+    return f" (solver {theirs:.10g})"
+
+
+def print_figures(console: Console, result: PlanResult) -> None:
+    """Objective and margin of the plan written (the solver's beside them when they differ),
+    and a fallback with its reason and cost."""
+    solver = result.solver
+    if result.objective is not None:
+        note = _solver_note(result.objective, solver.objective if solver else None)
+        console.print(
+            f"[bold]objective[/]  {result.objective:.10g} of the plan written{note}; bound "
+            f"{_num(result.bound, 6)}"
+        )
+    if result.margin is not None:
+        note = _solver_note(result.margin, solver.margin if solver else None)
+        console.print(f"[bold]margin[/]     {result.margin:.10g} (monitor){note}")
+    fallback = result.fallback
+    if fallback is not None:
+        cost = ", ".join(f"{k} {v:.3g}" for k, v in fallback.cost.items()) or "unknown"
+        console.print(
+            f"[bold]fallback[/]   {fallback.step} failed ({fallback.reason}); {fallback.kept} "
+            f"is kept, costing {cost}"
+        )
+
+
+def confirmation_text(confirmation: Confirmation) -> str:
+    """One line: which solve said infeasible, each check's settings and verdict, the outcome."""
+    solves = "; ".join(
+        ", ".join(f"{k} {v}" for k, v in c.settings) + f": {c.verdict}" for c in confirmation.checks
+    )
+    return f"verdict of {confirmation.where} {confirmation.outcome} ({solves})"
 
 
 def print_diagnosis(console: Console, diagnosis: Diagnosis) -> None:

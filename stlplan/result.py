@@ -133,6 +133,56 @@ class Diagnosis:
     """False when some feasibility solve ran out of time, so the set may not be minimal."""
 
 
+@dataclass(frozen=True)
+class Check:
+    """One HiGHS solve of a model that some solve called infeasible."""
+
+    settings: tuple[tuple[str, str | int | float], ...]
+    """HiGHS options of this solve that differ from the usual ones (empty: the usual solve)."""
+    verdict: str
+    """HiGHS's model status, as HiGHS names it (``Infeasible``, ``Optimal``, ...)."""
+    seconds: float
+
+
+@dataclass(frozen=True)
+class Confirmation:
+    """How an infeasible verdict of HiGHS was checked before it was believed.
+
+    ``outcome`` is ``confirmed`` (every check said infeasible), ``overturned`` (a check found a
+    plan, and the solve went on from it) or ``undecided`` (a check ended without a verdict, for
+    example at the time limit: the infeasibility is not established).
+    """
+
+    where: str
+    """The solve that said infeasible (phase and lazy round, or a diagnosis probe)."""
+    checks: tuple[Check, ...]
+    """The solve that said infeasible, then each confirmation solve."""
+    outcome: Literal["confirmed", "overturned", "undecided"]
+
+
+@dataclass(frozen=True)
+class SolverFigures:
+    """The solver's own values for a plan (the reported ones are the monitor's)."""
+
+    objective: float | None
+    margin: float | None
+    rho_s: Mapping[str, float] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Fallback:
+    """A step that failed and what the plan kept instead costs."""
+
+    step: str
+    """The step that failed (``step 2``, ``polish``)."""
+    reason: str
+    """Why: HiGHS's status of the failed solve."""
+    kept: str
+    """What was kept instead."""
+    cost: Mapping[str, float] = field(default_factory=dict)
+    """Quantity (``objective``, ``margin``) to solver's value minus the written plan's value."""
+
+
 @dataclass(frozen=True, eq=False)
 class PlanResult:
     """The outcome of planning a mission."""
@@ -141,15 +191,16 @@ class PlanResult:
     message: str
     trajectory: Trajectory | None = None
     objective: float | None = None
-    """Objective of problem (step1): rho_s(Phi) - beta * L1 effort (+ margin term)."""
+    """Objective of problem (step1): rho_s(Phi) - beta * L1 effort (+ margin term); once verified,
+    recomputed from the written plan (the monitor's rho_s and margin, the trajectory's effort)."""
     bound: float | None = None
     gap: float | None = None
     rho_s: Mapping[str, float] = field(default_factory=dict)
-    """Synchronous robustness per synchronous task, as the solver computed it."""
+    """Synchronous robustness per synchronous task (the monitor's once verified)."""
     effort: float | None = None
     """Effort of the final plan in the mission's effort norm."""
     margin: float | None = None
-    """Spatial margin the solver enforced (or maximized)."""
+    """Spatial margin of the plan (the monitor's spatial robustness once verified)."""
     assignments: tuple[Assignment, ...] = ()
     model_size: ModelSize | None = None
     build_seconds: float = 0.0
@@ -160,3 +211,9 @@ class PlanResult:
     """1 or 2: whether step 2 (effort minimization) ran."""
     diagnosis: Diagnosis | None = None
     """For an infeasible mission: what cannot be met together."""
+    confirmations: tuple[Confirmation, ...] = ()
+    """Every infeasible verdict of HiGHS and how it was confirmed (or overturned)."""
+    solver: SolverFigures | None = None
+    """The solver's own objective, margin and rho_s, kept beside the reported ones."""
+    fallback: Fallback | None = None
+    """A step that failed, why, and what keeping the earlier plan costs."""

@@ -11,12 +11,13 @@ so whatever the progress callback prints then is forwarded to the real stderr.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import sys
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, fields
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field, fields
 from typing import Any, Literal
 
 import highspy
@@ -25,10 +26,10 @@ from pyomo.contrib.solver.common.results import Results, SolutionStatus, Termina
 from pyomo.contrib.solver.solvers.highs import Highs
 from pyomo.environ import ConcreteModel
 
-from stlplan import stops
+from stlplan import confirm, stops
 from stlplan.encoding.sos1 import Encoding
 from stlplan.mission import Mission
-from stlplan.result import PlanStatus
+from stlplan.result import Confirmation, PlanStatus
 
 Phase = Literal["build", "step1", "step2", "polish", "done"]
 
@@ -67,7 +68,8 @@ class PlanOptions:
     Attributes
     ----------
     time_limit
-        Wall-clock limit of step 1 (all lazy rounds together) and of each continuous solve, s.
+        Wall-clock limit of the whole run, s: building, every lazy round and part, step 2, the
+        confirmation of infeasible verdicts and the diagnosis share it (:class:`Clock`).
     gap
         Relative optimality gap at which HiGHS stops step 1.
     threads
@@ -163,18 +165,55 @@ def has_solution(results: Results) -> bool:
     return results.solution_status in (SolutionStatus.optimal, SolutionStatus.feasible)
 
 
+GRACE_SHARE, GRACE_MAX = 0.1, 10.0
+"""Finishing solves (step 2, a completion, the assembly of parts) may run past the deadline by
+this share of the time limit, at most ``GRACE_MAX`` seconds: they turn a plan already found
+into the one written."""
+
+
 @dataclass
 class Clock:
-    """Planning start time, the user's progress callback with its first error, the lazy round."""
+    """One run's time budget and records.
+
+    Planning start time and deadline (``time.perf_counter`` seconds), the user's progress
+    callback with its first error, the lazy round, the time spent building models, and every
+    confirmation of an infeasible verdict (:mod:`stlplan.confirm`).
+    """
 
     start: float
     progress: ProgressCallback | None
     error: BaseException | None = None
     round: int | None = None
+    deadline: float = math.inf
+    grace: float = 0.0
+    build_seconds: float = 0.0
+    confirmations: list[Confirmation] = field(default_factory=list)
+
+    @classmethod
+    def started(
+        cls, time_limit: float, progress: ProgressCallback | None, deadline: float | None = None
+    ) -> Clock:
+        """A clock started now whose budget ends after ``time_limit`` s (or at ``deadline``)."""
+        now = time.perf_counter()
+        end = now + time_limit if deadline is None else min(deadline, now + time_limit)
+        return cls(now, progress, deadline=end, grace=min(GRACE_MAX, GRACE_SHARE * time_limit))
 
     def elapsed(self) -> float:
         """Seconds since planning started."""
         return time.perf_counter() - self.start
+
+    def remaining(self, finishing: bool = False) -> float:
+        """Seconds left of the budget (with the grace of finishing solves when ``finishing``)."""
+        return self.deadline + (self.grace if finishing else 0.0) - time.perf_counter()
+
+    @contextlib.contextmanager
+    def building(self) -> Iterator[None]:
+        """Count the block's wall time as building (encoding a model, loading it into HiGHS)."""
+        tick = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.build_seconds += time.perf_counter() - tick
 
     def report(
         self,
@@ -290,7 +329,8 @@ class HighsSession:
         # lazy loop's, a stop request) and mapped by plan_status.
         logging.getLogger("pyomo.contrib.solver.solvers.highs").setLevel(logging.ERROR)
         use_threads(options.threads)
-        self.solver.set_instance(model)
+        with clock.building():
+            self.solver.set_instance(model)
         self.highs: Any = getattr(self.solver, "_solver_model", None)
         self._fresh = True
         if self.highs is not None and hasattr(self.highs, "cbMipInterrupt"):
@@ -315,22 +355,19 @@ class HighsSession:
         """HiGHS column of each Pyomo variable in the model, by ``id`` (fixed ones have none)."""
         return dict(self.solver._pyomo_var_to_solver_var_map)
 
-    def solve(self, time_limit: float | None = None) -> Solved:
-        """Solve (again) within ``time_limit`` seconds (default: the options' limit)."""
-        self.solver.config.time_limit = max(
-            1.0, self.options.time_limit if time_limit is None else time_limit
-        )
+    def solve(self, time_limit: float | None = None, finishing: bool = False) -> Solved:
+        """Solve (again) within ``time_limit`` seconds (default: the options' limit) and what the
+        run's budget leaves (:meth:`Clock.remaining`, with the grace when ``finishing``).
+
+        An infeasible verdict is confirmed (:mod:`stlplan.confirm`) before it is returned; when
+        a confirmation solve finds a plan, that solve is the one returned.
+        """
+        limit = self.options.time_limit if time_limit is None else time_limit
         tick = time.perf_counter()
-        self._fresh = True
-        use_threads(self.options.threads)
-        # Pyomo redirects the process's stdout/stderr while HiGHS runs; send what the progress
-        # callback writes meanwhile to the real stderr (HiGHS's own log is off).
-        with stops.solving():
-            results = self.solver.solve(self.model, tee=[sys.stderr] if self.clock.progress else [])
+        results = self._run(min(limit, self.clock.remaining(finishing)))
+        if confirm.says_infeasible(self.highs) and not stops.should_interrupt():
+            results = self._confirmed(results, time.perf_counter() - tick, finishing)
         seconds = time.perf_counter() - tick
-        stops.raise_if_hard()
-        if self.clock.error is not None:
-            raise self.clock.error
         gap = None
         if self.mip and self.highs is not None and has_solution(results):
             gap = float(self.highs.getInfo().mip_gap)  # HiGHS reports inf without an integer
@@ -341,10 +378,57 @@ class HighsSession:
             results.solution_loader.load_vars()
         return Solved(results, seconds, gap, stops.should_interrupt())
 
+    def _run(self, seconds: float, settings: confirm.Settings | None = None) -> Results:
+        """One HiGHS solve through Pyomo within ``seconds`` (at least 1), with extra options."""
+        config = self.solver.config
+        config.time_limit = max(1.0, seconds)
+        self._fresh = True
+        use_threads(self.options.threads)
+        usual = config.solver_options
+        config.solver_options = {**usual, **(settings or {})}
+        try:
+            # Pyomo redirects the process's stdout/stderr while HiGHS runs; send what the
+            # progress callback writes meanwhile to the real stderr (HiGHS's own log is off).
+            with stops.solving():
+                tee = [sys.stderr] if self.clock.progress else []
+                results = self.solver.solve(self.model, tee=tee)
+        finally:
+            config.solver_options = usual
+        stops.raise_if_hard()
+        if self.clock.error is not None:
+            raise self.clock.error
+        return results
+
+    def _confirmed(self, results: Results, seconds: float, finishing: bool) -> Results:
+        """The results after confirming an infeasible verdict (recorded on the clock)."""
+        last = [results]
+
+        def run(settings: confirm.Settings, limit: float) -> None:
+            last[0] = self._run(limit, settings)
+
+        where: str = self.phase
+        if self.phase == "step1" and self.clock.round is not None:
+            where += f" round {self.clock.round}"
+        confirmation = confirm.confirm(
+            self.highs,
+            seconds,
+            run,
+            self.options.seed,
+            lambda: self.clock.remaining(finishing),
+            where,
+        )
+        self.clock.confirmations.append(confirmation)
+        return last[0]
+
 
 def solve_once(
     model: ConcreteModel, options: PlanOptions, clock: Clock, phase: Phase, mip: bool = True
 ) -> tuple[Results, float, float | None]:
-    """One HiGHS solve of ``model``; returns the results, its wall time and HiGHS's MIP gap."""
-    solved = HighsSession(model, options, clock, phase, mip).solve()
+    """One HiGHS solve of ``model``; returns the results, its wall time and HiGHS's MIP gap.
+
+    Step 2 and the polish are finishing solves (:meth:`HighsSession.solve`).
+    """
+    solved = HighsSession(model, options, clock, phase, mip).solve(
+        finishing=phase in ("step2", "polish")
+    )
     return solved.results, solved.seconds, solved.gap

@@ -17,8 +17,8 @@ stage, the half-plane the step-1 plan meets best: the side an up-front encoding 
 
 from __future__ import annotations
 
+import dataclasses
 import math
-import time
 
 from pyomo.environ import ConcreteModel, Constraint, Objective, Reals, Var, minimize, value
 
@@ -31,7 +31,7 @@ from stlplan.encoding.readout import plan_result
 from stlplan.encoding.stl import Enforced
 from stlplan.lazy import Step1, solve_step1, trajectory_states
 from stlplan.problem import Problem
-from stlplan.result import ModelSize, PlanResult, PlanStatus
+from stlplan.result import Fallback, ModelSize, PlanResult, PlanStatus
 from stlplan.session import (
     TC,
     Clock,
@@ -87,8 +87,9 @@ def fix_decisions(pm: PlanModel) -> None:
 
 def enforced_predicates(
     pm: PlanModel, options: PlanOptions, clock: Clock, phase: Phase
-) -> tuple[list[Enforced] | None, float]:
-    """The predicates step 1's fixed decisions enforce, and the seconds it took.
+) -> tuple[list[Enforced] | None, float, str]:
+    """The predicates step 1's fixed decisions enforce, the seconds it took, and how the LP
+    ended (HiGHS's termination, by name).
 
     With the binaries fixed, every indicator has a least feasible value, 1 exactly where the
     decisions enforce it (requirements only push indicators up). One LP finds them all:
@@ -100,10 +101,11 @@ def enforced_predicates(
     results, seconds, _ = solve_once(model, options, clock, phase, mip=False)
     model.del_component(model.least)
     model.step1.activate()
+    ended = results.termination_condition.name
     if results.termination_condition != TC.convergenceCriteriaSatisfied:
-        return None, seconds
+        return None, seconds, ended
     guarded = [enforced for z, enforced in pm.ledger.guarded if value(z) > 0.5]
-    return pm.ledger.required + guarded, seconds
+    return pm.ledger.required + guarded, seconds, ended
 
 
 def kept_sides(pm: PlanModel) -> list[Enforced]:
@@ -114,42 +116,47 @@ def kept_sides(pm: PlanModel) -> list[Enforced]:
     return [best_option(pm.deferral.lazy[n], states) for n in pm.pending()]
 
 
-def _continuous(pm: PlanModel, options: PlanOptions, clock: Clock) -> tuple[bool, float]:
-    """Step 2 (or the one-step polish) with step 1's decisions fixed; True on success.
+def _continuous(pm: PlanModel, options: PlanOptions, clock: Clock) -> tuple[str | None, float]:
+    """Step 2 (or the one-step polish) with step 1's decisions fixed; None on success, else why
+    it failed (HiGHS's termination of the failed solve).
 
     On failure the step-1 solution stays loaded in ``pm``.
     """
     snapshot = [(v, v.value) for v in pm.model.component_data_objects(Var)]
     phase: Phase = "step2" if options.two_step else "polish"
     fix_decisions(pm)
-    enforced, seconds = enforced_predicates(pm, options, clock, phase)
+    enforced, seconds, ended = enforced_predicates(pm, options, clock, phase)
     for v, val in snapshot:
         v.set_value(val, skip_validation=True)
     if enforced is None:
-        return False, seconds
+        return f"the LP finding the enforced predicates ended {ended}", seconds
     enforced += kept_sides(pm)
-    small = continuous_model(pm, enforced, "effort" if options.two_step else "polish")
+    with clock.building():
+        small = continuous_model(pm, enforced, "effort" if options.two_step else "polish")
     results, more, _ = solve_once(small, options, clock, phase, mip=False)
     if results.termination_condition != TC.convergenceCriteriaSatisfied:
-        return False, seconds + more
+        return f"the continuous solve ended {results.termination_condition.name}", seconds + more
     copy_plan(small, pm)
-    return True, seconds + more
+    return None, seconds + more
 
 
-def _step1(problem: Problem, options: PlanOptions, clock: Clock) -> tuple[PlanModel, Step1, float]:
+def _step1(problem: Problem, options: PlanOptions, clock: Clock) -> tuple[PlanModel, Step1]:
     """Build and solve problem (step 1), part by part when it splits; returns the model with
-    the plan loaded, how step 1 ended, and the build time."""
+    the plan loaded and how step 1 ended (building is timed on the clock)."""
     clock.report("build")
     by_parts = solve_parts(problem, options, clock) if options.lazy and options.decompose else None
     if by_parts is not None:
-        return by_parts[0], by_parts[1], 0.0  # the parts' models are built as they are solved
-    pm = build_model(problem, options.encoding, lazy=options.lazy, floors=options.floors)
-    build_seconds = time.perf_counter() - clock.start
-    return pm, solve_step1(pm, options, clock), build_seconds
+        return by_parts
+    with clock.building():
+        pm = build_model(problem, options.encoding, lazy=options.lazy, floors=options.floors)
+    return pm, solve_step1(pm, options, clock)
 
 
 def plan(
-    problem: Problem, options: PlanOptions | None = None, progress: ProgressCallback | None = None
+    problem: Problem,
+    options: PlanOptions | None = None,
+    progress: ProgressCallback | None = None,
+    deadline: float | None = None,
 ) -> PlanResult:
     """Plan ``problem``: build the MILP, solve step 1, then step 2 (or a polish).
 
@@ -161,6 +168,9 @@ def plan(
         Solver options (default: from the mission).
     progress
         Called with :class:`Progress` at phase changes and while HiGHS works.
+    deadline
+        ``time.perf_counter()`` time by which the run must end, when earlier than the options'
+        time limit from now (a run that shares its budget with other work).
 
     Returns
     -------
@@ -169,41 +179,46 @@ def plan(
         ``model_size`` is the size of the last MILP step 1 solved (lazy rows included).
     """
     options = options or PlanOptions.from_mission(problem.mission)
-    clock = Clock(time.perf_counter(), progress)
-    pm, step1, build_seconds = _step1(problem, options, clock)
+    clock = Clock.started(options.time_limit, progress, deadline)
+    pm, step1 = _step1(problem, options, clock)
     size = model_size(pm.model)
     if not step1.status.has_plan:
         clock.report("done")
         return PlanResult(
             status=step1.status,
-            message=_message(step1, options),
+            message=_message(step1, options, clock),
             bound=step1.bound,
             model_size=size,
-            build_seconds=build_seconds,
-            solve_seconds=step1.seconds,
+            build_seconds=clock.build_seconds,
+            solve_seconds=clock.elapsed() - clock.build_seconds,
+            confirmations=tuple(clock.confirmations),
         )
     with stops.finishing():  # after a stop request too: step 2 is a quick LP or QP
-        polished, seconds = _continuous(pm, options, clock)
+        failed, _ = _continuous(pm, options, clock)
     clock.report("done", step1.objective, step1.bound, step1.gap)
-    message = _message(step1, options)
-    if not polished:
-        message += "; the continuous re-solve failed, the step-1 plan is kept"
+    message = _message(step1, options, clock)
+    fallback = None
+    if failed is not None:
+        step = "step 2" if options.two_step else "polish"
+        message += f"; the continuous re-solve failed ({failed}), the step-1 plan is kept"
+        fallback = Fallback(step, failed, "the step-1 plan")
     elif options.two_step:
         message += f"; step 2 minimized the {problem.mission.objective.effort} effort"
     figures = {"objective": step1.objective, "bound": step1.bound, "gap": step1.gap}
-    return plan_result(
+    result = plan_result(
         pm,
         step1.status,
         message,
         figures,
         size,
-        build_seconds,
-        step1.seconds + seconds,
-        steps=2 if options.two_step and polished else 1,
+        clock.build_seconds,
+        clock.elapsed() - clock.build_seconds,
+        steps=2 if options.two_step and failed is None else 1,
     )
+    return dataclasses.replace(result, confirmations=tuple(clock.confirmations), fallback=fallback)
 
 
-def _message(step1: Step1, options: PlanOptions) -> str:
+def _message(step1: Step1, options: PlanOptions, clock: Clock) -> str:
     """One line on how step 1 ended (with its lazy rounds)."""
     bound, gap = step1.bound, step1.gap
     known = gap is not None and bound is not None and math.isfinite(bound)
@@ -218,6 +233,11 @@ def _message(step1: Step1, options: PlanOptions) -> str:
         PlanStatus.INTERRUPTED_NO_PLAN: "interrupted before a plan meeting every requirement was found",
     }
     text = texts[step1.status]
+    outcomes = [c.outcome for c in clock.confirmations]
+    if "overturned" in outcomes:
+        text += f" ({outcomes.count('overturned')} infeasible verdict(s) of HiGHS overturned)"
+    if "undecided" in outcomes and not step1.status.has_plan:
+        text += " (HiGHS said infeasible, but a confirmation solve ended without a verdict)"
     if options.lazy and step1.rounds > 1:
         text += f" ({step1.rounds} lazy rounds, {step1.added} requirements added"
         text += ", completed with step-1 decisions fixed)" if step1.completed else ")"

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from stlplan.problem import Problem
-from stlplan.result import MonitorReport, PlanResult, Verdict
+from stlplan.result import Confirmation, Fallback, MonitorReport, PlanResult, SolverFigures, Verdict
 
 
 def _verdict(v: Verdict) -> dict[str, Any]:
@@ -33,6 +33,37 @@ def report_dict(report: MonitorReport) -> dict[str, Any]:
     }
 
 
+def confirmation_dict(confirmation: Confirmation) -> dict[str, Any]:
+    """How one infeasible verdict was confirmed: each solve's settings, verdict and time."""
+    return {
+        "where": confirmation.where,
+        "outcome": confirmation.outcome,
+        "solves": [
+            {"settings": dict(c.settings), "verdict": c.verdict, "seconds": c.seconds}
+            for c in confirmation.checks
+        ],
+    }
+
+
+def solver_dict(solver: SolverFigures | None) -> dict[str, Any] | None:
+    """The solver's own objective, margin and rho_s."""
+    if solver is None:
+        return None
+    return {"objective": solver.objective, "margin": solver.margin, "rho_s": dict(solver.rho_s)}
+
+
+def fallback_dict(fallback: Fallback | None) -> dict[str, Any] | None:
+    """A failed step, why, what was kept and what it costs."""
+    if fallback is None:
+        return None
+    return {
+        "step": fallback.step,
+        "reason": fallback.reason,
+        "kept": fallback.kept,
+        "cost": dict(fallback.cost),
+    }
+
+
 def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) -> dict[str, Any]:
     """Everything ``summary.json`` holds."""
     size = result.model_size
@@ -47,7 +78,9 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "rho_s": dict(result.rho_s),
         "effort": {"norm": problem.mission.objective.effort, "value": result.effort},
         "margin": result.margin,
+        "solver": solver_dict(result.solver),
         "steps": result.steps,
+        "fallback": fallback_dict(result.fallback),
         "assignments": [
             {
                 "task": a.task,
@@ -64,4 +97,5 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "options": options,
         "monitor": None if result.report is None else report_dict(result.report),
         "diagnosis": None if result.diagnosis is None else vars(result.diagnosis),
+        "infeasibility_checks": [confirmation_dict(c) for c in result.confirmations],
     }

@@ -259,7 +259,7 @@ def test_fixed_decisions_enforce_exactly_the_chosen_disjunct() -> None:
     clock = _Clock(0.0, None)
     _solve(pm.model, options, clock, "step1")
     fix_decisions(pm)
-    enforced, _ = enforced_predicates(pm, options, clock, "step2")
+    enforced, _, _ = enforced_predicates(pm, options, clock, "step2")
     assert enforced is not None
     assert {k for _, k, _ in enforced} == {2}
     assert len(enforced) == 4

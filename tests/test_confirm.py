@@ -1,0 +1,100 @@
+"""Confirmation of HiGHS's infeasible verdicts (stlplan.confirm)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import highspy
+import numpy as np
+import pytest
+
+from stlplan.confirm import attempts, has_plan, option, solve_confirmed, verdict
+
+DATA = Path(__file__).parent / "data"
+
+
+def _highs(path: Path) -> highspy.Highs:
+    highs = highspy.Highs()
+    highs.setOptionValue("output_flag", False)
+    highs.setOptionValue("threads", 1)
+    highs.setOptionValue("presolve", "on")
+    highs.readModel(str(path))
+    return highs
+
+
+def test_false_infeasible_regression_ends_feasible_with_the_optimum() -> None:
+    highs = _highs(DATA / "highs-false-infeasible.mps")
+    confirmation = solve_confirmed(highs, seed=0, time_limit=120)
+    assert verdict(highs) == "Optimal" and has_plan(highs)
+    sense = 1.0 if highs.getLp().sense_ == highspy.ObjSense.kMaximize else -1.0
+    margin = sense * highs.getInfo().objective_function_value
+    assert margin == pytest.approx(0.4, abs=1e-6)
+    if confirmation is not None:  # this HiGHS said infeasible at first: the checks overturned it
+        assert confirmation.outcome == "overturned"
+        assert confirmation.checks[0].verdict == "Infeasible"
+        assert confirmation.checks[-1].verdict == "Optimal"
+    # the usual options are back after the checks
+    assert option(highs, "presolve") == "on"
+    assert option(highs, "random_seed") == 0
+
+
+def test_a_truly_infeasible_model_is_confirmed_by_every_check() -> None:
+    highs = highspy.Highs()
+    highs.setOptionValue("output_flag", False)
+    x = highs.addIntegral(lb=0, ub=10)
+    y = highs.addIntegral(lb=0, ub=10)
+    highs.addConstr(2 * x + 2 * y == 7)  # no integers make an odd number even
+    confirmation = solve_confirmed(highs, seed=3)
+    assert confirmation is not None and confirmation.outcome == "confirmed"
+    assert [c.verdict for c in confirmation.checks] == ["Infeasible"] * (1 + len(attempts(3)))
+    assert [dict(c.settings)["random_seed"] for c in confirmation.checks] == [3, 4, 5]
+    assert [dict(c.settings)["presolve"] for c in confirmation.checks[1:]] == ["off", "on"]
+    assert np.isfinite(sum(c.seconds for c in confirmation.checks))
+
+
+INFEASIBLE = """
+name: both-at-once
+horizon: 8
+dynamics:
+  di:
+    A: [[1, 0, 1, 0], [0, 1, 0, 1], [0, 0, 1, 0], [0, 0, 0, 1]]
+    B: [[0.5, 0], [0, 0.5], [1, 0], [0, 1]]
+    position: [0, 1]
+    state_bounds: [[0, 10], [0, 10], [-2, 2], [-2, 2]]
+    input_bounds: [[-1, 1], [-1, 1]]
+agents:
+  - {name: robot, dynamics: di, capabilities: [ground], initial_state: [5, 5, 0, 0]}
+regions:
+  A: {box: [[6, 8], [6, 8]]}
+  B: {box: [[2, 4], [2, 4]]}
+constraints:
+  both:
+    formula: F[0,8] (in(p, A) & in(p, B))
+    roles: {p: robot}
+objective: {beta: 0.01, effort: l1, two_step: false}
+solver: {time_limit: 60, threads: 1}
+"""
+
+
+def test_a_truly_infeasible_mission_exits_4_with_its_confirmation_recorded(
+    tmp_path: Path,
+) -> None:
+    from typer.testing import CliRunner
+
+    from stlplan.cli import app
+
+    mission = tmp_path / "both.yaml"
+    mission.write_text(INFEASIBLE, encoding="utf-8")
+    out = tmp_path / "out"
+    result = CliRunner().invoke(app, ["solve", str(mission), "--out", str(out), "-q"])
+    assert result.exit_code == 4, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "infeasible"
+    checks = summary["infeasibility_checks"]
+    main = [c for c in checks if not c["where"].startswith("diagnosis")]
+    assert main and all(c["outcome"] == "confirmed" for c in main)
+    solves = main[0]["solves"]
+    assert [s["verdict"] for s in solves] == ["Infeasible"] * 3
+    assert [s["settings"]["presolve"] for s in solves[1:]] == ["off", "on"]
+    assert summary["diagnosis"]["conflict"] == ["both"]
