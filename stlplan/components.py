@@ -37,7 +37,7 @@ from stlplan.encoding.model import PlanModel, add_requirements, build_model
 from stlplan.lazy import VIOLATION_TOL, LazySolver, Step1, relative_gap, trajectory_states
 from stlplan.problem import Problem
 from stlplan.result import PlanStatus
-from stlplan.session import Clock, HighsSession, PlanOptions
+from stlplan.session import FLOORS_SHARE, Clock, HighsSession, PlanOptions
 
 HOLD = 1e-4
 """How far the assembly may move a state or input from the parts' plans.
@@ -128,7 +128,13 @@ def _part(
     """Build (and seed with known requirements) the lazy model of one part."""
     sub = sub_problem(problem, agents)
     with clock.building():
-        pm = build_model(sub, options.encoding, lazy=True, floors=options.floors)
+        pm = build_model(
+            sub,
+            options.encoding,
+            lazy=True,
+            floors=options.floors,
+            floors_deadline=clock.share(FLOORS_SHARE),
+        )
     assert pm.deferral is not None
     add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
     return Part(tuple(agents), pm, LazySolver(pm, options, clock))

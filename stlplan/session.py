@@ -165,6 +165,9 @@ def has_solution(results: Results) -> bool:
     return results.solution_status in (SolutionStatus.optimal, SolutionStatus.feasible)
 
 
+FLOORS_SHARE = 0.25
+"""Share of the remaining budget the effort floors of a model may take while it is built."""
+
 GRACE_SHARE, GRACE_MAX = 0.1, 10.0
 """Finishing solves (step 2, a completion, the assembly of parts) may run past the deadline by
 this share of the time limit, at most ``GRACE_MAX`` seconds: they turn a plan already found
@@ -201,6 +204,11 @@ class Clock:
     def elapsed(self) -> float:
         """Seconds since planning started."""
         return time.perf_counter() - self.start
+
+    def share(self, fraction: float) -> float:
+        """The ``time.perf_counter()`` time when ``fraction`` of the remaining budget is spent."""
+        now = time.perf_counter()
+        return now + fraction * max(0.0, self.deadline - now)
 
     def remaining(self, finishing: bool = False) -> float:
         """Seconds left of the budget (with the grace of finishing solves when ``finishing``)."""

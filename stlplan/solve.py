@@ -33,6 +33,7 @@ from stlplan.lazy import Step1, solve_step1, trajectory_states
 from stlplan.problem import Problem
 from stlplan.result import Fallback, ModelSize, PlanResult, PlanStatus
 from stlplan.session import (
+    FLOORS_SHARE,
     TC,
     Clock,
     Phase,
@@ -148,7 +149,13 @@ def _step1(problem: Problem, options: PlanOptions, clock: Clock) -> tuple[PlanMo
     if by_parts is not None:
         return by_parts
     with clock.building():
-        pm = build_model(problem, options.encoding, lazy=options.lazy, floors=options.floors)
+        pm = build_model(
+            problem,
+            options.encoding,
+            lazy=options.lazy,
+            floors=options.floors,
+            floors_deadline=clock.share(FLOORS_SHARE),
+        )
     return pm, solve_step1(pm, options, clock)
 
 

@@ -28,6 +28,8 @@ indicator at 1 has all its predicates met by ``x``, so ``e_p`` is at least its f
 from __future__ import annotations
 
 import itertools
+import math
+import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -146,6 +148,8 @@ class FloorGraph:
     disjunctions: dict[int, list[Any]] = field(default_factory=dict)
     floors: dict[int, Floor] = field(default_factory=dict)
     cache: dict[tuple[str, frozenset[AgentPredicate]], float] = field(default_factory=dict)
+    deadline: float = math.inf
+    """``time.perf_counter()`` time after which no more LPs run: a floor of 0 (no cut) is valid."""
 
     def __post_init__(self) -> None:
         for z, (node, k, binding) in self.ledger.guarded:
@@ -160,6 +164,8 @@ class FloorGraph:
     def effort_floor(self, agent: str, predicates: frozenset[AgentPredicate]) -> float:
         key = (agent, predicates)
         if key not in self.cache:
+            if time.perf_counter() > self.deadline:
+                return 0.0
             self.cache[key] = self.lps[agent].floor(sorted(predicates, key=repr))
         return self.cache[key]
 
@@ -201,14 +207,22 @@ class FloorGraph:
         return out
 
 
-def add_effort_floors(model: ConcreteModel, problem: Problem, ledger: Ledger, margin: float) -> int:
+def add_effort_floors(
+    model: ConcreteModel,
+    problem: Problem,
+    ledger: Ledger,
+    margin: float,
+    deadline: float = math.inf,
+) -> int:
     """Add ``e_p = sum s_p`` and the floor cuts of every conjunction and choice; returns the count.
 
     ``model.s[p, k, j]`` are the absolute inputs; ``margin`` is the smallest admissible ``r``.
+    After ``deadline`` (``time.perf_counter()`` time) no more floor LPs run and the remaining
+    indicators get no cut (the floors are valid inequalities: fewer of them keep the optimum).
     """
     names = [a.name for a in problem.agents]
     lps = {a.name: EffortLp(a, problem.horizon, margin) for a in problem.agents}
-    graph = FloorGraph(ledger, lps)
+    graph = FloorGraph(ledger, lps, deadline=deadline)
     model.e = Var(names, bounds=(0.0, None))
     model.effort_floors = ConstraintList()
     for p in names:

@@ -15,6 +15,7 @@ tasks.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -218,7 +219,11 @@ def add_objective(
 
 
 def build_model(
-    problem: Problem, encoding: Encoding = "log", lazy: bool = False, floors: bool = False
+    problem: Problem,
+    encoding: Encoding = "log",
+    lazy: bool = False,
+    floors: bool = False,
+    floors_deadline: float = math.inf,
 ) -> PlanModel:
     """Encode ``problem`` as the MILP of step 1.
 
@@ -234,6 +239,8 @@ def build_model(
         :mod:`stlplan.encoding.deferred`); :func:`add_requirements` adds them on demand.
     floors
         Add the effort floors of :mod:`stlplan.encoding.floors` (valid cuts; with ``beta > 0``).
+    floors_deadline
+        ``time.perf_counter()`` time after which no more floors are computed.
     """
     model = ConcreteModel(name=problem.mission.name)
     boxes = reachable_boxes(problem)
@@ -262,9 +269,8 @@ def build_model(
         encode_separation(ctx, problem)
     t = add_objective(model, problem, synchronous, margin)
     if floors and problem.mission.objective.beta > 0:
-        add_effort_floors(
-            model, problem, ctx.ledger, float(problem.mission.objective.margin.minimum)
-        )
+        minimum = float(problem.mission.objective.margin.minimum)
+        add_effort_floors(model, problem, ctx.ledger, minimum, floors_deadline)
     return PlanModel(
         model, problem, tasks, synchronous, t, margin, encoding, ctx.ledger, ctx, deferral
     )

@@ -1,0 +1,67 @@
+"""One value per quantity: reported figures are the written plan's (stlplan.figures)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from stlplan import api
+from stlplan.cli import app
+from stlplan.figures import plan_objective
+from tests.conftest import MISSIONS
+
+DATA = Path(__file__).parent / "data"
+
+
+def test_stepping_stones_summary_reports_the_monitors_margin(tmp_path: Path) -> None:
+    out = tmp_path / "plan"
+    args = [
+        "solve",
+        str(DATA / "stepping-stones.yaml"),
+        "--encoding",
+        "standard",
+        "--out",
+        str(out),
+    ]
+    result = CliRunner().invoke(app, [*args, "--threads", "1"])
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "optimal"
+    monitor = summary["monitor"]["spatial_robustness"]
+    assert summary["margin"] == monitor  # the same number, not a solver value near it
+    assert summary["margin"] > 0.1
+    assert summary["solver"]["margin"] == pytest.approx(monitor, abs=1e-6)
+    # objective of the written plan: margin - beta * L1 effort of the inputs written
+    problem, report = api.check(DATA / "stepping-stones.yaml", out / "trajectory.csv")
+    assert report.spatial_robustness == pytest.approx(monitor, abs=1e-9)
+    assert summary["objective"] == pytest.approx(monitor - 0.001 * summary["effort"]["value"])
+    assert f"margin     {monitor:.10g} (monitor)" in result.output
+
+
+def test_a_failed_continuous_solve_says_why_and_what_it_costs(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import stlplan.solve
+
+    def failing(pm, options, clock):  # type: ignore[no-untyped-def]
+        return "the continuous solve ended maxTimeLimit", 0.0
+
+    monkeypatch.setattr(stlplan.solve, "_continuous", failing)
+    _, result = api.plan(MISSIONS / "reach-avoid.yaml", threads=1)
+    assert result.status.has_plan and result.report is not None
+    assert result.fallback is not None
+    assert "maxTimeLimit" in result.fallback.reason and "maxTimeLimit" in result.message
+    solver = result.solver
+    assert solver is not None and solver.margin is not None and solver.objective is not None
+    assert result.margin == result.report.spatial_robustness
+    assert result.fallback.cost["margin"] == pytest.approx(solver.margin - result.margin)
+    assert result.fallback.cost["objective"] == pytest.approx(solver.objective - result.objective)
+    assert result.trajectory is not None
+    assert result.objective == pytest.approx(
+        plan_objective(
+            api.validate(MISSIONS / "reach-avoid.yaml"), result.trajectory, result.report
+        )
+    )
