@@ -147,7 +147,7 @@ class SolverOptions(_Strict):
     """HiGHS options."""
 
     time_limit: float = Field(default=300.0, gt=0)
-    """Wall-clock limit of one solve, seconds."""
+    """Wall-clock limit of the whole run (building, solving, step 2, diagnosis), seconds."""
     gap: float = Field(default=1e-4, ge=0)
     """Relative optimality gap at which HiGHS stops."""
     threads: StrictInt | None = Field(default=None, ge=1)
