@@ -87,7 +87,7 @@ def applied(highs: Any, settings: Settings) -> Iterator[None]:
 
 def confirm(
     highs: Any,
-    first_seconds: float,
+    first: tuple[str, float],
     run: Callable[[Settings, float], None],
     seed: int,
     time_left: Callable[[], float],
@@ -96,14 +96,14 @@ def confirm(
     """Check the infeasible verdict of the solve ``highs`` just ran by the solves of
     :func:`attempts`.
 
-    ``first_seconds`` is the wall time of that solve. ``run(settings, seconds)`` solves the model
+    ``first`` is that solve's verdict (HiGHS's name) and wall time. ``run(settings, seconds)`` solves the model
     again with the HiGHS options ``settings`` (also set on ``highs`` meanwhile) within
     ``seconds``; ``time_left()`` is what the run's budget still allows (each check gets at least
     :data:`MIN_CHECK_SECONDS`). On return ``highs`` holds the last check's solve: a plan when
     overturned.
     """
     usual = tuple((name, option(highs, name)) for name in attempts(seed)[0])
-    checks = [Check(usual, verdict(highs), first_seconds)]
+    checks = [Check(usual, *first)]
     for settings in attempts(seed):
         seconds = max(MIN_CHECK_SECONDS, time_left())
         tick = time.perf_counter()
@@ -135,5 +135,5 @@ def solve_confirmed(highs: Any, seed: int = 0, time_limit: float = math.inf) -> 
         run({}, max(MIN_CHECK_SECONDS, deadline - tick))
         if not says_infeasible(highs):
             return None
-        seconds = time.perf_counter() - tick
-        return confirm(highs, seconds, run, seed, lambda: deadline - time.perf_counter())
+        first = (verdict(highs), time.perf_counter() - tick)
+        return confirm(highs, first, run, seed, lambda: deadline - time.perf_counter())

@@ -341,6 +341,8 @@ class HighsSession:
             self.solver.set_instance(model)
         self.highs: Any = getattr(self.solver, "_solver_model", None)
         self._fresh = True
+        self.verdict = ""
+        """HiGHS's model status of the last solve, by name."""
         if self.highs is not None and hasattr(self.highs, "cbMipInterrupt"):
             self.highs.cbMipInterrupt += self._clear_stale_interrupt
             for name in ("cbMipInterrupt", "cbSimplexInterrupt", "cbIpmInterrupt"):
@@ -373,8 +375,13 @@ class HighsSession:
         limit = self.options.time_limit if time_limit is None else time_limit
         tick = time.perf_counter()
         results = self._run(min(limit, self.clock.remaining(finishing)))
-        if confirm.says_infeasible(self.highs) and not stops.should_interrupt():
-            results = self._confirmed(results, time.perf_counter() - tick, finishing)
+        infeasible = results.termination_condition in (
+            TC.provenInfeasible,
+            TC.infeasibleOrUnbounded,
+        )
+        if infeasible and not stops.should_interrupt():
+            first = (self.verdict, time.perf_counter() - tick)
+            results = self._confirmed(results, first, finishing)
         seconds = time.perf_counter() - tick
         gap = None
         if self.mip and self.highs is not None and has_solution(results):
@@ -402,12 +409,13 @@ class HighsSession:
                 results = self.solver.solve(self.model, tee=tee)
         finally:
             config.solver_options = usual
+        self.verdict = confirm.verdict(self.highs)
         stops.raise_if_hard()
         if self.clock.error is not None:
             raise self.clock.error
         return results
 
-    def _confirmed(self, results: Results, seconds: float, finishing: bool) -> Results:
+    def _confirmed(self, results: Results, first: tuple[str, float], finishing: bool) -> Results:
         """The results after confirming an infeasible verdict (recorded on the clock)."""
         last = [results]
 
@@ -419,7 +427,7 @@ class HighsSession:
             where += f" round {self.clock.round}"
         confirmation = confirm.confirm(
             self.highs,
-            seconds,
+            first,
             run,
             self.options.seed,
             lambda: self.clock.remaining(finishing),

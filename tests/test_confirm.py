@@ -9,7 +9,9 @@ import highspy
 import numpy as np
 import pytest
 
+from stlplan import api
 from stlplan.confirm import attempts, has_plan, option, solve_confirmed, verdict
+from tests.conftest import MISSIONS
 
 DATA = Path(__file__).parent / "data"
 
@@ -98,3 +100,40 @@ def test_a_truly_infeasible_mission_exits_4_with_its_confirmation_recorded(
     assert [s["verdict"] for s in solves] == ["Infeasible"] * 3
     assert [s["settings"]["presolve"] for s in solves[1:]] == ["off", "on"]
     assert summary["diagnosis"]["conflict"] == ["both"]
+
+
+def test_a_false_verdict_in_a_lazy_round_is_overturned_and_the_loop_goes_on(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The first step-1 solve is made infeasible by a row HiGHS alone sees, removed after it."""
+    import highspy as hs
+
+    from stlplan.session import HighsSession
+
+    usual = HighsSession._run
+    spoiled = []
+
+    def spoil_first(self, seconds, settings=None):  # type: ignore[no-untyped-def]
+        if spoiled or self.phase != "step1":
+            return usual(self, seconds, settings)
+        spoiled.append(True)
+        highs = self.highs
+        column = next(iter(self.columns().values()))
+        upper = highs.getLp().col_upper_[column]
+        highs.addRow(upper + 1.0, hs.kHighsInf, 1, [column], [1.0])
+        try:
+            return usual(self, seconds, settings)
+        finally:
+            highs.deleteRows(1, [highs.getNumRow() - 1])
+
+    _, reference = api.plan(MISSIONS / "reach-avoid.yaml", threads=1)
+    assert reference.confirmations == ()
+    monkeypatch.setattr(HighsSession, "_run", spoil_first)
+    _, result = api.plan(MISSIONS / "reach-avoid.yaml", threads=1)
+    assert spoiled and result.status.value == "optimal"
+    assert result.report is not None and result.report.satisfied
+    first = result.confirmations[0]
+    assert first.where == "step1 round 1" and first.outcome == "overturned"
+    assert first.checks[0].verdict == "Infeasible" and first.checks[1].verdict != "Infeasible"
+    assert "overturned" in result.message
+    assert result.objective == pytest.approx(reference.objective, abs=1e-6)
