@@ -114,7 +114,7 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
         accepted=bool(report is not None and report.satisfied),
         gap=None if result.gap is None else f"{result.gap:.2e}",
         rho_s=None if report is None else report.rho_s,
-        objective=None if result.objective is None else round(result.objective, 6),
+        objective=_step1_objective(result),
         effort=None if result.effort is None else round(result.effort, 4),
         message=result.message,
     )
@@ -178,6 +178,13 @@ def side_by_side(rows: Sequence[dict[str, Any]], base: str = "default") -> list[
             f"{name}_objective": b, "agree": agree,
         })  # fmt: skip
     return out
+
+
+def _step1_objective(result: Any) -> float | None:
+    """The optimum of problem (step1) the solver proved (before step 2 moved the plan)."""
+    solver = result.solver
+    value = solver.objective if solver is not None else result.objective
+    return None if value is None else round(value, 6)
 
 
 def _number(value: Any) -> float | None:

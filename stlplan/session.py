@@ -1,4 +1,7 @@
-"""HiGHS through Pyomo: planning options, progress reports, and a model kept loaded across solves.
+"""HiGHS through Pyomo: planning options and a model kept loaded across solves.
+
+The run's clock and progress reports are in :mod:`stlplan.clock` (re-exported here); every
+infeasible verdict a solve returns is first confirmed (:mod:`stlplan.confirm`).
 
 A :class:`HighsSession` loads a Pyomo model into one ``highspy.Highs`` object once; later solves
 of the same model send HiGHS only what changed (Pyomo's persistent interface detects added rows
@@ -11,14 +14,12 @@ so whatever the progress callback prints then is forwarded to the real stderr.
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import math
 import sys
 import time
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field, fields
-from typing import Any, Literal
+from dataclasses import dataclass, fields
+from typing import Any
 
 import highspy
 from highspy import cb
@@ -27,38 +28,33 @@ from pyomo.contrib.solver.solvers.highs import Highs
 from pyomo.environ import ConcreteModel
 
 from stlplan import confirm, stops
+from stlplan.clock import (
+    FLOORS_SHARE,
+    Clock,
+    Phase,
+    Progress,
+    ProgressCallback,
+)
 from stlplan.encoding.sos1 import Encoding
 from stlplan.mission import Mission
-from stlplan.result import Confirmation, PlanStatus
+from stlplan.result import PlanStatus
 
-Phase = Literal["build", "step1", "step2", "polish", "done"]
-
-
-@dataclass(frozen=True)
-class Progress:
-    """A progress report while planning.
-
-    Attributes
-    ----------
-    phase
-        ``build`` (encoding), ``step1`` (MILP), ``step2`` (effort), ``polish``, ``done``.
-    elapsed
-        Seconds since planning started.
-    incumbent, bound, gap
-        Best objective found, best bound and relative gap of the MILP (None when unknown).
-    round
-        Lazy round of step 1 (1, 2, ...), None outside step 1.
-    """
-
-    phase: Phase
-    elapsed: float
-    incumbent: float | None = None
-    bound: float | None = None
-    gap: float | None = None
-    round: int | None = None
-
-
-ProgressCallback = Callable[[Progress], None]
+__all__ = [
+    "FLOORS_SHARE",
+    "TC",
+    "Clock",
+    "HighsSession",
+    "Phase",
+    "PlanOptions",
+    "Progress",
+    "ProgressCallback",
+    "Solved",
+    "forget_threads",
+    "has_solution",
+    "plan_status",
+    "solve_once",
+    "use_threads",
+]
 
 
 @dataclass(frozen=True)
@@ -163,80 +159,6 @@ def plan_status(results: Results, stopped: bool = False) -> PlanStatus:
 def has_solution(results: Results) -> bool:
     """Whether HiGHS returned a primal feasible point."""
     return results.solution_status in (SolutionStatus.optimal, SolutionStatus.feasible)
-
-
-FLOORS_SHARE = 0.25
-"""Share of the remaining budget the effort floors of a model may take while it is built."""
-
-GRACE_SHARE, GRACE_MAX = 0.1, 10.0
-"""Finishing solves (step 2, a completion, the assembly of parts) may run past the deadline by
-this share of the time limit, at most ``GRACE_MAX`` seconds: they turn a plan already found
-into the one written."""
-
-
-@dataclass
-class Clock:
-    """One run's time budget and records.
-
-    Planning start time and deadline (``time.perf_counter`` seconds), the user's progress
-    callback with its first error, the lazy round, the time spent building models, and every
-    confirmation of an infeasible verdict (:mod:`stlplan.confirm`).
-    """
-
-    start: float
-    progress: ProgressCallback | None
-    error: BaseException | None = None
-    round: int | None = None
-    deadline: float = math.inf
-    grace: float = 0.0
-    build_seconds: float = 0.0
-    confirmations: list[Confirmation] = field(default_factory=list)
-
-    @classmethod
-    def started(
-        cls, time_limit: float, progress: ProgressCallback | None, deadline: float | None = None
-    ) -> Clock:
-        """A clock started now whose budget ends after ``time_limit`` s (or at ``deadline``)."""
-        now = time.perf_counter()
-        end = now + time_limit if deadline is None else min(deadline, now + time_limit)
-        return cls(now, progress, deadline=end, grace=min(GRACE_MAX, GRACE_SHARE * time_limit))
-
-    def elapsed(self) -> float:
-        """Seconds since planning started."""
-        return time.perf_counter() - self.start
-
-    def share(self, fraction: float) -> float:
-        """The ``time.perf_counter()`` time when ``fraction`` of the remaining budget is spent."""
-        now = time.perf_counter()
-        return now + fraction * max(0.0, self.deadline - now)
-
-    def remaining(self, finishing: bool = False) -> float:
-        """Seconds left of the budget (with the grace of finishing solves when ``finishing``)."""
-        return self.deadline + (self.grace if finishing else 0.0) - time.perf_counter()
-
-    @contextlib.contextmanager
-    def building(self) -> Iterator[None]:
-        """Count the block's wall time as building (encoding a model, loading it into HiGHS)."""
-        tick = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.build_seconds += time.perf_counter() - tick
-
-    def report(
-        self,
-        phase: Phase,
-        incumbent: float | None = None,
-        bound: float | None = None,
-        gap: float | None = None,
-    ) -> None:
-        if self.progress is None or self.error is not None:
-            return
-        step_round = self.round if phase == "step1" else None
-        try:
-            self.progress(Progress(phase, self.elapsed(), incumbent, bound, gap, step_round))
-        except Exception as exc:  # re-raised once HiGHS has returned
-            self.error = exc
 
 
 def _watch(highs: Any, clock: Clock, phase: Phase) -> None:
