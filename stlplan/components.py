@@ -37,7 +37,7 @@ from stlplan.encoding.model import PlanModel, add_requirements, build_model
 from stlplan.lazy import VIOLATION_TOL, LazySolver, Step1, relative_gap, trajectory_states
 from stlplan.problem import Problem
 from stlplan.result import PlanStatus
-from stlplan.session import FLOORS_SHARE, Clock, HighsSession, PlanOptions
+from stlplan.session import FLOORS_SHARE, MIN_SOLVE_SECONDS, Clock, HighsSession, PlanOptions
 
 HOLD = 1e-4
 """How far the assembly may move a state or input from the parts' plans.
@@ -181,8 +181,11 @@ def _slack(part: Part) -> float:
 
 
 def _tighten(parts: Sequence[Part], options: PlanOptions, deadline: float) -> None:
-    """Solve parts again with absolute gaps until ``(U - F) / |F|`` meets the gap."""
+    """Solve parts again with absolute gaps until ``(U - F) / |F|`` meets the gap (while at
+    least :data:`stlplan.session.MIN_SOLVE_SECONDS` of the budget is left)."""
     for _ in range(len(parts)):
+        if deadline - time.perf_counter() < MIN_SOLVE_SECONDS:
+            return
         objective, bound = _totals(parts)
         if objective is None or bound is None:
             return

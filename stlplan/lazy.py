@@ -35,6 +35,7 @@ from stlplan.encoding.deferred import best_side, neighbours, violated
 from stlplan.encoding.model import PlanModel, add_requirements, assign_side
 from stlplan.result import PlanStatus
 from stlplan.session import (
+    MIN_SOLVE_SECONDS,
     TC,
     Clock,
     HighsSession,
@@ -243,7 +244,7 @@ class LazySolver:
             if converged and not bad:
                 return _ended(solved, seconds, rounds, len(pm.added))
             left = min(time_limit - seconds, clock.remaining())
-            out_of_time = not (converged or watch.stopped) or left < 1.0
+            out_of_time = not (converged or watch.stopped) or left < MIN_SOLVE_SECONDS
             if solved.stopped or out_of_time:
                 return self._last(solved, tick, rounds)
             add_requirements(pm, neighbours(pm.deferral.lazy, bad, options.lazy_window))

@@ -41,6 +41,7 @@ from stlplan.result import PlanStatus
 
 __all__ = [
     "FLOORS_SHARE",
+    "MIN_SOLVE_SECONDS",
     "TC",
     "Clock",
     "HighsSession",
@@ -128,6 +129,9 @@ class PlanOptions:
         base.update({k: v for k, v in overrides.items() if v is not None or k == "lazy_window"})
         return cls(**base)
 
+
+MIN_SOLVE_SECONDS = 1.0
+"""Every solve may run at least this long, even when the budget is spent."""
 
 TC = TerminationCondition
 _STATUS: dict[TerminationCondition, tuple[PlanStatus, PlanStatus]] = {
@@ -316,9 +320,10 @@ class HighsSession:
         return Solved(results, seconds, gap, stops.should_interrupt())
 
     def _run(self, seconds: float, settings: confirm.Settings | None = None) -> Results:
-        """One HiGHS solve through Pyomo within ``seconds`` (at least 1), with extra options."""
+        """One HiGHS solve through Pyomo within ``seconds`` (at least :data:`MIN_SOLVE_SECONDS`),
+        with extra options."""
         config = self.solver.config
-        config.time_limit = max(1.0, seconds)
+        config.time_limit = max(MIN_SOLVE_SECONDS, seconds)
         self._fresh = True
         use_threads(self.options.threads)
         usual = config.solver_options
