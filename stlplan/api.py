@@ -32,9 +32,13 @@ def validate(mission: str | Path) -> Problem:
     return load_problem(mission)
 
 
-def check(mission: str | Path | Problem, trajectory: str | Path) -> tuple[Problem, MonitorReport]:
-    """The monitor's verdicts on a trajectory CSV for a mission."""
+def check(
+    mission: str | Path | Problem, trajectory: str | Path, inter_sample: bool | None = None
+) -> tuple[Problem, MonitorReport]:
+    """The monitor's verdicts on a trajectory CSV for a mission (``inter_sample``: judge safety
+    between steps too; None keeps the mission's ``safety.inter_sample``)."""
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
+    problem = problem.with_inter_sample(inter_sample)
     return problem, monitor_check(problem, read_trajectory_csv(problem, Path(trajectory)))
 
 
@@ -68,9 +72,13 @@ def plan(
     mission: str | Path | Problem,
     progress: Callable[[Any], None] | None = None,
     diagnose_infeasible: bool = True,
+    inter_sample: bool | None = None,
     **overrides: Any,
 ) -> tuple[Problem, PlanResult]:
     """Solve a mission and verify the plan with the monitor.
+
+    ``inter_sample`` turns safety on the segments between steps on or off (None keeps the
+    mission's ``safety.inter_sample``).
 
     ``overrides`` are :class:`stlplan.solve.PlanOptions` fields (``time_limit``, ``gap``,
     ``threads``, ``seed``, ``encoding``, ``two_step``); None keeps the mission's value. The time
@@ -86,6 +94,7 @@ def plan(
     from stlplan.solve import plan as solve_plan
 
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
+    problem = problem.with_inter_sample(inter_sample)
     options = PlanOptions.from_mission(problem.mission, **overrides)
     deadline = time.perf_counter() + options.time_limit
     reasons = cheap_reasons(problem)
@@ -160,6 +169,7 @@ def solve(
     mission: str | Path,
     out: str | Path | None = None,
     progress: Callable[[Any], None] | None = None,
+    inter_sample: bool | None = None,
     **overrides: Any,
 ) -> PlanResult:
     """Plan, verify and (with ``out``) write the plan directory; returns the verified result."""
@@ -169,7 +179,9 @@ def solve(
         prepare_directory(Path(out))
     try:
         with stops.stop_on_signals():  # a signal while writing: nothing is written
-            problem, result = plan(problem, progress=progress, **overrides)
+            problem, result = plan(
+                problem, progress=progress, inter_sample=inter_sample, **overrides
+            )
             if out is not None:
                 options = {k: v for k, v in overrides.items() if v is not None}
                 write_plan(problem, result, out, options)

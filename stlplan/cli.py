@@ -110,14 +110,27 @@ def validate(mission: MissionArg) -> None:
     )
 
 
+InterSampleOption = Annotated[
+    bool | None,
+    typer.Option(
+        "--inter-sample/--no-inter-sample",
+        help="Judge avoidance and separation on the straight segments between steps too "
+        "(default: the mission's safety.inter_sample, true); --no-inter-sample judges the "
+        "steps only, as the paper does.",
+        show_default=False,
+    ),
+]
+
+
 @app.command()
 @handled
 def check(
     mission: MissionArg,
     trajectory: Annotated[Path, typer.Argument(help="Trajectory CSV (agent, k, x0.., u0..).")],
+    inter_sample: InterSampleOption = None,
 ) -> None:
     """Judge a team trajectory with the independent monitor; exit 1 when anything fails."""
-    _, report = api.check(mission, trajectory)
+    _, report = api.check(mission, trajectory, inter_sample=inter_sample)
     from stlplan.render import print_report
 
     print_report(out_console, report)
@@ -167,6 +180,7 @@ def solve(
         typer.Option("--one-step", help="Skip step 2 (effort minimization with decisions fixed)."),
     ] = False,
     encoding: Annotated[Encoding | None, typer.Option(help="Disjunction encoding.")] = None,
+    inter_sample: InterSampleOption = None,
     quiet: Annotated[
         bool, typer.Option("--quiet", "-q", help="Print only the one-line result.")
     ] = False,
@@ -184,7 +198,9 @@ def solve(
         two_step=False if one_step else None,
     )
     with ProgressLine(err_console, enabled=not quiet) as line:
-        result = api.solve(mission, out=out, progress=line.update, **overrides)
+        result = api.solve(
+            mission, out=out, progress=line.update, inter_sample=inter_sample, **overrides
+        )
     if not quiet:
         print_plan(out_console, result)
     code = STATUS_EXIT[result.status]

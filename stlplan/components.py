@@ -100,7 +100,7 @@ def sub_problem(problem: Problem, agents: Iterable[str]) -> Problem:
 
 def requirement_key(req: Requirement) -> tuple[Any, ...]:
     """What identifies a requirement across models of the same mission."""
-    return req.source, tuple(sorted(req.binding.items())), req.k, req.formula
+    return req.source, tuple(sorted(req.binding.items())), req.k, req.span, req.formula
 
 
 @dataclass(eq=False)

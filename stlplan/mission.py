@@ -158,6 +158,14 @@ class SolverOptions(_Strict):
     """Disjunctions as a logarithmic SOS1 or one binary per disjunct."""
 
 
+class Safety(_Strict):
+    """How safety requirements (avoid a region, keep separated) are judged."""
+
+    inter_sample: bool = True
+    """Judge them on the straight segment between consecutive steps, the path a robot tracking
+    the waypoints follows; false keeps the paper's semantics (the sampled steps only)."""
+
+
 class SweepOptions(_Strict):
     """Where sweeps draw random initial positions."""
 
@@ -188,6 +196,8 @@ class Mission(_Strict):
     """Minimum pairwise distance between agents' positions (infinity norm), at every step."""
     objective: Objective = Objective()
     """What the plan optimizes."""
+    safety: Safety = Safety()
+    """How safety requirements are judged between steps."""
     solver: SolverOptions = SolverOptions()
     """Solver options (the command line may override them)."""
     sweep: SweepOptions | None = None

@@ -14,15 +14,21 @@ Semantics (DESIGN.md section 2; ``tol`` is the tolerance on every ``>= 0`` test)
   ``s_j = 1`` (stopping where ``phi`` can no longer be evaluated); ``rho_s = max_j max_{k' in [a,b]}
   run_j(k') - 1 - d`` and the task holds iff ``rho_s >= 0``;
 * constraints hold at step 0 under every binding; separation is
-  ``min_{p<q, k} ||z_p(k) - z_q(k)||_inf - d_col >= -tol``.
+  ``min_{p<q, k} ||z_p(k) - z_q(k)||_inf - d_col >= -tol``;
+* with inter-sample safety (``problem.inter_sample``, the default) avoidance parts of constraints
+  and separation are also judged on the straight segments between steps
+  (:mod:`stlplan.crossings`): a constraint's or the separation's robustness is the minimum over
+  steps and segments, and a failing segment is named with its step ``k -> k+1``.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
+from stlplan.crossings import separation_segments, worst_segment
 from stlplan.errors import TrajectoryError
 from stlplan.problem import AgentModel, ConstraintModel, Problem, TaskModel
 from stlplan.result import Element, MonitorReport, Trajectory, Verdict
@@ -193,21 +199,34 @@ def _binding_text(binding: dict[str, str]) -> str:
     return ", ".join(f"{role}={agent}" for role, agent in binding.items())
 
 
+def _binding_value(
+    problem: Problem, trajectory: Trajectory, constraint: ConstraintModel, binding: Any
+) -> tuple[float, str]:
+    """``rho(phi, 0)`` under ``binding``, or the worst segment's ``rho_seg`` when lower (and where)."""
+    signals = {role: trajectory.states[name] for role, name in binding.items()}
+    lowered = problem.lowered(constraint.formula, binding)
+    sampled = float(robustness(lowered, signals, problem.horizon)[0])
+    crossing = worst_segment(lowered, signals, problem.horizon) if problem.inter_sample else None
+    if crossing is None or not crossing.value < sampled - 1e-12:
+        return sampled, ""
+    return crossing.value, f" on the segment {crossing.step} -> {crossing.step + 1}"
+
+
 def _constraint_verdict(
     problem: Problem, trajectory: Trajectory, constraint: ConstraintModel, tol: float
 ) -> Verdict:
-    # rho(constraint) = min over bindings of rho(phi, 0)
-    values = []
+    # rho(constraint) = min over bindings of rho(phi, 0) (and of rho_seg on the segments)
+    values, segments = [], []
     for binding in constraint.bindings:
-        signals = {role: trajectory.states[name] for role, name in binding.items()}
-        lowered = problem.lowered(constraint.formula, binding)
-        values.append(float(robustness(lowered, signals, problem.horizon)[0]))
+        value, where = _binding_value(problem, trajectory, constraint, binding)
+        values.append(value)
+        segments.append(where)
     if not values:
         return Verdict(constraint.name, "constraint", True, float("inf"), detail="no binding")
     worst = int(np.argmin(np.where(np.isnan(values), -np.inf, values)))
     value = values[worst]
     failing = sum(1 for v in values if not v >= -tol)
-    who = _binding_text(dict(constraint.bindings[worst]))
+    who = _binding_text(dict(constraint.bindings[worst])) + segments[worst]
     if failing == 0:
         detail = f"holds for all {len(values)} binding(s); tightest {who} with margin {value:.3g}"
     else:
@@ -229,8 +248,15 @@ def _separation_verdict(
     gap = np.where(upper[:, :, None], np.nan_to_num(gap, nan=-np.inf), np.inf)
     p, q, k = np.unravel_index(int(np.argmin(gap)), gap.shape)
     value = float(gap[p, q, k])
-    satisfied = bool(value >= -tol)
     pair = f"{agents[p].name} and {agents[q].name} at step {k}"
+    if problem.inter_sample and gap.shape[2] > 1:
+        seg = separation_segments(z, separation)
+        seg = np.where(upper[:, :, None], np.nan_to_num(seg, nan=-np.inf), np.inf)
+        sp, sq, sk = np.unravel_index(int(np.argmin(seg)), seg.shape)
+        if seg[sp, sq, sk] < value - 1e-12:
+            value = float(seg[sp, sq, sk])
+            pair = f"{agents[sp].name} and {agents[sq].name} on the segment {sk} -> {sk + 1}"
+    satisfied = bool(value >= -tol)
     detail = (
         f"every pair keeps {separation:g} apart; closest {pair} with margin {value:.3g}"
         if satisfied

@@ -8,7 +8,7 @@ trees and are lowered per role binding with :meth:`Problem.lowered`.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -96,6 +96,8 @@ class Problem:
     constraints: tuple[ConstraintModel, ...]
     separation: float | None
     source: str | None = None
+    inter_sample: bool = True
+    """Safety requirements hold on the segments between steps (DESIGN 2.9), not only at steps."""
     _by_name: dict[str, AgentModel] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
@@ -104,6 +106,12 @@ class Problem:
     def agent(self, name: str) -> AgentModel:
         """The agent called ``name``."""
         return self._by_name[name]
+
+    def with_inter_sample(self, on: bool | None) -> Problem:
+        """The same problem with inter-sample safety on or off (None keeps the mission's)."""
+        if on is None or on == self.inter_sample:
+            return self
+        return replace(self, inter_sample=on, _by_name={})
 
     def lowered(self, formula: Formula, binding: Mapping[str, str]) -> Formula:
         """``formula`` with roles bound to agents, as half-space predicates over roles."""
@@ -199,4 +207,5 @@ def build_problem(mission: Mission, source: str | None = None) -> Problem:
         constraints=tuple(_constraint_model(mission, n, source) for n in mission.constraints),
         separation=mission.separation,
         source=source,
+        inter_sample=mission.safety.inter_sample,
     )

@@ -114,7 +114,7 @@ def kept_sides(pm: PlanModel) -> list[Enforced]:
     if pm.deferral is None:
         return []
     states = trajectory_states(pm)
-    return [best_option(pm.deferral.lazy[n], states) for n in pm.pending()]
+    return [e for n in pm.pending() for e in best_option(pm.deferral.lazy[n], states)]
 
 
 def _continuous(pm: PlanModel, options: PlanOptions, clock: Clock) -> tuple[str | None, float]:

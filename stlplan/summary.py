@@ -78,6 +78,7 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "rho_s": dict(result.rho_s),
         "effort": {"norm": problem.mission.objective.effort, "value": result.effort},
         "margin": result.margin,
+        "inter_sample": problem.inter_sample,
         "solver": solver_dict(result.solver),
         "steps": result.steps,
         "fallback": fallback_dict(result.fallback),

@@ -7,9 +7,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from stlplan.encoding.deferred import SEPARATION, defer, neighbours, split_steps, violated
+from stlplan.encoding.deferred import SEPARATION, defer, neighbours, violated
 from stlplan.encoding.model import build_model, reachable_boxes
 from stlplan.formula.parser import parse
+from stlplan.formula.tree import step_parts
 from stlplan.mission import Mission
 from stlplan.monitor import check
 from stlplan.problem import Problem, build_problem
@@ -31,10 +32,12 @@ def mission(**fields: Any) -> Problem:
     )
 
 
-def swap_problem(separation: float | None, horizon: int = 2) -> Problem:
+def swap_problem(separation: float | None, horizon: int = 2, inter_sample: bool = False) -> Problem:
     # a and b trade places on the x axis, arriving at step H; with H = 2 both are within 0.2 of
     # x = 1 at step 1, so a separation of 0.5 costs a detour in y: up/down 0.25, back 0.15 each
+    # (sampled separation, the paper's; between samples the two would pass through each other)
     return mission(
+        safety={"inter_sample": inter_sample},
         horizon=horizon,
         agents=[
             {"name": "a", "dynamics": "si", "initial_state": [0, 0]},
@@ -59,10 +62,11 @@ def swap_problem(separation: float | None, horizon: int = 2) -> Problem:
     )
 
 
-def detour_problem(with_obstacle: bool) -> Problem:
+def detour_problem(with_obstacle: bool, inter_sample: bool = True) -> Problem:
     # the straight way to the goal crosses the obstacle, 1.6 wide: no step of 1 hops over it, so
     # one step has |y| >= 1 (a detour of 1 up and 0.9 back)
     return mission(
+        safety={"inter_sample": inter_sample},
         horizon=6,
         agents=[{"name": "a", "dynamics": "si", "initial_state": [0, 0]}],
         regions={
@@ -142,20 +146,30 @@ def test_floors_add_rows_and_fix_unreachable_indicators() -> None:
     assert bodies
 
 
-def test_split_steps_unrolls_always_and_and() -> None:
+def test_step_parts_unrolls_always_and_and() -> None:
     formula = parse("G[1,3] (p.x[0] >= 1 & p.x[1] >= 2)")
-    parts = list(split_steps(formula, 0))
+    parts = list(step_parts(formula, 0))
     assert sorted(k for _, k in parts) == [1, 1, 2, 2, 3, 3]
 
 
 def test_defer_drops_requirements_reachability_proves() -> None:
-    problem = detour_problem(with_obstacle=True)
+    problem = detour_problem(with_obstacle=True, inter_sample=False)
     boxes = reachable_boxes(problem)
     deferral = defer(problem, boxes, margin_ceiling=0.0)
     # from x = 0 with |u| <= 1 the obstacle (x >= 1.2) is out of reach at steps 0 and 1
     assert deferral.dropped == 2
     assert sorted(r.k for r in deferral.lazy) == [2, 3, 4, 5, 6]
+    assert {r.span for r in deferral.lazy} == {0}
     assert not deferral.eager
+
+
+def test_defer_joins_steps_into_segments() -> None:
+    problem = detour_problem(with_obstacle=True)
+    deferral = defer(problem, reachable_boxes(problem), margin_ceiling=0.0)
+    # segments 0 -> 1 .. 5 -> 6; only 0 -> 1 lies wholly west of the obstacle
+    assert deferral.dropped == 1
+    assert sorted(r.k for r in deferral.lazy) == [1, 2, 3, 4, 5]
+    assert {r.span for r in deferral.lazy} == {1}
 
 
 def test_violations_and_neighbours() -> None:
@@ -172,3 +186,26 @@ def test_violations_and_neighbours() -> None:
     assert [deferral.lazy[n].k for n in neighbours(deferral.lazy, bad, 1)] == [1, 2, 3]
     assert len(neighbours(deferral.lazy, bad, None)) == len(deferral.lazy)
     assert neighbours(deferral.lazy, bad, 0) == bad
+
+
+def test_segment_violations_between_safe_samples() -> None:
+    problem = swap_problem(separation=0.5, horizon=4, inter_sample=True)
+    deferral = defer(problem, reachable_boxes(problem), margin_ceiling=0.0)
+    assert {r.span for r in deferral.lazy} == {1}
+    # a passes b: apart at every step but 2, through each other on the segments 1-2 and 2-3
+    line = np.linspace(0, 2, 5)
+    states = {
+        "a": np.column_stack([line, np.zeros(5)]),
+        "b": np.column_stack([line[::-1], np.zeros(5)]),
+    }
+    bad = violated(deferral.lazy, states, margin=0.0, tolerance=1e-9)
+    assert [deferral.lazy[n].k for n in bad] == [1, 2]
+    # b steps aside at step 2: every sample keeps 0.5 apart, yet the segments 1-2 and 2-3 cut
+    # the corner of the separation box
+    states["b"] = np.array([[2, 0], [1.5, 0], [1, 0.6], [0.5, 0], [0, 0]], dtype=float)
+    states["a"] = np.array([[0, 0], [0.5, 0], [1, 0], [1.5, 0], [2, 0]], dtype=float)
+    sampled = swap_problem(separation=0.5, horizon=4, inter_sample=False)
+    steps = defer(sampled, reachable_boxes(sampled), margin_ceiling=0.0)
+    assert violated(steps.lazy, states, margin=0.0, tolerance=1e-9) == []
+    bad = violated(deferral.lazy, states, margin=0.0, tolerance=1e-9)
+    assert [deferral.lazy[n].k for n in bad] == [1, 2]

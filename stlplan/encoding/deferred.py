@@ -14,6 +14,13 @@ relaxation of that problem, so it is the full problem's optimum.
 
 A requirement that one of its half-planes meets at every reachable state (the interval bound of
 :func:`stlplan.encoding.stl.predicate_range` over the reachable boxes) is dropped: it cannot bind.
+
+With inter-sample safety (DESIGN 2.9, the default) a disjunction required by one constraint and
+binding (or one pair's separation) at both ``k`` and ``k+1`` is required on the segment between
+them: one requirement spanning the two steps, one half-plane held at both ends
+(:mod:`stlplan.encoding.segments`). A disjunction required at an isolated step stays a step
+requirement; a single half-plane needs no segment requirement (it holds between two ends that meet
+it).
 """
 
 from __future__ import annotations
@@ -24,10 +31,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stlplan.encoding.stl import Boxes, Enforced, predicate_range
+from stlplan.encoding.segments import require_on_steps
+from stlplan.encoding.stl import Boxes, Enforced, StlContext, predicate_range, require
 from stlplan.encoding.tasks import separation_formula
-from stlplan.formula.tree import Always, And, Formula, Or, Predicate
+from stlplan.formula.tree import Formula, Or, Predicate, step_parts
 from stlplan.problem import Problem
+
+Part = tuple[Formula, int, Mapping[str, str]]
+"""A formula at a step under a binding."""
 
 SEPARATION = "separation"
 """Source name of the pairwise separation requirements."""
@@ -35,7 +46,8 @@ SEPARATION = "separation"
 
 @dataclass(frozen=True, eq=False)
 class Requirement:
-    """``OR_i alpha_i(x(k)) - r >= 0`` at step ``k`` under ``binding`` (a single ``alpha`` too).
+    """``OR_i alpha_i(x(k)) - r >= 0`` at step ``k`` under ``binding`` (a single ``alpha`` too);
+    with ``span = 1``, on the segment from step ``k`` to ``k + 1`` (one ``alpha_i`` at both ends).
 
     Attributes
     ----------
@@ -47,12 +59,20 @@ class Requirement:
         Role to agent name.
     source
         Name of the constraint it comes from, or :data:`SEPARATION`.
+    span
+        0 for a step, 1 for the segment ``[x(k), x(k+1)]``.
     """
 
     formula: Formula
     k: int
     binding: Mapping[str, str]
     source: str
+    span: int = 0
+
+    @property
+    def steps(self) -> range:
+        """The steps whose states the requirement reads."""
+        return range(self.k, self.k + self.span + 1)
 
     @property
     def alternatives(self) -> tuple[Predicate, ...]:
@@ -67,9 +87,17 @@ class Requirement:
         """``(source, binding)``: requirements of one agent (or pair) at different steps."""
         return self.source, tuple(sorted(self.binding.items()))
 
-    def options(self) -> list[Enforced]:
-        """Each half-plane as an enforceable predicate ``(alpha_i, k, binding)``."""
-        return [(alt, self.k, self.binding) for alt in self.alternatives]
+    def options(self) -> list[list[Enforced]]:
+        """Each half-plane as the predicates ``(alpha_i, t, binding)`` enforcing it, t in steps."""
+        return [[(alt, t, self.binding) for t in self.steps] for alt in self.alternatives]
+
+    def encode(self, ctx: StlContext) -> None:
+        """Enforce the requirement in the model of ``ctx`` (as if it had been there from the start)."""
+        scope = ctx.bound(self.binding)
+        if self.span == 0:
+            require(self.formula, self.k, scope)
+        else:
+            require_on_steps(self.alternatives, self.steps, scope)
 
 
 def _is_step_disjunction(formula: Formula) -> bool:
@@ -78,26 +106,13 @@ def _is_step_disjunction(formula: Formula) -> bool:
     return isinstance(formula, Or) and all(isinstance(c, Predicate) for c in formula.children)
 
 
-def split_steps(formula: Formula, k: int) -> Iterator[tuple[Formula, int]]:
-    """``formula`` at ``k`` as the conjunction of its parts: ``G`` and ``and`` are unrolled.
-
-    ``G[a,b] phi`` at ``k`` yields ``phi`` at ``k+a..k+b``; ``and`` yields each child; any other
-    node is yielded whole.
-    """
-    if isinstance(formula, And):
-        for child in formula.children:
-            yield from split_steps(child, k)
-    elif isinstance(formula, Always):
-        for t in range(k + formula.interval.lo, k + formula.interval.hi + 1):
-            yield from split_steps(formula.child, t)
-    else:
-        yield formula, k
-
-
 def always_met(requirement: Requirement, boxes: Boxes, margin_ceiling: float) -> bool:
     """Whether some ``alpha_i`` exceeds every admissible margin on the whole reachable box."""
     return any(
-        predicate_range(alt, requirement.k, requirement.binding, boxes)[0] >= margin_ceiling
+        all(
+            predicate_range(alt, t, requirement.binding, boxes)[0] >= margin_ceiling
+            for t in requirement.steps
+        )
         for alt in requirement.alternatives
     )
 
@@ -118,7 +133,7 @@ class Deferral:
     """
 
     lazy: tuple[Requirement, ...]
-    eager: tuple[tuple[Formula, int, Mapping[str, str]], ...]
+    eager: tuple[Part, ...]
     dropped: int
 
 
@@ -127,7 +142,7 @@ def _all_parts(problem: Problem) -> Iterator[tuple[Formula, int, Mapping[str, st
     for constraint in problem.constraints:
         for binding in constraint.bindings:
             lowered = problem.lowered(constraint.formula, binding)
-            for part, k in split_steps(lowered, 0):
+            for part, k in step_parts(lowered, 0):
                 yield part, k, binding, constraint.name
     if problem.separation is not None:
         for p, q in itertools.combinations([a.name for a in problem.agents], 2):
@@ -136,16 +151,55 @@ def _all_parts(problem: Problem) -> Iterator[tuple[Formula, int, Mapping[str, st
                 yield formula, k, {"p": p, "q": q}, SEPARATION
 
 
+def on_segments(requirements: Sequence[Requirement]) -> list[Requirement]:
+    """Step requirements with their disjunctions at consecutive steps joined into segments.
+
+    A disjunction of one family required at ``k`` and ``k+1`` becomes a requirement on the segment
+    ``[k, k+1]``; a step that no such segment covers stays a step requirement; a single half-plane
+    stays as it is (it holds on a segment whose ends meet it).
+    """
+    steps: dict[tuple[object, ...], set[int]] = {}
+    for req in requirements:
+        steps.setdefault((*req.family, req.formula), set()).add(req.k)
+    out: list[Requirement] = []
+    for req in requirements:
+        if isinstance(req.formula, Predicate):
+            out.append(req)
+            continue
+        held = steps[(*req.family, req.formula)]
+        if req.k + 1 in held:
+            out.append(Requirement(req.formula, req.k, req.binding, req.source, span=1))
+        elif req.k - 1 not in held:
+            out.append(req)
+    return out
+
+
+def step_requirements(problem: Problem) -> tuple[list[Requirement], list[Part]]:
+    """The problem's constraints and separation as step requirements (segments with
+    inter-sample safety), and the parts with temporal structure below a disjunction."""
+    found: list[Requirement] = []
+    eager: list[Part] = []
+    for part, k, binding, source in _all_parts(problem):
+        if _is_step_disjunction(part):
+            found.append(Requirement(part, k, binding, source))
+        else:
+            eager.append((part, k, binding))
+    return (on_segments(found) if problem.inter_sample else found), eager
+
+
+def segment_requirements(problem: Problem) -> list[Requirement]:
+    """The requirements on segments alone (added to a model that encodes every step)."""
+    if not problem.inter_sample:
+        return []
+    return [req for req in step_requirements(problem)[0] if req.span > 0]
+
+
 def defer(problem: Problem, boxes: Boxes, margin_ceiling: float) -> Deferral:
     """Split the problem's constraints and separation into lazy step requirements and the rest."""
     lazy: list[Requirement] = []
-    eager: list[tuple[Formula, int, Mapping[str, str]]] = []
     dropped = 0
-    for part, k, binding, source in _all_parts(problem):
-        if not _is_step_disjunction(part):
-            eager.append((part, k, binding))
-            continue
-        requirement = Requirement(part, k, binding, source)
+    found, eager = step_requirements(problem)
+    for requirement in found:
         if always_met(requirement, boxes, margin_ceiling):
             dropped += 1
         else:
@@ -154,15 +208,15 @@ def defer(problem: Problem, boxes: Boxes, margin_ceiling: float) -> Deferral:
 
 
 def alpha_values(requirement: Requirement, states: Mapping[str, np.ndarray]) -> np.ndarray:
-    """``alpha_i(x(k))`` of every half-plane on a trajectory (agent name to (H+1, n) states)."""
-    out = np.empty(len(requirement.alternatives))
+    """``min_t alpha_i(x(t))`` over the requirement's steps, for every half-plane, on a trajectory
+    (agent name to (H+1, n) states): what the encoding demands of the alternative ``i``."""
+    out = np.full(len(requirement.alternatives), np.inf)
     for i, alt in enumerate(requirement.alternatives):
-        total = -alt.bound
-        for term in alt.terms:
-            total += (
-                term.coef * states[requirement.binding[term.role]][requirement.k, term.component]
-            )
-        out[i] = total
+        for t in requirement.steps:
+            total = -alt.bound
+            for term in alt.terms:
+                total += term.coef * states[requirement.binding[term.role]][t, term.component]
+            out[i] = min(out[i], total)
     return out
 
 
@@ -185,7 +239,7 @@ def best_side(requirement: Requirement, states: Mapping[str, np.ndarray]) -> int
     return int(np.argmax(alpha_values(requirement, states)))
 
 
-def best_option(requirement: Requirement, states: Mapping[str, np.ndarray]) -> Enforced:
+def best_option(requirement: Requirement, states: Mapping[str, np.ndarray]) -> list[Enforced]:
     """The half-plane with the largest ``alpha_i`` on a trajectory (the side a plan keeps)."""
     return requirement.options()[best_side(requirement, states)]
 

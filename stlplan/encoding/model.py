@@ -33,7 +33,7 @@ from pyomo.environ import (
     maximize,
 )
 
-from stlplan.encoding.deferred import Deferral, defer
+from stlplan.encoding.deferred import Deferral, defer, segment_requirements
 from stlplan.encoding.floors import add_effort_floors
 from stlplan.encoding.sos1 import Encoding, gray_code, sos1_block
 from stlplan.encoding.stl import Ledger, StlContext, margin_ceiling, require
@@ -267,6 +267,8 @@ def build_model(
     else:
         encode_constraints(ctx, problem)
         encode_separation(ctx, problem)
+        for requirement in segment_requirements(problem):
+            requirement.encode(ctx)
     t = add_objective(model, problem, synchronous, margin)
     if floors and problem.mission.objective.beta > 0:
         minimum = float(problem.mission.objective.margin.minimum)
@@ -289,7 +291,8 @@ def add_requirements(pm: PlanModel, indices: Iterable[int]) -> None:
     """Encode the lazy requirements ``indices`` into a lazy model, as :func:`build_model` would.
 
     Each ``OR_i alpha_i - r >= 0`` becomes an SOS1 over fresh ``w_i <= z_i`` (one binary per
-    half-plane with the standard encoding), exactly as an up-front constraint. Indices already
+    half-plane with the standard encoding), exactly as an up-front constraint; on a segment, each
+    ``z_i`` enforces its half-plane at both ends. Indices already
     added are skipped.
     """
     assert pm.context is not None and pm.deferral is not None, "the model was built lazy"
@@ -297,7 +300,7 @@ def add_requirements(pm: PlanModel, indices: Iterable[int]) -> None:
     for n in sorted(set(indices) - pm.added):
         req = pm.deferral.lazy[n]
         first_binary, first_choice = len(ctx.sos.binaries), len(ctx.ledger.choices)
-        require(req.formula, req.k, ctx.bound(req.binding))
+        req.encode(ctx)
         pm.added.add(n)
         if len(ctx.ledger.choices) > first_choice:
             _, indicators, chosen = ctx.ledger.choices[-1]

@@ -7,6 +7,7 @@ encoder and the monitor see. Negation is written on atoms only; :func:`negate` p
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Literal
 
@@ -194,3 +195,19 @@ def horizon(formula: Formula) -> int:
     if isinstance(formula, Until):
         return formula.interval.hi + max(horizon(formula.left), horizon(formula.right))
     return max((horizon(c) for c in children(formula)), default=0)
+
+
+def step_parts(formula: Formula, k: int = 0) -> Iterator[tuple[Formula, int]]:
+    """``formula`` at step ``k`` as the conjunction of its parts: ``G`` and ``and`` unrolled.
+
+    ``G[a,b] phi`` at ``k`` yields ``phi`` at ``k+a..k+b``; ``and`` yields each child; any other
+    node is yielded whole with its step.
+    """
+    if isinstance(formula, And):
+        for child in formula.children:
+            yield from step_parts(child, k)
+    elif isinstance(formula, Always):
+        for t in range(k + formula.interval.lo, k + formula.interval.hi + 1):
+            yield from step_parts(formula.child, t)
+    else:
+        yield formula, k

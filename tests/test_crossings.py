@@ -1,0 +1,131 @@
+"""Safety between steps: the exact segment robustness, the monitor's verdicts and the planner."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from stlplan.crossings import segment_floor, separation_segments
+from stlplan.monitor import check
+from stlplan.problem import Problem
+from stlplan.result import PlanStatus
+from stlplan.solve import PlanOptions, plan
+from tests.test_lazy import mission, swap_problem
+from tests.test_monitor import AVOID, make_problem, walk
+
+finite = st.floats(-10, 10, allow_nan=False)
+
+
+@settings(max_examples=200, derandomize=True, deadline=None)
+@given(arrays(float, (2, 4), elements=finite))
+def test_segment_floor_is_the_minimum_over_the_segment(ends: np.ndarray) -> None:
+    a, b = ends
+    s = np.linspace(0.0, 1.0, 20001)[:, None]
+    dense = float(np.min(np.max((1 - s) * a + s * b, axis=1)))
+    exact = float(segment_floor(a, b))
+    # exact is attained on the segment, and no sampled point lies below it
+    assert exact <= dense + 1e-9
+    assert exact >= dense - 20 * 1e-4 * float(np.max(np.abs(b - a)))
+
+
+def test_segment_floor_of_a_corner_cut() -> None:
+    # outside the box [-1, 1]^2 (x - 1, -x - 1, y - 1, -y - 1 >= 0 for one), from (-2, 0) to
+    # (0, 1.5): both ends outside, the segment reaches (-6/7, 6/7), 1/7 deep, at s = 4/7
+    a = np.array([-3.0, 1.0, -1.0, -1.0])
+    b = np.array([-1.0, -1.0, 0.5, -2.5])
+    assert float(segment_floor(a, b)) == pytest.approx(-1 / 7)
+    assert max(a) > 0 and max(b) > 0
+
+
+def test_a_path_that_cuts_a_corner_fails_between_its_safe_steps() -> None:
+    # R is [2, 4]^2; (1, 3) -> (3, 4.5) keeps both ends outside but cuts the corner (2, 4),
+    # reaching 1/7 inside at s = 4/7
+    paths = {"a": [(1, 3), (3, 4.5), (5, 5), (5, 5)]}
+    problem = make_problem(paths, {"a": "V"}, constraints=AVOID)
+    verdict = check(problem, walk(paths)).verdict("avoid")
+    assert not verdict.satisfied
+    assert verdict.robustness == pytest.approx(-1 / 7)
+    assert "on the segment 0 -> 1" in verdict.detail
+    sampled = problem.with_inter_sample(False)
+    assert check(sampled, walk(paths)).verdict("avoid").satisfied
+
+
+def test_a_corner_passed_outside_is_accepted() -> None:
+    # (1, 4.5) -> (2.5, 5) stays above the box: the exact check accepts it
+    paths = {"a": [(1, 4.5), (2.5, 5), (5, 5), (5, 5)]}
+    problem = make_problem(paths, {"a": "V"}, constraints=AVOID)
+    assert check(problem, walk(paths)).verdict("avoid").satisfied
+
+
+def test_two_agents_passing_through_each_other_between_steps() -> None:
+    # a and b trade places; at every step they are 1 apart, between steps 1 and 2 they meet
+    paths = {"a": [(1, 1), (2, 1), (3, 2), (3, 3)], "b": [(3, 2), (3, 1), (2, 1), (1, 1)]}
+    problem = make_problem(paths, dict.fromkeys(paths, "V"), separation=0.5)
+    verdict = check(problem, walk(paths)).verdict("separation")
+    assert not verdict.satisfied
+    assert "a and b on the segment 1 -> 2" in verdict.detail
+    assert check(problem.with_inter_sample(False), walk(paths)).verdict("separation").satisfied
+
+
+def test_separation_segments_match_the_dense_minimum() -> None:
+    rng = np.random.default_rng(3)
+    positions = rng.uniform(0, 3, size=(4, 6, 2))
+    exact = separation_segments(positions, 0.5)
+    s = np.linspace(0, 1, 5001)[:, None, None]
+    for p in range(4):
+        for q in range(p + 1, 4):
+            rel = positions[p] - positions[q]
+            path = (1 - s) * rel[None, :-1] + s * rel[None, 1:]  # (S, H, 2)
+            dense = np.min(np.max(np.abs(path), axis=2), axis=0) - 0.5
+            assert np.allclose(exact[p, q], dense, atol=2e-3)
+            assert np.all(exact[p, q] <= dense + 1e-9)
+
+
+def corner_problem(horizon: int, inter_sample: bool) -> Problem:
+    # from (0, 0) to x = 2 at step H past Obs = [0.5, 1.5] x [-2, 0.5], |u| <= 1 per axis
+    return mission(
+        horizon=horizon,
+        safety={"inter_sample": inter_sample},
+        agents=[{"name": "a", "dynamics": "si", "initial_state": [0, 0]}],
+        regions={
+            "Goal": {"box": [[1.9, 2.1], [-0.1, 0.1]]},
+            "Obs": {"box": [[0.5, 1.5], [-2, 0.5]]},
+        },
+        tasks={
+            "reach": {
+                "formula": f"F[{horizon},{horizon}] in(p, Goal)",
+                "roles": {"p": {"agent": "a"}},
+            }
+        },
+        constraints={"avoid": {"formula": f"G[0,{horizon}] !in(p, Obs)", "for_each": "p"}},
+        objective={"beta": 1.0, "effort": "l1"},
+    )
+
+
+def test_a_sampled_plan_cuts_the_corner_a_safe_one_goes_around() -> None:
+    options = PlanOptions(time_limit=60)
+    # in two steps the middle one must sit above Obs with x near 1: the way there cuts the corner
+    sampled = plan(corner_problem(2, inter_sample=False), options)
+    assert sampled.status is PlanStatus.OPTIMAL and sampled.trajectory is not None
+    verdict = check(corner_problem(2, inter_sample=True), sampled.trajectory).verdict("avoid")
+    assert not verdict.satisfied and "on the segment 0 -> 1" in verdict.detail
+    assert plan(corner_problem(2, inter_sample=True), options).status is PlanStatus.INFEASIBLE
+    for lazy in (True, False):
+        safe = plan(corner_problem(3, inter_sample=True), PlanOptions(time_limit=60, lazy=lazy))
+        assert safe.status is PlanStatus.OPTIMAL and safe.trajectory is not None
+        assert check(corner_problem(3, inter_sample=True), safe.trajectory).satisfied
+
+
+@pytest.mark.parametrize("lazy", [True, False])
+def test_the_planner_keeps_agents_apart_between_steps(lazy: bool) -> None:
+    problem = swap_problem(separation=0.5, horizon=4, inter_sample=True)
+    result = plan(problem, PlanOptions(time_limit=60, lazy=lazy, floors=False))
+    assert result.status is PlanStatus.OPTIMAL
+    assert result.trajectory is not None
+    assert check(problem, result.trajectory).satisfied
+    sampled = plan(problem.with_inter_sample(False), PlanOptions(time_limit=60, lazy=lazy))
+    assert sampled.objective is not None and result.objective is not None
+    assert sampled.objective >= result.objective - 1e-6
