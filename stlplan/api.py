@@ -42,6 +42,16 @@ def check(
     return problem, monitor_check(problem, read_trajectory_csv(problem, Path(trajectory)))
 
 
+def plot_trajectory(
+    problem: Problem, trajectory: str | Path, report: MonitorReport, out: str | Path
+) -> None:
+    """Draw the map of a trajectory CSV (``plan.png`` style) with the monitor's ``report``."""
+    from stlplan.plots import plot_plan
+
+    traj = read_trajectory_csv(problem, Path(trajectory))
+    plot_plan(problem, traj, report, out, title=f"{problem.mission.name}: {Path(trajectory).name}")
+
+
 def _verified(problem: Problem, result: PlanResult, gap: float) -> PlanResult:
     """Attach the monitor's report and report the written plan's figures
     (:func:`stlplan.figures.reported`); a plan the monitor rejects is an error, never an output.

@@ -128,12 +128,19 @@ def check(
     mission: MissionArg,
     trajectory: Annotated[Path, typer.Argument(help="Trajectory CSV (agent, k, x0.., u0..).")],
     inter_sample: InterSampleOption = None,
+    plot: Annotated[
+        Path | None,
+        typer.Option(help="Also draw the map of the trajectory to this PNG (crossings in red)."),
+    ] = None,
 ) -> None:
     """Judge a team trajectory with the independent monitor; exit 1 when anything fails."""
-    _, report = api.check(mission, trajectory, inter_sample=inter_sample)
+    problem, report = api.check(mission, trajectory, inter_sample=inter_sample)
     from stlplan.render import print_report
 
     print_report(out_console, report)
+    if plot is not None:
+        api.plot_trajectory(problem, trajectory, report, plot)
+        out_console.print(f"map in {plot}")
     if not report.satisfied:
         raise typer.Exit(EXIT_VIOLATED)
 

@@ -25,7 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from stlplan.formula.tree import Formula, Or, Predicate, step_parts
+from stlplan.problem import Problem
+from stlplan.result import Trajectory
 from stlplan.robustness import robustness
+
+Cut = tuple[str, int]
+"""An agent and the first step of a segment of its path that crosses."""
 
 
 @dataclass(frozen=True)
@@ -68,22 +73,24 @@ def worst_segment(
     formula: Formula, signals: Mapping[str, np.ndarray], horizon: int
 ) -> Crossing | None:
     """The worst segment of the safety parts of a lowered constraint; None without any."""
-    steps: dict[Formula, set[int]] = {}
-    for part, k in step_parts(formula):
-        if _half_planes(part) is not None:
-            steps.setdefault(part, set()).add(k)
     worst: Crossing | None = None
-    for part, held in steps.items():
-        starts = sorted(k for k in held if k + 1 in held)
-        if not starts:
-            continue
-        planes = _half_planes(part) or ()
-        alpha = np.array([robustness(p, signals, horizon) for p in planes]).T  # (H+1, n)
-        values = segment_floor(alpha[starts], alpha[[k + 1 for k in starts]])
+    for part, starts in _segments(formula).items():
+        values = _segment_values(part, starts, signals, horizon)
         i = int(np.argmin(values))
         if worst is None or values[i] < worst.value:
             worst = Crossing(float(values[i]), starts[i])
     return worst
+
+
+def _segments(formula: Formula) -> dict[Formula, list[int]]:
+    """Each disjunction of half-planes ``formula`` requires at two consecutive steps, with the
+    first steps of those segments."""
+    steps: dict[Formula, set[int]] = {}
+    for part, k in step_parts(formula):
+        if _half_planes(part) is not None:
+            steps.setdefault(part, set()).add(k)
+    out = {part: sorted(k for k in held if k + 1 in held) for part, held in steps.items()}
+    return {part: starts for part, starts in out.items() if starts}
 
 
 def separation_segments(positions: np.ndarray, separation: float) -> np.ndarray:
@@ -95,3 +102,45 @@ def separation_segments(positions: np.ndarray, separation: float) -> np.ndarray:
     rel = positions[:, None] - positions[None, :]  # (P, P, H+1, 2)
     alpha = np.concatenate([rel, -rel], axis=-1) - separation  # (P, P, H+1, 4)
     return segment_floor(alpha[:, :, :-1], alpha[:, :, 1:])
+
+
+def crossing_segments(problem: Problem, trajectory: Trajectory, tol: float = 1e-6) -> list[Cut]:
+    """Every segment on which a safety requirement fails by more than ``tol``: the agents whose
+    path it is, and its first step (for drawing; the monitor's verdicts give the worst ones)."""
+    if not problem.inter_sample:
+        return []
+    found: set[Cut] = set()
+    for constraint in problem.constraints:
+        for binding in constraint.bindings:
+            signals = {role: trajectory.states[name] for role, name in binding.items()}
+            lowered = problem.lowered(constraint.formula, binding)
+            for k in _failing_steps(lowered, signals, problem.horizon, tol):
+                found.update((name, k) for name in binding.values())
+    if problem.separation is not None and len(problem.agents) > 1:
+        names = [a.name for a in problem.agents]
+        z = np.stack([trajectory.position(a.name, a.position) for a in problem.agents])
+        seg = separation_segments(z, problem.separation)
+        for p, q, k in np.argwhere(seg < -tol):
+            if p < q:
+                found.update({(names[p], int(k)), (names[q], int(k))})
+    return sorted(found)
+
+
+def _failing_steps(
+    formula: Formula, signals: Mapping[str, np.ndarray], horizon: int, tol: float
+) -> set[int]:
+    """First steps of the segments on which a safety part of ``formula`` fails."""
+    out: set[int] = set()
+    for part, starts in _segments(formula).items():
+        values = _segment_values(part, starts, signals, horizon)
+        out.update(k for k, v in zip(starts, values, strict=True) if v < -tol)
+    return out
+
+
+def _segment_values(
+    part: Formula, starts: list[int], signals: Mapping[str, np.ndarray], horizon: int
+) -> np.ndarray:
+    """``rho_seg`` of a disjunction of half-planes on the segments starting at ``starts``."""
+    planes = _half_planes(part) or ()
+    alpha = np.array([robustness(p, signals, horizon) for p in planes]).T  # (H+1, n)
+    return segment_floor(alpha[starts], alpha[[k + 1 for k in starts]])

@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from stlplan.crossings import segment_floor, separation_segments
+from stlplan.crossings import crossing_segments, segment_floor, separation_segments
 from stlplan.monitor import check
+from stlplan.plots import plan_figure
 from stlplan.problem import Problem
 from stlplan.result import PlanStatus
 from stlplan.solve import PlanOptions, plan
@@ -129,3 +132,70 @@ def test_the_planner_keeps_agents_apart_between_steps(lazy: bool) -> None:
     sampled = plan(problem.with_inter_sample(False), PlanOptions(time_limit=60, lazy=lazy))
     assert sampled.objective is not None and result.objective is not None
     assert sampled.objective >= result.objective - 1e-6
+
+
+def test_crossing_segments_name_the_agents_and_steps() -> None:
+    paths = {"a": [(1, 1), (2, 1), (3, 2), (3, 3)], "b": [(3, 2), (3, 1), (2, 1), (1, 1)]}
+    problem = make_problem(paths, dict.fromkeys(paths, "V"), separation=0.5)
+    assert crossing_segments(problem, walk(paths)) == [("a", 1), ("b", 1)]
+    assert crossing_segments(problem.with_inter_sample(False), walk(paths)) == []
+    corner = {"a": [(1, 3), (3, 4.5), (5, 5), (5, 5)]}
+    cut = make_problem(corner, {"a": "V"}, constraints=AVOID)
+    assert crossing_segments(cut, walk(corner)) == [("a", 0)]
+
+
+def test_the_map_marks_crossings_in_red() -> None:
+    corner = {"a": [(1, 3), (3, 4.5), (5, 5), (5, 5)]}
+    problem = make_problem(corner, {"a": "V"}, constraints=AVOID)
+    trajectory = walk(corner)
+    figure = plan_figure(problem, trajectory, check(problem, trajectory))
+    legend = figure.axes[0].get_legend()
+    assert "unsafe between steps" in [t.get_text() for t in legend.get_texts()]
+    red = [ln for ln in figure.axes[0].lines if ln.get_color() == "#d62728"]
+    assert len(red) == 1 and np.allclose(red[0].get_xydata(), [(1, 3), (3, 4.5)])
+    safe = problem.with_inter_sample(False)
+    figure = plan_figure(safe, trajectory, check(safe, trajectory))
+    assert not [ln for ln in figure.axes[0].lines if ln.get_color() == "#d62728"]
+
+
+def test_check_draws_the_trajectory_it_judges(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from stlplan.cli import app
+
+    out = tmp_path / "map.png"
+    csv = tmp_path / "crossing.csv"
+    csv.write_text(
+        "agent,k,x0,x1,u0,u1\n"
+        + "".join(
+            f"a,{k},{x},{y},{dx},{dy}\n"
+            for k, (x, y, dx, dy) in enumerate([(0, 0, 1, 0.5), (1, 0.5, 1, -0.5), (2, 0, "", "")])
+        ),
+        encoding="utf-8",
+    )
+    mission_file = tmp_path / "corner.yaml"
+    mission_file.write_text(CORNER_YAML, encoding="utf-8")
+    found = CliRunner().invoke(app, ["check", str(mission_file), str(csv), "--plot", str(out)])
+    assert found.exit_code == 1, found.output
+    assert "on the segment" in found.output.replace("\n", " ")
+    assert out.stat().st_size > 10_000
+    sampled = CliRunner().invoke(app, ["check", str(mission_file), str(csv), "--no-inter-sample"])
+    assert sampled.exit_code == 0, sampled.output
+
+
+CORNER_YAML = """
+name: corner
+horizon: 2
+dynamics:
+  si: {A: [[1, 0], [0, 1]], B: [[1, 0], [0, 1]], state_bounds: [[-5, 5], [-5, 5]],
+       input_bounds: [[-1, 1], [-1, 1]]}
+agents:
+  - {name: a, dynamics: si, initial_state: [0, 0]}
+regions:
+  Goal: {box: [[1.9, 2.1], [-0.1, 0.1]]}
+  Obs: {box: [[0.5, 1.5], [-2, 0.5]]}
+tasks:
+  reach: {formula: "F[2,2] in(p, Goal)", roles: {p: {agent: a}}}
+constraints:
+  avoid: {formula: "G[0,2] !in(p, Obs)", for_each: p}
+"""

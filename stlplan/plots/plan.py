@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import os
+from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Polygon
 
+from stlplan.crossings import crossing_segments
 from stlplan.plots.common import (
     _AXES,
     _LEGEND,
@@ -35,6 +37,11 @@ from stlplan.plots.common import (
 )
 from stlplan.problem import Problem
 from stlplan.result import MonitorReport, Trajectory
+
+_CROSSING: dict[str, Any] = dict(
+    color="#d62728", linewidth=3.2, alpha=0.85, solid_capstyle="round", zorder=4
+)
+"""A segment of a path that enters an obstacle or another agent's separation box."""
 
 
 def _label_spot(vertices: np.ndarray, name: str, avoid: np.ndarray, pt_per_unit: float):
@@ -108,7 +115,16 @@ def _draw_sync_runs(ax, problem: Problem, trajectory: Trajectory, report, styles
     return captions
 
 
-def _plan_legend(ax, problem: Problem, styles, has_sync: bool) -> None:
+def _draw_crossings(ax, problem: Problem, trajectory: Trajectory) -> bool:
+    """Segments a robot would follow through an obstacle or another agent, in red."""
+    cuts = crossing_segments(problem, trajectory)
+    for name, k in cuts:
+        z = trajectory.position(name, problem.agent(name).position)[k : k + 2]
+        ax.plot(z[:, 0], z[:, 1], **_CROSSING)
+    return bool(cuts)
+
+
+def _plan_legend(ax, problem: Problem, styles, has_sync: bool, crossed: bool = False) -> None:
     handles = []
     for agent in problem.agents:
         marker, color = styles[agent.name]
@@ -117,6 +133,8 @@ def _plan_legend(ax, problem: Problem, styles, has_sync: bool) -> None:
     handles.append(Line2D([], [], marker="o", mfc="0.6", label="start (step 0)", **_START))
     if has_sync:
         handles.append(Line2D([], [], marker="o", mfc="0.6", label="synchronized run", **_SYNC))
+    if crossed:
+        handles.append(Line2D([], [], label="unsafe between steps", **_CROSSING))
     legend_at = dict(loc="upper left", bbox_to_anchor=(1.01, 1.0), title="agent (capability)")
     ax.legend(handles=handles, **legend_at, **_LEGEND)
 
@@ -124,7 +142,8 @@ def _plan_legend(ax, problem: Problem, styles, has_sync: bool) -> None:
 def plan_figure(
     problem: Problem, trajectory: Trajectory, report: MonitorReport, title: str | None = None
 ) -> Figure:
-    """The map: workspace, regions, each agent's path, starts and synchronized runs."""
+    """The map: workspace, regions, each agent's path (the straight segments a robot follows
+    between waypoints), starts, synchronized runs, and in red any segment that crosses."""
     bounds = workspace(problem)
     (xl, xh), (yl, yh) = bounds
     width = 9.0
@@ -138,12 +157,13 @@ def plan_figure(
     eps = 0.01 * max(xh - xl, yh - yl)
     for agent in problem.agents:
         _draw_agent(ax, trajectory.position(agent.name, agent.position), styles[agent.name], eps)
+    crossed = _draw_crossings(ax, problem, trajectory)
     captions = _draw_sync_runs(ax, problem, trajectory, report, styles)
     ax.set(xlim=(xl, xh), ylim=(yl, yh), aspect="equal", xlabel="x", ylabel="y")
     ax.tick_params(labelsize=8)
     ax.grid(True, color="0.9", linewidth=0.6)
     ax.set_axisbelow(True)
-    _plan_legend(ax, problem, styles, bool(captions))
+    _plan_legend(ax, problem, styles, bool(captions), crossed)
     _titles(ax, title or problem.mission.name, _status_line(report))
     for i, caption in enumerate(captions):
         ax.annotate(caption, (0.0, -0.09 - 0.05 * i), va="top", fontsize=9, **_AXES)
