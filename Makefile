@@ -38,10 +38,10 @@ smoke: $(STAMP)  ## Solve Cases I-III once each under a time limit; fail unless 
 	done
 
 bench: $(STAMP)  ## Benchmark Cases I-III: 30 random states each, straightforward formulation on 2 (~1.5 h)
-	$(BIN)/python -m stlplan.bench --runs 30 --compare-runs 2 --compare-time-limit 600
+	$(BIN)/python -m stlplan.bench --runs 30 --formulations default sampled --compare-runs 2 --compare-time-limit 600
 
 bench-quick: $(STAMP)  ## Benchmark Cases I-III on 2 states each, straightforward on 1 of Case I (~6 min)
-	$(BIN)/python -m stlplan.bench --runs 2 --compare-runs 1 --compare-cases farm --compare-time-limit 300 --name bench-quick
+	$(BIN)/python -m stlplan.bench --runs 2 --formulations default sampled --compare-runs 1 --compare-cases farm --compare-time-limit 300 --name bench-quick
 
 lint: $(STAMP)  ## ruff check, ruff format --check, mypy
 	$(BIN)/ruff check stlplan tests
