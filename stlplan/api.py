@@ -14,17 +14,17 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
-from stlplan import stops
-from stlplan.diagnose import cheap_reasons, diagnose
 from stlplan.errors import SolverError
-from stlplan.figures import reported
-from stlplan.loader import load_problem
-from stlplan.monitor import check as monitor_check
-from stlplan.outputs import prepare_directory, write_all, write_json
-from stlplan.problem import Problem
+from stlplan.mission.loader import load_problem
+from stlplan.mission.problem import Problem
+from stlplan.monitor.verdicts import check as monitor_check
+from stlplan.outputs.directory import prepare_directory, write_all, write_json
+from stlplan.outputs.summary import summary_dict
+from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
+from stlplan.planner import stops
+from stlplan.planner.diagnose import cheap_reasons, diagnose
+from stlplan.planner.figures import reported
 from stlplan.result import Diagnosis, MonitorReport, PlanResult, PlanStatus
-from stlplan.summary import summary_dict
-from stlplan.trajio import read_trajectory_csv, write_trajectory_csv
 
 
 def validate(mission: str | Path) -> Problem:
@@ -46,7 +46,7 @@ def plot_trajectory(
     problem: Problem, trajectory: str | Path, report: MonitorReport, out: str | Path
 ) -> None:
     """Draw the map of a trajectory CSV (``plan.png`` style) with the monitor's ``report``."""
-    from stlplan.plots import plot_plan
+    from stlplan.outputs.plots import plot_plan
 
     traj = read_trajectory_csv(problem, Path(trajectory))
     plot_plan(problem, traj, report, out, title=f"{problem.mission.name}: {Path(trajectory).name}")
@@ -54,7 +54,7 @@ def plot_trajectory(
 
 def _verified(problem: Problem, result: PlanResult, gap: float) -> PlanResult:
     """Attach the monitor's report and report the written plan's figures
-    (:func:`stlplan.figures.reported`); a plan the monitor rejects is an error, never an output.
+    (:func:`stlplan.planner.figures.reported`); a plan the monitor rejects is an error, never an output.
     """
     if result.trajectory is None:
         return result
@@ -90,18 +90,18 @@ def plan(
     ``inter_sample`` turns safety on the segments between steps on or off (None keeps the
     mission's ``safety.inter_sample``).
 
-    ``overrides`` are :class:`stlplan.solve.PlanOptions` fields (``time_limit``, ``gap``,
+    ``overrides`` are :class:`stlplan.planner.solve.PlanOptions` fields (``time_limit``, ``gap``,
     ``threads``, ``seed``, ``encoding``, ``two_step``); None keeps the mission's value. The time
     limit bounds the whole call, diagnosis included. An infeasible mission comes back with a
     :class:`~stlplan.result.Diagnosis` (cheap reasons found before solving, or a minimal
     conflict found by feasibility solves).
 
     In the main thread, SIGINT and SIGTERM during a solve stop HiGHS and the best plan so far
-    comes back verified with status ``interrupted`` (:mod:`stlplan.stops`); a second signal, or
-    one outside a solve, raises :class:`stlplan.stops.Interrupted`.
+    comes back verified with status ``interrupted`` (:mod:`stlplan.planner.stops`); a second signal, or
+    one outside a solve, raises :class:`stlplan.planner.stops.Interrupted`.
     """
-    from stlplan.solve import PlanOptions
-    from stlplan.solve import plan as solve_plan
+    from stlplan.planner.solve import PlanOptions
+    from stlplan.planner.solve import plan as solve_plan
 
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
     problem = problem.with_inter_sample(inter_sample)
@@ -131,7 +131,7 @@ PROBE_LIMIT, DIAGNOSIS_LIMIT = 30.0, 120.0
 def _diagnosed(problem: Problem, options: Any, result: PlanResult, deadline: float) -> PlanResult:
     """``result`` with a minimal conflict found by feasibility solves (deletion filter), each
     infeasible verdict confirmed (recorded as a diagnosis probe), all before ``deadline``."""
-    from stlplan.solve import plan as solve_plan
+    from stlplan.planner.solve import plan as solve_plan
 
     probe = dataclasses.replace(options, time_limit=PROBE_LIMIT, two_step=False)
     confirmations = list(result.confirmations)
@@ -161,7 +161,7 @@ def write_plan(
 
     Without a plan, only ``summary.json`` is written.
     """
-    from stlplan.plots import plot_plan, plot_timeline
+    from stlplan.outputs.plots import plot_plan, plot_timeline
 
     out = Path(out)
     summary = summary_dict(problem, result, options or {})

@@ -48,7 +48,7 @@ FORMULATIONS: dict[str, dict[str, Any]] = {
     "heuristics-0.01": {"highs_options": (("mip_heuristic_effort", 0.01),)},
     "heuristics-0.2": {"highs_options": (("mip_heuristic_effort", 0.2),)},
 }
-"""Formulation name to :class:`stlplan.solve.PlanOptions` overrides (``inter_sample`` goes to the
+"""Formulation name to :class:`stlplan.planner.solve.PlanOptions` overrides (``inter_sample`` goes to the
 problem: ``sampled`` is the paper's semantics, safety judged at the steps only)."""
 
 GAP = 1e-4
@@ -71,8 +71,8 @@ class Job:
 
 
 def _initial_problem(case: str, seed: int, run: int) -> Any:
-    from stlplan.loader import load_problem
-    from stlplan.problem import build_problem
+    from stlplan.mission.loader import load_problem
+    from stlplan.mission.problem import build_problem
     from stlplan.sweep.initial import draw_positions, with_initial_positions
 
     path = MISSIONS / f"{case}.yaml"

@@ -22,8 +22,9 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
-from stlplan import api, stops
+from stlplan import api
 from stlplan.errors import StlplanError, UsageError
+from stlplan.planner import stops
 from stlplan.result import PlanStatus
 
 app = typer.Typer(
@@ -135,7 +136,7 @@ def check(
 ) -> None:
     """Judge a team trajectory with the independent monitor; exit 1 when anything fails."""
     problem, report = api.check(mission, trajectory, inter_sample=inter_sample)
-    from stlplan.render import print_report
+    from stlplan.outputs.render import print_report
 
     print_report(out_console, report)
     if plot is not None:
@@ -151,7 +152,7 @@ def schema(
     out: Annotated[Path, typer.Option(help="Where to write the JSON Schema.")] = SCHEMA_PATH,
 ) -> None:
     """Write the mission file JSON Schema (for editors and validation)."""
-    from stlplan.mission import json_schema
+    from stlplan.mission.schema import json_schema
 
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json_schema(), encoding="utf-8")
@@ -193,8 +194,8 @@ def solve(
     ] = False,
 ) -> None:
     """Plan a mission: solve the MILP, verify with the monitor, write CSV, JSON and plots."""
-    from stlplan.progress import ProgressLine
-    from stlplan.render import print_plan
+    from stlplan.outputs.progress import ProgressLine
+    from stlplan.outputs.render import print_plan
 
     overrides: dict[str, Any] = dict(
         time_limit=time_limit,

@@ -69,9 +69,9 @@ import yaml
 from typer.testing import CliRunner
 
 from stlplan.cli import app
-from stlplan.loader import load_problem
+from stlplan.mission.loader import load_problem
+from stlplan.outputs.trajio import write_trajectory_csv
 from stlplan.result import Trajectory
-from stlplan.trajio import write_trajectory_csv
 from tests.conftest import MISSIONS
 
 runner = CliRunner()
@@ -419,12 +419,12 @@ def test_a_write_failing_half_way_leaves_nothing(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The last output (timeline.png) cannot be written: no file of the plan is left behind."""
-    import stlplan.plots
+    import stlplan.outputs.plots
 
     def disk_full(*args: object, **kwargs: object) -> None:
         raise OSError(28, "No space left on device", str(args[3]))
 
-    monkeypatch.setattr(stlplan.plots, "plot_timeline", disk_full)
+    monkeypatch.setattr(stlplan.outputs.plots, "plot_timeline", disk_full)
     out = tmp_path / "plan"
     code, output = run_cli("solve", str(MISSION), "--out", str(out), "-q")
     assert code == EXIT_USAGE, output

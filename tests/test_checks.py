@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from stlplan.errors import FormulaError, MissionError, StlplanError
-from stlplan.loader import load_problem
+from stlplan.mission.loader import load_problem
 
 BROKEN = Path(__file__).resolve().parent / "broken"
 BASE = BROKEN / "_base.yaml"

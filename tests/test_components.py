@@ -6,11 +6,11 @@ from typing import Any
 
 import pytest
 
-from stlplan.components import Part, _tighten, agent_parts, solve_parts, sub_problem
-from stlplan.lazy import Step1
+from stlplan.planner.components import Part, _tighten, agent_parts, solve_parts, sub_problem
+from stlplan.planner.lazy import Step1
+from stlplan.planner.session import Clock, PlanOptions
+from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
-from stlplan.session import Clock, PlanOptions
-from stlplan.solve import plan
 from tests.test_lazy import accepted, mission, swap_problem
 
 

@@ -1,4 +1,4 @@
-"""Confirmation of HiGHS's infeasible verdicts (stlplan.confirm)."""
+"""Confirmation of HiGHS's infeasible verdicts (stlplan.planner.confirm)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from stlplan import api
-from stlplan.confirm import attempts, has_plan, option, solve_confirmed, verdict
+from stlplan.planner.confirm import attempts, has_plan, option, solve_confirmed, verdict
 from tests.conftest import MISSIONS
 
 DATA = Path(__file__).parent / "data"
@@ -108,7 +108,7 @@ def test_a_false_verdict_in_a_lazy_round_is_overturned_and_the_loop_goes_on(
     """The first step-1 solve is made infeasible by a row HiGHS alone sees, removed after it."""
     import highspy as hs
 
-    from stlplan.session import HighsSession
+    from stlplan.planner.session import HighsSession
 
     usual = HighsSession._run
     spoiled = []

@@ -10,12 +10,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from stlplan.crossings import crossing_segments, segment_floor, separation_segments
-from stlplan.monitor import check
-from stlplan.plots import plan_figure
-from stlplan.problem import Problem
+from stlplan.mission.problem import Problem
+from stlplan.monitor.crossings import crossing_segments, segment_floor, separation_segments
+from stlplan.monitor.verdicts import check
+from stlplan.outputs.plots import plan_figure
+from stlplan.planner.solve import PlanOptions, plan
 from stlplan.result import PlanStatus
-from stlplan.solve import PlanOptions, plan
 from tests.test_lazy import mission, swap_problem
 from tests.test_monitor import AVOID, make_problem, walk
 

@@ -23,12 +23,18 @@ from pyomo.environ import (
     value,
 )
 
-from stlplan.encoding.model import build_model, reachable_boxes
-from stlplan.encoding.sos1 import sos1_block
-from stlplan.encoding.stl import StlContext, conjunction, disjunction, encode, predicate_range
 from stlplan.formula.parser import parse
-from stlplan.mission import Mission
-from stlplan.problem import Problem, build_problem
+from stlplan.mission.problem import Problem, build_problem
+from stlplan.mission.schema import Mission
+from stlplan.planner.encoding.model import build_model, reachable_boxes
+from stlplan.planner.encoding.sos1 import sos1_block
+from stlplan.planner.encoding.stl import (
+    StlContext,
+    conjunction,
+    disjunction,
+    encode,
+    predicate_range,
+)
 
 ENCODINGS = ["log", "standard"]
 

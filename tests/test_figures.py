@@ -1,4 +1,4 @@
-"""One value per quantity: reported figures are the written plan's (stlplan.figures)."""
+"""One value per quantity: reported figures are the written plan's (stlplan.planner.figures)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 
 from stlplan import api
 from stlplan.cli import app
-from stlplan.figures import plan_objective
+from stlplan.planner.figures import plan_objective
 from tests.conftest import MISSIONS
 
 DATA = Path(__file__).parent / "data"
@@ -44,12 +44,12 @@ def test_stepping_stones_summary_reports_the_monitors_margin(tmp_path: Path) -> 
 def test_a_failed_continuous_solve_says_why_and_what_it_costs(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    import stlplan.solve
+    import stlplan.planner.solve
 
     def failing(pm, options, clock):  # type: ignore[no-untyped-def]
         return "the continuous solve ended maxTimeLimit", 0.0
 
-    monkeypatch.setattr(stlplan.solve, "_continuous", failing)
+    monkeypatch.setattr(stlplan.planner.solve, "_continuous", failing)
     _, result = api.plan(MISSIONS / "reach-avoid.yaml", threads=1)
     assert result.status.has_plan and result.report is not None
     assert result.fallback is not None

@@ -35,11 +35,11 @@ from hypothesis import strategies as st
 from stlplan.errors import FormulaError, StlplanError
 from stlplan.formula.parser import parse, to_text
 from stlplan.formula.tree import Distance, Formula, Linear, atoms
-from stlplan.loader import problem_from_text
-from stlplan.monitor import check
-from stlplan.problem import Problem
+from stlplan.mission.loader import problem_from_text
+from stlplan.mission.problem import Problem
+from stlplan.monitor.verdicts import check
+from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
 from stlplan.result import MonitorReport, Trajectory
-from stlplan.trajio import read_trajectory_csv, write_trajectory_csv
 
 FUZZ_EXAMPLES = int(os.environ.get("STLPLAN_FUZZ_EXAMPLES", "150"))
 FUZZ = settings(

@@ -8,7 +8,14 @@ from collections.abc import Mapping
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from stlplan.groups import Element, RoleRule, candidates, count_groups, elements, iter_groups
+from stlplan.mission.groups import (
+    Element,
+    RoleRule,
+    candidates,
+    count_groups,
+    elements,
+    iter_groups,
+)
 
 Team = Mapping[str, frozenset[str]]
 

@@ -16,8 +16,9 @@ from typing import Any
 import pytest
 from typer.testing import CliRunner
 
-from stlplan import api, stops
+from stlplan import api
 from stlplan.cli import app
+from stlplan.planner import stops
 from stlplan.result import PlanStatus
 from stlplan.sweep.runner import pending
 from tests.conftest import MISSIONS
@@ -97,7 +98,7 @@ def test_interrupted_lazy_round_without_a_full_plan_keeps_nothing() -> None:
 def test_cli_ctrl_c_writes_the_plan_marked_interrupted(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from stlplan.progress import ProgressLine
+    from stlplan.outputs.progress import ProgressLine
 
     monkeypatch.setattr(ProgressLine, "update", lambda self, p: hook(p))
     hook = signal_at_first_plan()
@@ -112,7 +113,7 @@ def test_cli_ctrl_c_writes_the_plan_marked_interrupted(
 
 
 def test_cli_sigterm_exits_143(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from stlplan.progress import ProgressLine
+    from stlplan.outputs.progress import ProgressLine
 
     hook = signal_at_first_plan(signal.SIGTERM)
     monkeypatch.setattr(ProgressLine, "update", lambda self, p: hook(p))

@@ -7,15 +7,15 @@ from typing import Any
 import numpy as np
 import pytest
 
-from stlplan.encoding.deferred import SEPARATION, defer, neighbours, violated
-from stlplan.encoding.model import build_model, reachable_boxes
 from stlplan.formula.parser import parse
 from stlplan.formula.tree import step_parts
-from stlplan.mission import Mission
-from stlplan.monitor import check
-from stlplan.problem import Problem, build_problem
+from stlplan.mission.problem import Problem, build_problem
+from stlplan.mission.schema import Mission
+from stlplan.monitor.verdicts import check
+from stlplan.planner.encoding.deferred import SEPARATION, defer, neighbours, violated
+from stlplan.planner.encoding.model import build_model, reachable_boxes
+from stlplan.planner.solve import PlanOptions, Progress, plan
 from stlplan.result import PlanResult, PlanStatus
-from stlplan.solve import PlanOptions, Progress, plan
 
 SINGLE_INTEGRATOR = {
     "A": [[1, 0], [0, 1]],

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from stlplan.formula.tree import horizon
-from stlplan.loader import load_problem
-from stlplan.problem import Problem
+from stlplan.mission.loader import load_problem
+from stlplan.mission.problem import Problem
 from tests.conftest import MISSIONS
 
 SHIPPED = sorted(MISSIONS.glob("*.yaml"))

@@ -29,10 +29,10 @@ from stlplan.formula.tree import (
     Until,
     horizon,
 )
-from stlplan.loader import load_problem
-from stlplan.mission import Mission
-from stlplan.monitor import check
-from stlplan.problem import Problem, build_problem
+from stlplan.mission.loader import load_problem
+from stlplan.mission.problem import Problem, build_problem
+from stlplan.mission.schema import Mission
+from stlplan.monitor.verdicts import check
 from stlplan.result import Trajectory
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -370,9 +370,9 @@ def test_farm_agents_that_stay_home_fail_every_task() -> None:
 
 def test_monitor_does_not_import_the_solver() -> None:
     code = (
-        "import sys, stlplan.monitor\n"
+        "import sys, stlplan.monitor.verdicts\n"
         "bad = [m for m in sys.modules if m.split('.')[0] in ('pyomo', 'highspy')"
-        " or m.startswith('stlplan.encoding') or m == 'stlplan.solve']\n"
+        " or m.startswith('stlplan.planner.encoding') or m == 'stlplan.planner.solve']\n"
         "print(','.join(bad))\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -11,9 +11,10 @@ import yaml
 from matplotlib.patches import Polygon
 from PIL import Image
 
-from stlplan.loader import load_problem
-from stlplan.mission import Mission
-from stlplan.plots import (
+from stlplan.mission.loader import load_problem
+from stlplan.mission.problem import Problem, build_problem
+from stlplan.mission.schema import Mission
+from stlplan.outputs.plots import (
     obstacle_regions,
     plan_figure,
     plot_plan,
@@ -25,7 +26,6 @@ from stlplan.plots import (
     timeline_figure,
     workspace,
 )
-from stlplan.problem import Problem, build_problem
 from stlplan.result import MonitorReport, Trajectory, Verdict
 
 FARM = Path(__file__).resolve().parents[1] / "missions" / "farm.yaml"

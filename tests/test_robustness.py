@@ -22,7 +22,7 @@ from stlplan.formula.tree import (
     Until,
     horizon,
 )
-from stlplan.robustness import robustness
+from stlplan.monitor.robustness import robustness
 
 
 def above(bound: float, role: str = "p", component: int = 0) -> Predicate:

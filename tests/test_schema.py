@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from stlplan.mission import Mission, json_schema
+from stlplan.mission.schema import Mission, json_schema
 from tests.conftest import MISSIONS, ROOT
 
 

@@ -10,11 +10,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from stlplan.loader import load_problem
-from stlplan.mission import Mission
-from stlplan.problem import Problem, build_problem
+from stlplan.mission.loader import load_problem
+from stlplan.mission.problem import Problem, build_problem
+from stlplan.mission.schema import Mission
+from stlplan.planner.solve import PlanOptions, Progress, plan
 from stlplan.result import PlanStatus
-from stlplan.solve import PlanOptions, Progress, plan
 
 ENCODINGS = ["log", "standard"]
 FARM = Path(__file__).resolve().parents[1] / "missions" / "farm.yaml"
@@ -144,7 +144,7 @@ def test_gamma_caps_synchronous_robustness() -> None:
 
 
 def test_solver_robustness_equals_monitor() -> None:
-    from stlplan.monitor import check
+    from stlplan.monitor.verdicts import check
 
     problem = sync_problem()
     result = plan(problem, PlanOptions(time_limit=60, two_step=False))
@@ -194,7 +194,7 @@ def test_options_from_mission_with_overrides() -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("encoding", ENCODINGS)
 def test_farm_case_one(encoding: str) -> None:
-    from stlplan.monitor import check
+    from stlplan.monitor.verdicts import check
 
     problem = load_problem(FARM)
     result = plan(
@@ -236,7 +236,7 @@ def swap_problem(effort: str) -> Problem:
 @pytest.mark.parametrize("encoding", ENCODINGS)
 @pytest.mark.parametrize(("effort", "two_step"), [("l2", True), ("linf", True), ("l1", False)])
 def test_plans_pass_the_monitor(encoding: str, effort: str, two_step: bool) -> None:
-    from stlplan.monitor import check
+    from stlplan.monitor.verdicts import check
 
     problem = swap_problem(effort)
     result = plan(problem, PlanOptions(encoding=encoding, two_step=two_step, time_limit=60))
@@ -251,8 +251,8 @@ def test_plans_pass_the_monitor(encoding: str, effort: str, two_step: bool) -> N
 
 def test_fixed_decisions_enforce_exactly_the_chosen_disjunct() -> None:
     # reach at k=2 is the optimal decision: the Goal's half-planes at k=2 are the ones enforced
-    from stlplan.encoding.model import build_model
-    from stlplan.solve import _Clock, _solve, enforced_predicates, fix_decisions
+    from stlplan.planner.encoding.model import build_model
+    from stlplan.planner.solve import _Clock, _solve, enforced_predicates, fix_decisions
 
     pm = build_model(reach_problem(), "log")
     options = PlanOptions(time_limit=30)

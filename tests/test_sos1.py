@@ -10,7 +10,7 @@ from pyomo.contrib.solver.common.results import TerminationCondition
 from pyomo.contrib.solver.solvers.highs import Highs
 from pyomo.environ import ConcreteModel, Objective, VarList, maximize, value
 
-from stlplan.encoding.sos1 import code_bits, gray_code, sos1, sos1_block
+from stlplan.planner.encoding.sos1 import code_bits, gray_code, sos1, sos1_block
 
 
 def _solver() -> Highs:

@@ -10,7 +10,7 @@ import pytest
 
 from stlplan import api
 from stlplan.errors import UsageError
-from stlplan.loader import load_mission
+from stlplan.mission.loader import load_mission
 from stlplan.sweep.initial import draw_positions, with_initial_positions
 from stlplan.sweep.runner import read_records
 from tests.conftest import MISSIONS

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from stlplan.errors import TrajectoryError
-from stlplan.mission import Mission
-from stlplan.problem import Problem, build_problem
+from stlplan.mission.problem import Problem, build_problem
+from stlplan.mission.schema import Mission
+from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
 from stlplan.result import Trajectory
-from stlplan.trajio import read_trajectory_csv, write_trajectory_csv
 
 H = 3
 

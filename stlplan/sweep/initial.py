@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from stlplan.errors import MissionError
-from stlplan.mission import Agent, Mission
-from stlplan.problem import region_halfspaces
+from stlplan.mission.problem import region_halfspaces
+from stlplan.mission.schema import Agent, Mission
 
 MAX_TRIES = 100_000
 

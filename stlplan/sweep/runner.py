@@ -19,8 +19,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from stlplan import stops
 from stlplan.errors import SolverError, StlplanError, UsageError
+from stlplan.planner import stops
 from stlplan.result import PlanResult
 
 RECORDS = "runs.jsonl"
@@ -41,8 +41,8 @@ class RunSpec:
 def run_one(spec: RunSpec) -> dict[str, Any]:
     """Draw the run's initial state, plan and verify; never raises for a failed solve."""
     from stlplan.api import plan
-    from stlplan.loader import problem_from_text
-    from stlplan.problem import build_problem
+    from stlplan.mission.loader import problem_from_text
+    from stlplan.mission.problem import build_problem
     from stlplan.sweep.initial import draw_positions, with_initial_positions
 
     record: dict[str, Any] = {"mission": spec.mission_key, "run": spec.run, "seed": spec.seed}
@@ -183,7 +183,7 @@ def execute(
 ) -> None:
     """Run ``specs`` and append each record to ``out/runs.jsonl`` as it finishes.
 
-    Ctrl-C or SIGTERM stops the sweep (:class:`stlplan.stops.Interrupted`); the runs in flight
+    Ctrl-C or SIGTERM stops the sweep (:class:`stlplan.planner.stops.Interrupted`); the runs in flight
     are lost, the recorded ones kept.
     """
     out.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,1 @@
+"""Reading a mission: the schema, the YAML document, loading and semantic checks."""

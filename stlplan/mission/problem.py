@@ -1,0 +1,211 @@
+"""A checked mission in the form the encoder and the monitor read.
+
+:func:`build_problem` parses every formula, runs the semantic checks of :mod:`stlplan.mission.checks`, and
+enumerates each task's elements and groups. Agents carry numpy matrices; formulas stay surface
+trees and are lowered per role binding with :meth:`Problem.lowered`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from stlplan.formula.normal import HalfSpaces, lower
+from stlplan.formula.parser import parse
+from stlplan.formula.tree import Formula, roles
+from stlplan.mission import checks
+from stlplan.mission.groups import Element, RoleRule, elements, iter_groups
+from stlplan.mission.schema import Mission, PinnedRole, Region
+
+
+@dataclass(frozen=True, eq=False)
+class AgentModel:
+    """An agent with its dynamics as arrays."""
+
+    name: str
+    capabilities: frozenset[str]
+    A: np.ndarray
+    B: np.ndarray
+    position: tuple[int, int]
+    state_lo: np.ndarray
+    state_hi: np.ndarray
+    input_lo: np.ndarray
+    input_hi: np.ndarray
+    initial_state: np.ndarray
+
+    @property
+    def n(self) -> int:
+        """State dimension."""
+        return int(self.A.shape[0])
+
+    @property
+    def m(self) -> int:
+        """Input dimension."""
+        return int(self.B.shape[1])
+
+
+@dataclass(frozen=True)
+class SyncWindow:
+    """``F[a,b] <G[0,d] phi, ...>``: start window ``[a, b]``, hold ``d``, upper bound gamma."""
+
+    a: int
+    b: int
+    d: int
+    gamma: float
+
+
+@dataclass(frozen=True, eq=False)
+class TaskModel:
+    """A task ``<phi, c, Pattern>`` with its elements and groups enumerated."""
+
+    name: str
+    formula: Formula
+    count: int
+    roles: tuple[str, ...]
+    rules: Mapping[str, RoleRule]
+    reuse_agents: bool
+    elements: tuple[Element, ...]
+    groups: tuple[tuple[int, ...], ...]
+    sync: SyncWindow | None = None
+
+    def binding(self, element: Element) -> dict[str, str]:
+        """Role to agent name for one element."""
+        return dict(zip(self.roles, element, strict=False))
+
+
+@dataclass(frozen=True, eq=False)
+class ConstraintModel:
+    """Plain STL that must hold at step 0 under each role binding."""
+
+    name: str
+    formula: Formula
+    bindings: tuple[Mapping[str, str], ...]
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """Everything the planner and the monitor need from a mission."""
+
+    mission: Mission
+    horizon: int
+    agents: tuple[AgentModel, ...]
+    regions: Mapping[str, HalfSpaces]
+    tasks: tuple[TaskModel, ...]
+    constraints: tuple[ConstraintModel, ...]
+    separation: float | None
+    source: str | None = None
+    inter_sample: bool = True
+    """Safety requirements hold on the segments between steps (DESIGN 2.9), not only at steps."""
+    _by_name: dict[str, AgentModel] = field(default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        self._by_name.update({a.name: a for a in self.agents})
+
+    def agent(self, name: str) -> AgentModel:
+        """The agent called ``name``."""
+        return self._by_name[name]
+
+    def with_inter_sample(self, on: bool | None) -> Problem:
+        """The same problem with inter-sample safety on or off (None keeps the mission's)."""
+        if on is None or on == self.inter_sample:
+            return self
+        return replace(self, inter_sample=on, _by_name={})
+
+    def lowered(self, formula: Formula, binding: Mapping[str, str]) -> Formula:
+        """``formula`` with roles bound to agents, as half-space predicates over roles."""
+        positions = {role: self.agent(name).position for role, name in binding.items()}
+        return lower(formula, self.regions, positions)
+
+
+def region_halfspaces(region: Region) -> HalfSpaces:
+    """``(G, h)`` with rows scaled to unit Euclidean norm (boxes: 4 axis rows)."""
+    if region.box is not None:
+        (xl, xh), (yl, yh) = region.box
+        return ((1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)), (xh, -xl, yh, -yl)
+    assert region.G is not None and region.h is not None
+    rows, rhs = [], []
+    for g, h in zip(region.G, region.h, strict=False):
+        norm = float(np.hypot(*g)) or 1.0
+        rows.append((g[0] / norm, g[1] / norm))
+        rhs.append(h / norm)
+    return tuple(rows), tuple(rhs)
+
+
+def _agent_model(mission: Mission, index: int) -> AgentModel:
+    spec = mission.agents[index]
+    dyn = mission.dynamics[spec.dynamics]
+    sb, ib = np.array(dyn.state_bounds, dtype=float), np.array(dyn.input_bounds, dtype=float)
+    return AgentModel(
+        name=spec.name,
+        capabilities=frozenset(spec.capabilities),
+        A=np.array(dyn.A, dtype=float),
+        B=np.array(dyn.B, dtype=float),
+        position=dyn.position,
+        state_lo=sb[:, 0],
+        state_hi=sb[:, 1],
+        input_lo=ib[:, 0],
+        input_hi=ib[:, 1],
+        initial_state=np.array(spec.initial_state, dtype=float),
+    )
+
+
+def _rule(rule: str | list[str] | PinnedRole) -> RoleRule:
+    if isinstance(rule, PinnedRole):
+        return RoleRule(agent=rule.agent)
+    return RoleRule(capabilities=frozenset([rule] if isinstance(rule, str) else rule))
+
+
+def _task_model(mission: Mission, name: str, source: str | None) -> TaskModel:
+    spec = mission.tasks[name]
+    formula = parse(spec.formula, source=source, where=f"tasks.{name}.formula")
+    checks.check_task(mission, name, formula, source)
+    order = roles(formula)
+    rules = {r: _rule(spec.roles[r]) for r in order}
+    team = {a.name: frozenset(a.capabilities) for a in mission.agents}
+    elems = elements(order, rules, team)
+    groups = tuple(iter_groups(elems, spec.count, spec.reuse_agents))
+    checks.check_groups(mission, name, len(elems), len(groups), source)
+    sync = None
+    if spec.synchronous is not None:
+        s = spec.synchronous
+        gamma = mission.objective.gamma if s.gamma is None else s.gamma
+        sync = SyncWindow(s.within[0], s.within[1], s.hold, gamma)
+    return TaskModel(
+        name, formula, spec.count, order, rules, spec.reuse_agents, elems, groups, sync
+    )
+
+
+def _constraint_model(mission: Mission, name: str, source: str | None) -> ConstraintModel:
+    spec = mission.constraints[name]
+    formula = parse(spec.formula, source=source, where=f"constraints.{name}.formula")
+    checks.check_constraint(mission, name, formula, source)
+    if spec.for_each is None:
+        return ConstraintModel(name, formula, (dict(spec.roles),))
+    pool = spec.agents if spec.agents is not None else [a.name for a in mission.agents]
+    pinned = set(spec.roles.values())
+    bindings = tuple({**spec.roles, spec.for_each: a} for a in pool if a not in pinned)
+    return ConstraintModel(name, formula, bindings)
+
+
+def build_problem(mission: Mission, source: str | None = None) -> Problem:
+    """Check ``mission`` and build its :class:`Problem`.
+
+    Raises
+    ------
+    MissionError, FormulaError
+        On the first inconsistency, naming the field path.
+    """
+    checks.check_mission(mission, source)
+    return Problem(
+        mission=mission,
+        horizon=mission.horizon,
+        agents=tuple(_agent_model(mission, i) for i in range(len(mission.agents))),
+        regions={n: region_halfspaces(r) for n, r in mission.regions.items()},
+        tasks=tuple(_task_model(mission, n, source) for n in mission.tasks),
+        constraints=tuple(_constraint_model(mission, n, source) for n in mission.constraints),
+        separation=mission.separation,
+        source=source,
+        inter_sample=mission.safety.inter_sample,
+    )

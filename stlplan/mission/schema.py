@@ -1,0 +1,212 @@
+"""The mission file schema: pydantic models that reject unknown keys.
+
+The models are the single source of truth for mission files; ``stlplan schema`` exports them to
+``schemas/mission.schema.json``. Cross-field consistency (undefined names, shapes, horizons) is
+checked in :mod:`stlplan.mission.checks`, after these models accept the document.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, StrictInt, model_validator
+
+Bounds = tuple[float, float]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(
+        extra="forbid", frozen=True, use_attribute_docstrings=True, allow_inf_nan=False
+    )
+
+
+class Dynamics(_Strict):
+    """Discrete-time linear dynamics ``x(k+1) = A x(k) + B u(k)`` with box bounds."""
+
+    A: list[list[float]]
+    """State matrix, n x n."""
+    B: list[list[float]]
+    """Input matrix, n x m."""
+    position: tuple[StrictInt, StrictInt] = (0, 1)
+    """The two state components that are the planar position z (0-based)."""
+    state_bounds: list[Bounds]
+    """[low, high] for each of the n state components."""
+    input_bounds: list[Bounds]
+    """[low, high] for each of the m input components."""
+
+
+class Agent(_Strict):
+    """One member of the team."""
+
+    name: str = Field(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")
+    """Unique agent name (letters, digits, '_' and '-')."""
+    dynamics: str
+    """Name of an entry of `dynamics`."""
+    capabilities: list[str] = []
+    """Capabilities the agent has, such as sensors (e.g. [UV])."""
+    initial_state: list[float]
+    """Initial state x(0), one value per state component."""
+
+
+class Region(_Strict):
+    """A convex region of the plane: a box, or a polytope ``{z : G z <= h}``."""
+
+    box: tuple[Bounds, Bounds] | None = None
+    """[[x_lo, x_hi], [y_lo, y_hi]]."""
+    G: list[tuple[float, float]] | None = None
+    """Polytope rows: each row [g_x, g_y] of G in G z <= h."""
+    h: list[float] | None = None
+    """Polytope right-hand sides, one per row of G."""
+
+    @model_validator(mode="after")
+    def _one_shape(self) -> Region:
+        if (self.box is None) == (self.G is None and self.h is None):
+            raise ValueError("give either 'box' or both 'G' and 'h'")
+        if self.box is None and (self.G is None or self.h is None):
+            raise ValueError("a polytope needs both 'G' and 'h'")
+        return self
+
+
+class PinnedRole(_Strict):
+    """A role filled by one named agent."""
+
+    agent: str
+    """Name of the agent that fills the role."""
+
+
+RoleRule = str | list[str] | PinnedRole
+
+
+class Synchronous(_Strict):
+    """Makes a task synchronous: ``F[a,b] <G[0,d] phi, count, Pattern>``."""
+
+    within: tuple[StrictInt, StrictInt]
+    """[a, b]: the steps at which the synchronized run may start."""
+    hold: StrictInt = Field(default=0, ge=0)
+    """d: every element must satisfy phi for d+1 consecutive steps together."""
+    gamma: float | None = Field(default=None, ge=0)
+    """Upper bound on this task's synchronous robustness (default: objective.gamma)."""
+
+
+class Task(_Strict):
+    """A global task ``<phi, count, Pattern>``, synchronous when `synchronous` is given."""
+
+    formula: str
+    """Inner logic phi over the roles (see the formula language in the README)."""
+    count: StrictInt = Field(default=1, ge=1)
+    """c: how many elements must satisfy phi."""
+    roles: dict[str, RoleRule]
+    """Pattern: each role's capability, list of capabilities (all required), or {agent: name}."""
+    reuse_agents: bool = False
+    """Allow one agent in several elements of a group (the paper forbids it by default)."""
+    synchronous: Synchronous | None = None
+    """Synchronization window and hold; absent for an ordinary task."""
+
+
+class Constraint(_Strict):
+    """Plain STL that must hold at step 0, for every agent or for named agents."""
+
+    formula: str
+    """STL formula over the roles below."""
+    for_each: str | None = None
+    """A role that ranges over agents: the formula must hold for each of them."""
+    agents: list[str] | None = None
+    """Agents `for_each` ranges over (default: every agent)."""
+    roles: dict[str, str] = {}
+    """Roles pinned to named agents."""
+
+
+class Margin(_Strict):
+    """Spatial robustness: the margin by which every enforced predicate holds."""
+
+    minimum: float = Field(default=0.0, ge=0)
+    """Required margin (0 enforces predicates exactly, as the paper does)."""
+    maximize: bool = False
+    """Maximize the margin (weighted by `weight`) instead of only requiring `minimum`."""
+    weight: float = Field(default=1.0, ge=0)
+    """Weight of the margin in the objective when maximized."""
+
+
+class Objective(_Strict):
+    """Problem (step1): maximize rho_s(Phi) - beta * effort subject to every task."""
+
+    beta: float = Field(default=0.05, ge=0)
+    """Weight of the control effort."""
+    gamma: float = Field(default=8.0, ge=0)
+    """Default upper bound on each synchronous task's robustness."""
+    effort: Literal["l1", "l2", "linf"] = "l2"
+    """Norm of the effort minimized in step 2 (step 1 always uses l1)."""
+    two_step: bool = True
+    """Run step 2: fix step 1's decisions and minimize the effort norm."""
+    margin: Margin = Margin()
+    """Spatial robustness requirement or goal."""
+
+
+class SolverOptions(_Strict):
+    """HiGHS options."""
+
+    time_limit: float = Field(default=300.0, gt=0)
+    """Wall-clock limit of the whole run (building, solving, step 2, diagnosis), seconds."""
+    gap: float = Field(default=1e-4, ge=0)
+    """Relative optimality gap at which HiGHS stops."""
+    threads: StrictInt | None = Field(default=None, ge=1)
+    """Threads HiGHS may use (default: HiGHS decides)."""
+    seed: StrictInt = Field(default=0, ge=0)
+    """HiGHS random seed."""
+    encoding: Literal["log", "standard"] = "log"
+    """Disjunctions as a logarithmic SOS1 or one binary per disjunct."""
+
+
+class Safety(_Strict):
+    """How safety requirements (avoid a region, keep separated) are judged."""
+
+    inter_sample: bool = True
+    """Judge them on the straight segment between consecutive steps, the path a robot tracking
+    the waypoints follows; false keeps the paper's semantics (the sampled steps only)."""
+
+
+class SweepOptions(_Strict):
+    """Where sweeps draw random initial positions."""
+
+    initial_region: str
+    """Region in which initial positions are drawn (at rest)."""
+
+
+class Mission(_Strict):
+    """A stlplan mission: team, map, tasks, constraints and objective."""
+
+    name: str
+    """Short name of the mission."""
+    description: str = ""
+    """Free text."""
+    horizon: StrictInt = Field(ge=1)
+    """H: states x(0..H), inputs u(0..H-1)."""
+    dynamics: dict[str, Dynamics]
+    """Named dynamics models agents refer to."""
+    agents: list[Agent] = Field(min_length=1)
+    """The team."""
+    regions: dict[str, Region] = {}
+    """Named regions of the map."""
+    tasks: dict[str, Task] = {}
+    """Global tasks <phi, c, Pattern>, some synchronous."""
+    constraints: dict[str, Constraint] = {}
+    """Bottom-up STL constraints on named agents or every agent (e.g. obstacle avoidance)."""
+    separation: float | None = Field(default=None, ge=0)
+    """Minimum pairwise distance between agents' positions (infinity norm), at every step."""
+    objective: Objective = Objective()
+    """What the plan optimizes."""
+    safety: Safety = Safety()
+    """How safety requirements are judged between steps."""
+    solver: SolverOptions = SolverOptions()
+    """Solver options (the command line may override them)."""
+    sweep: SweepOptions | None = None
+    """Settings for `stlplan sweep`."""
+
+
+def json_schema() -> str:
+    """The JSON Schema of mission files, as text (stable key order, trailing newline)."""
+    schema = Mission.model_json_schema()
+    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
+    schema["$id"] = "https://stlplan.dev/schemas/mission.schema.json"
+    return json.dumps(schema, indent=2, sort_keys=True) + "\n"

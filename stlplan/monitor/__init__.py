@@ -1,0 +1,1 @@
+"""The independent monitor: verdicts and robustness of any team trajectory."""

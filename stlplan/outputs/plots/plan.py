@@ -1,0 +1,191 @@
+"""The map figure (``plan.png``): workspace, regions, agents' paths and synchronized runs."""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Polygon
+
+from stlplan.mission.problem import Problem
+from stlplan.monitor.crossings import crossing_segments
+from stlplan.outputs.plots.common import (
+    _AXES,
+    _LEGEND,
+    _PATH,
+    _POINTS,
+    _REGION_COLORS,
+    _REGION_LABEL,
+    _START,
+    _SYNC,
+    DPI,
+    _capability_key,
+    _group_agents,
+    _run_steps,
+    _status_line,
+    _sync_verdicts,
+    _titles,
+    agent_styles,
+    obstacle_regions,
+    polygon_area,
+    region_vertices,
+    save_figure,
+    sync_caption,
+    workspace,
+)
+from stlplan.result import MonitorReport, Trajectory
+
+_CROSSING: dict[str, Any] = dict(
+    color="#d62728", linewidth=3.2, alpha=0.85, solid_capstyle="round", zorder=4
+)
+"""A segment of a path that enters an obstacle or another agent's separation box."""
+
+
+def _label_spot(vertices: np.ndarray, name: str, avoid: np.ndarray, pt_per_unit: float):
+    # among the centre and points pulled 35% inwards from corners and edge midpoints, the one
+    # farthest (in label sizes, max-norm) from the trajectory points and the labels placed so far
+    center = vertices.mean(axis=0)
+    rim = np.vstack([vertices, (vertices + np.roll(vertices, -1, axis=0)) / 2])
+    spots = np.vstack([center, rim + 0.35 * (center - rim)])
+    half = (np.array([0.33 * 9 * len(name), 6.0]) + 8.0) / pt_per_unit  # + marker size
+    if not len(avoid):
+        return center
+    gaps = np.abs(spots[:, None, :] - avoid[None, :, :]) / half
+    score = np.minimum(gaps.max(axis=2).min(axis=1), 1.5)
+    return spots[int(np.argmax(score))]
+
+
+def _region_style(name: str, obstacles: set[str], initial: str | None, colors) -> dict:
+    if name in obstacles:
+        return dict(facecolor="0.65", edgecolor="0.3", hatch="///", alpha=0.6)
+    if name == initial:
+        return dict(facecolor="tab:green", edgecolor="darkgreen", alpha=0.25)
+    color = next(colors)
+    return dict(facecolor=color, edgecolor=color, alpha=0.35)
+
+
+def _draw_regions(ax, problem: Problem, bounds, avoid: np.ndarray, pt_per_unit: float) -> None:
+    obstacles = set(obstacle_regions(problem))
+    initial = problem.mission.sweep.initial_region if problem.mission.sweep else None
+    shapes = {n: region_vertices(r, bounds) for n, r in problem.regions.items()}
+    shapes = {n: v for n, v in shapes.items() if len(v)}
+    colors = iter(_REGION_COLORS * (1 + len(shapes) // len(_REGION_COLORS)))
+    for name in sorted(shapes, key=lambda n: -polygon_area(shapes[n])):
+        style = _region_style(name, obstacles, initial, colors)
+        ax.add_patch(Polygon(shapes[name], closed=True, linewidth=1.2, zorder=1, **style))
+    for name in sorted(shapes, key=lambda n: polygon_area(shapes[n])):  # small regions first
+        x, y = _label_spot(shapes[name], name, avoid, pt_per_unit)
+        avoid = np.vstack([avoid, [x, y]])
+        ax.text(x, y, name, **_REGION_LABEL)
+
+
+def _step_clusters(points: np.ndarray, eps: float) -> list[tuple[int, int]]:
+    # consecutive steps whose positions stay within eps of the first one share one label
+    clusters, start = [], 0
+    for k in range(1, len(points) + 1):
+        if k == len(points) or np.max(np.abs(points[k] - points[start])) > eps:
+            clusters.append((start, k - 1))
+            start = k
+    return clusters
+
+
+def _draw_agent(ax, z: np.ndarray, style: tuple[str, tuple[float, ...]], eps: float) -> None:
+    marker, color = style
+    ax.plot(z[:, 0], z[:, 1], color=color, marker=marker, **_PATH)
+    ax.plot(z[0, 0], z[0, 1], marker=marker, markerfacecolor=color, **_START)
+    for first, last in _step_clusters(z, eps):
+        if first == 0 and last == 0:
+            continue  # the start marker already says "step 0"
+        label = str(first) if first == last else f"{first}-{last}"
+        ax.annotate(label, z[first], color=color, **_POINTS)
+
+
+def _draw_sync_runs(ax, problem: Problem, trajectory: Trajectory, report, styles) -> list[str]:
+    captions = []
+    for verdict in _sync_verdicts(report):
+        steps = list(_run_steps(verdict))
+        for name in _group_agents(verdict) if steps else ():
+            marker, color = styles[name]
+            z = trajectory.position(name, problem.agent(name).position)[steps]
+            ax.plot(z[:, 0], z[:, 1], marker=marker, markerfacecolor=color, **_SYNC)
+        captions.append(sync_caption(verdict))
+    return captions
+
+
+def _draw_crossings(ax, problem: Problem, trajectory: Trajectory) -> bool:
+    """Segments a robot would follow through an obstacle or another agent, in red."""
+    cuts = crossing_segments(problem, trajectory)
+    for name, k in cuts:
+        z = trajectory.position(name, problem.agent(name).position)[k : k + 2]
+        ax.plot(z[:, 0], z[:, 1], **_CROSSING)
+    return bool(cuts)
+
+
+def _plan_legend(ax, problem: Problem, styles, has_sync: bool, crossed: bool = False) -> None:
+    handles = []
+    for agent in problem.agents:
+        marker, color = styles[agent.name]
+        label = f"{agent.name} ({_capability_key(agent)})"
+        handles.append(Line2D([], [], color=color, marker=marker, mfc="white", label=label))
+    handles.append(Line2D([], [], marker="o", mfc="0.6", label="start (step 0)", **_START))
+    if has_sync:
+        handles.append(Line2D([], [], marker="o", mfc="0.6", label="synchronized run", **_SYNC))
+    if crossed:
+        handles.append(Line2D([], [], label="unsafe between steps", **_CROSSING))
+    legend_at = dict(loc="upper left", bbox_to_anchor=(1.01, 1.0), title="agent (capability)")
+    ax.legend(handles=handles, **legend_at, **_LEGEND)
+
+
+def plan_figure(
+    problem: Problem, trajectory: Trajectory, report: MonitorReport, title: str | None = None
+) -> Figure:
+    """The map: workspace, regions, each agent's path (the straight segments a robot follows
+    between waypoints), starts, synchronized runs, and in red any segment that crosses."""
+    bounds = workspace(problem)
+    (xl, xh), (yl, yh) = bounds
+    width = 9.0
+    fig = Figure(figsize=(width + 2.2, width * (yh - yl) / (xh - xl) + 1.2), dpi=DPI)
+    ax = fig.add_subplot()
+    points = np.vstack([trajectory.position(a.name, a.position) for a in problem.agents])
+    pt_per_unit = 72 * width / (xh - xl)
+    step_labels = points + np.array([12.0, 6.0]) / pt_per_unit
+    _draw_regions(ax, problem, bounds, np.vstack([points, step_labels]), pt_per_unit)
+    styles = agent_styles(problem)
+    eps = 0.01 * max(xh - xl, yh - yl)
+    for agent in problem.agents:
+        _draw_agent(ax, trajectory.position(agent.name, agent.position), styles[agent.name], eps)
+    crossed = _draw_crossings(ax, problem, trajectory)
+    captions = _draw_sync_runs(ax, problem, trajectory, report, styles)
+    ax.set(xlim=(xl, xh), ylim=(yl, yh), aspect="equal", xlabel="x", ylabel="y")
+    ax.tick_params(labelsize=8)
+    ax.grid(True, color="0.9", linewidth=0.6)
+    ax.set_axisbelow(True)
+    _plan_legend(ax, problem, styles, bool(captions), crossed)
+    _titles(ax, title or problem.mission.name, _status_line(report))
+    for i, caption in enumerate(captions):
+        ax.annotate(caption, (0.0, -0.09 - 0.05 * i), va="top", fontsize=9, **_AXES)
+    return fig
+
+
+def plot_plan(
+    problem: Problem,
+    trajectory: Trajectory,
+    report: MonitorReport,
+    path: str | os.PathLike[str],
+    title: str | None = None,
+) -> None:
+    """Draw ``plan.png``: the map with regions, trajectories by capability, synchronized runs.
+
+    Parameters
+    ----------
+    problem, trajectory, report
+        The mission, the team trajectory, and the monitor's verdicts on it (groups, runs).
+    path
+        Where to write the PNG (written atomically).
+    title
+        Figure title, e.g. ``"farm: optimal"``; default the mission name.
+    """
+    save_figure(plan_figure(problem, trajectory, report, title), path)

@@ -1,0 +1,147 @@
+"""The timeline figure (``timeline.png``): which agent serves which task at which step."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from matplotlib import colormaps
+from matplotlib.figure import Figure
+from matplotlib.patches import Patch, Rectangle
+
+from stlplan.mission.problem import Problem
+from stlplan.outputs.plots.common import (
+    _BAR,
+    _BAR_LABEL,
+    _IDLE,
+    _LEGEND,
+    _SHADE,
+    _TIMELINE_NOTE,
+    DPI,
+    _capability_key,
+    _group_agents,
+    _run_steps,
+    _sync_verdicts,
+    _titles,
+    polygon_area,
+    region_vertices,
+    save_figure,
+    sync_caption,
+    task_presence,
+    workspace,
+)
+from stlplan.result import MonitorReport, Trajectory
+
+
+def _segments(steps: Mapping[int, tuple[str, ...]]) -> list[tuple[int, int, tuple[str, ...]]]:
+    # maximal runs of consecutive steps with the same set of regions
+    out: list[tuple[int, int, tuple[str, ...]]] = []
+    for k in sorted(steps):
+        if out and out[-1][1] == k - 1 and out[-1][2] == steps[k]:
+            out[-1] = (out[-1][0], k, steps[k])
+        else:
+            out.append((k, k, steps[k]))
+    return out
+
+
+def _smallest(problem: Problem, names: Sequence[str], bounds) -> str:
+    return min(names, key=lambda n: polygon_area(region_vertices(problem.regions[n], bounds)))
+
+
+def _lanes(problem: Problem, report: MonitorReport) -> dict[str, list[str]]:
+    verdicts = {v.name: v for v in report.verdicts}
+    lanes: dict[str, list[str]] = {a.name: [] for a in problem.agents}
+    for task in problem.tasks:
+        verdict = verdicts.get(task.name)
+        for name in _group_agents(verdict) if verdict else ():
+            lanes[name].append(task.name)
+    return lanes
+
+
+def _draw_lane(ax, problem: Problem, lane, steps, style) -> None:
+    # lane = (bottom, height); style = (colour, points per step on the x axis)
+    (y0, height), (color, step_pt) = lane, style
+    background = Rectangle((-0.5, y0), problem.horizon + 1, height, color=color, alpha=0.12)
+    ax.add_patch(background)
+    bounds, size = workspace(problem), 7 if height > 0.3 else 6
+    for first, last, names in _segments(steps):
+        width = last - first + 0.9
+        corner = (first - 0.45, y0 + 0.05 * height)
+        ax.add_patch(Rectangle(corner, width, 0.9 * height, facecolor=color, **_BAR))
+        label = _smallest(problem, names, bounds)
+        if 0.62 * size * len(label) <= width * step_pt:  # the label fits in the bar
+            ax.text((first + last) / 2, y0 + height / 2, label, fontsize=size, **_BAR_LABEL)
+
+
+def _draw_task_bars(ax, problem, trajectory, report, rows, style) -> None:
+    colors, step_pt = style
+    verdicts, lanes = {v.name: v for v in report.verdicts}, _lanes(problem, report)
+    for task in problem.tasks:
+        verdict = verdicts.get(task.name)
+        if verdict is None or not verdict.group:
+            continue
+        for name, steps in task_presence(problem, trajectory, task, verdict).items():
+            height = 0.84 / len(lanes[name])
+            y0 = rows[name] + 0.42 - height * (lanes[name].index(task.name) + 1)
+            _draw_lane(ax, problem, (y0, height), steps, (colors[task.name], step_pt))
+    for name, served in lanes.items():
+        if not served:
+            ax.text(problem.horizon / 2, rows[name], "no task", **_IDLE)
+
+
+def _draw_sync_shading(ax, report: MonitorReport, rows) -> list[Patch]:
+    handles = []
+    for verdict in _sync_verdicts(report):
+        steps = _run_steps(verdict)
+        if not steps:
+            continue
+        for name in _group_agents(verdict):
+            corner = (steps[0] - 0.5, rows[name] - 0.5)
+            ax.add_patch(Rectangle(corner, len(steps), 1, alpha=0.3, lw=1.2, zorder=0, **_SHADE))
+        handles.append(Patch(alpha=0.4, label=sync_caption(verdict), **_SHADE))
+    return handles
+
+
+def _timeline_axes(ax, problem: Problem, rows: Mapping[str, int]) -> None:
+    horizon, count = problem.horizon, len(rows)
+    ax.set_xlim(-0.6, horizon + 0.6)
+    ax.set_ylim(-0.6, count - 0.4)
+    ax.set_xticks(range(0, horizon + 1, 1 if horizon <= 30 else (horizon + 29) // 30))
+    labels = [f"{a.name} ({_capability_key(a)})" for a in problem.agents]
+    ax.set_yticks([rows[a.name] for a in problem.agents], labels, fontsize=9)
+    ax.tick_params(axis="x", labelsize=9)
+    ax.set_xlabel("step k", fontsize=10)
+    for y in range(count + 1):
+        ax.axhline(y - 0.5, color="0.8", linewidth=0.6, zorder=0)
+    ax.grid(True, axis="x", color="0.92", linewidth=0.6)
+    ax.set_axisbelow(True)
+
+
+def timeline_figure(problem: Problem, trajectory: Trajectory, report: MonitorReport) -> Figure:
+    """One row per agent over steps ``0..H``: when each agent serves each task, and sync runs."""
+    rows = {a.name: len(problem.agents) - 1 - i for i, a in enumerate(problem.agents)}
+    colors = {t.name: colormaps["tab10"](i % 10) for i, t in enumerate(problem.tasks)}
+    width = float(np.clip(0.65 * (problem.horizon + 1.2) + 1.8, 8.0, 16.0))
+    step_pt = 72 * (width - 1.8) / (problem.horizon + 1.2)
+    fig = Figure(figsize=(width, 0.5 * len(rows) + 2.4), dpi=DPI, layout="constrained")
+    ax = fig.add_subplot()
+    _draw_task_bars(ax, problem, trajectory, report, rows, (colors, step_pt))
+    handles = [Patch(color=colors[t.name], label=t.name) for t in problem.tasks]
+    handles += _draw_sync_shading(ax, report, rows)
+    _timeline_axes(ax, problem, rows)
+    fig.legend(handles=handles, loc="outside lower center", ncols=min(4, len(handles)), **_LEGEND)
+    _titles(ax, f"{problem.mission.name}: which agent serves which task when", _TIMELINE_NOTE)
+    return fig
+
+
+def plot_timeline(
+    problem: Problem, trajectory: Trajectory, report: MonitorReport, path: str | os.PathLike[str]
+) -> None:
+    """Draw ``timeline.png``: per agent, the steps at which it serves each task's regions.
+
+    An agent of a task's group (from the monitor's verdict) filling role ``r`` gets a bar at step
+    ``k`` when ``z(k)`` lies in a region ``R`` with ``in(r, R)`` in the task's formula; the
+    synchronized run of each synchronous task is shaded across its group's rows.
+    """
+    save_figure(timeline_figure(problem, trajectory, report), path)

@@ -1,0 +1,1 @@
+"""Building and solving the planning MILP: encoding, HiGHS sessions, lazy rounds, parts."""

@@ -1,0 +1,340 @@
+"""Step 1 by independent components: agents that no task, constraint or objective term links.
+
+With obstacle and collision avoidance left out (lazy), problem (step1) often falls apart: in the
+farm cases the UV and IR agents serve crops A and B while the Vis agents serve crop C, and the
+objective ``t - beta * sum_p e_p`` is a sum of one term per part (``t`` belongs to the part with
+the synchronous tasks). HiGHS proves such a sum optimal far more slowly than each part alone (a
+node's bound closes only when every part's does), so each part is solved on its own, with its own
+lazy loop. Parts are linked by
+
+* a task: every agent that can serve one of its elements (the group choice couples them);
+* the synchronous tasks together (``t = min_l rho_s^l``);
+* a constraint binding with several agents;
+* a maximized spatial margin (then there is one part);
+* a collision requirement between agents of two parts that the combined plan violates: the two
+  parts are merged and solved again, starting with the requirements both had added.
+
+With no such violation left, the union of the parts' plans is feasible for the full problem and its
+objective is the sum ``F = sum_c F_c``, while ``U = sum_c U_c`` bounds the full optimum. A part is
+solved again with an absolute gap while ``(U - F) / |F|`` exceeds the gap, so the result is the
+full problem's optimum to the same tolerance as one solve. Finally the parts' requirements are
+encoded in one model of the full problem, its states held near the parts' plans, and one small
+solve sets every indicator (its objective, a point of the full problem, is the one reported);
+step 2 runs on that model as usual.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from stlplan.mission.problem import Problem
+from stlplan.planner import stops
+from stlplan.planner.encoding.deferred import Requirement, violated
+from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
+from stlplan.planner.lazy import VIOLATION_TOL, LazySolver, Step1, relative_gap, trajectory_states
+from stlplan.planner.session import (
+    FLOORS_SHARE,
+    MIN_SOLVE_SECONDS,
+    Clock,
+    HighsSession,
+    PlanOptions,
+)
+from stlplan.result import PlanStatus
+
+HOLD = 1e-4
+"""How far the assembly may move a state or input from the parts' plans.
+
+HiGHS accepts binaries within 1e-6 of 0 or 1, so a part's plan may miss an enforced predicate by
+``big-M * 1e-6``; the assembly, whose indicators are exact, needs room to repair that."""
+
+ASSEMBLY_LIMIT = 60.0
+"""Time limit of the assembly solve, seconds (a finishing solve: also within the run's budget
+and grace, :class:`stlplan.planner.session.Clock`)."""
+
+
+def agent_parts(problem: Problem) -> list[tuple[str, ...]]:
+    """The agents of each independent part, in agent order (one part when none can be split)."""
+    names = [a.name for a in problem.agents]
+    if problem.mission.objective.margin.maximize:
+        return [tuple(names)]
+    parent = {n: n for n in names}
+
+    def find(n: str) -> str:
+        while parent[n] != n:
+            parent[n] = parent[parent[n]]
+            n = parent[n]
+        return n
+
+    def link(group: Iterable[str]) -> None:
+        members = list(group)
+        for other in members[1:]:
+            parent[find(other)] = find(members[0])
+
+    for task in problem.tasks:
+        link({agent for element in task.elements for agent in element})
+    link({agent for t in problem.tasks if t.sync for e in t.elements for agent in e})
+    for constraint in problem.constraints:
+        for binding in constraint.bindings:
+            link(set(binding.values()))
+    parts: dict[str, list[str]] = {}
+    for n in names:
+        parts.setdefault(find(n), []).append(n)
+    return [tuple(p) for p in parts.values()]
+
+
+def sub_problem(problem: Problem, agents: Iterable[str]) -> Problem:
+    """``problem`` restricted to ``agents``: their tasks, constraint bindings and separation."""
+    keep = set(agents)
+    tasks = tuple(t for t in problem.tasks if {a for e in t.elements for a in e} <= keep)
+    constraints = []
+    for c in problem.constraints:
+        bindings = tuple(b for b in c.bindings if set(b.values()) <= keep)
+        if bindings:
+            constraints.append(dataclasses.replace(c, bindings=bindings))
+    return dataclasses.replace(
+        problem,
+        agents=tuple(a for a in problem.agents if a.name in keep),
+        tasks=tasks,
+        constraints=tuple(constraints),
+        _by_name={},
+    )
+
+
+def requirement_key(req: Requirement) -> tuple[Any, ...]:
+    """What identifies a requirement across models of the same mission."""
+    return req.source, tuple(sorted(req.binding.items())), req.k, req.span, req.formula
+
+
+@dataclass(eq=False)
+class Part:
+    """One part: its agents, model, lazy solver and last result."""
+
+    agents: tuple[str, ...]
+    pm: PlanModel
+    solver: LazySolver
+    step1: Step1 | None = None
+
+    def added_keys(self) -> set[tuple[Any, ...]]:
+        """Keys of the requirements this part's model holds."""
+        assert self.pm.deferral is not None
+        return {requirement_key(self.pm.deferral.lazy[n]) for n in self.pm.added}
+
+
+def _part(
+    problem: Problem,
+    agents: Sequence[str],
+    options: PlanOptions,
+    clock: Clock,
+    seed: set[tuple[Any, ...]] = frozenset(),  # type: ignore[assignment]
+) -> Part:
+    """Build (and seed with known requirements) the lazy model of one part."""
+    sub = sub_problem(problem, agents)
+    with clock.building():
+        pm = build_model(
+            sub,
+            options.encoding,
+            lazy=True,
+            floors=options.floors,
+            floors_deadline=clock.share(FLOORS_SHARE),
+        )
+    assert pm.deferral is not None
+    add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
+    return Part(tuple(agents), pm, LazySolver(pm, options, clock))
+
+
+def _crossing(full: PlanModel, parts: Sequence[Part]) -> list[Requirement]:
+    """Requirements of the full problem the combined plan violates (they link parts)."""
+    assert full.deferral is not None
+    states = {}
+    for part in parts:
+        states.update(trajectory_states(part.pm))
+    margin = full.margin if isinstance(full.margin, float) else 0.0
+    bad = violated(full.deferral.lazy, states, margin, VIOLATION_TOL)
+    return [full.deferral.lazy[n] for n in bad]
+
+
+def _merge(parts: list[Part], linked: list[set[str]]) -> list[list[Part]]:
+    """Groups of parts to merge, one per connected set of ``linked`` agents."""
+    owner = {a: i for i, part in enumerate(parts) for a in part.agents}
+    groups: list[set[int]] = []
+    for agents in linked:
+        touched = {owner[a] for a in agents}
+        for g in [g for g in groups if g & touched]:
+            touched |= g
+            groups.remove(g)
+        groups.append(touched)
+    return [[parts[i] for i in sorted(g)] for g in groups if len(g) > 1]
+
+
+def _totals(parts: Sequence[Part]) -> tuple[float | None, float | None]:
+    objectives = [p.step1.objective for p in parts if p.step1 is not None]
+    bounds = [p.step1.bound for p in parts if p.step1 is not None]
+    if len(objectives) < len(parts) or None in objectives or None in bounds:
+        return None, None
+    return sum(objectives), sum(bounds)  # type: ignore[arg-type]
+
+
+def _slack(part: Part) -> float:
+    """Bound minus objective of a part's last result (0 without one)."""
+    step1 = part.step1
+    if step1 is None:
+        return 0.0
+    return (step1.bound or 0.0) - (step1.objective or 0.0)
+
+
+def _tighten(parts: Sequence[Part], options: PlanOptions, deadline: float) -> None:
+    """Solve parts again with absolute gaps until ``(U - F) / |F|`` meets the gap (while at
+    least :data:`stlplan.planner.session.MIN_SOLVE_SECONDS` of the budget is left)."""
+    for _ in range(len(parts)):
+        if deadline - time.perf_counter() < MIN_SOLVE_SECONDS:
+            return
+        objective, bound = _totals(parts)
+        if objective is None or bound is None:
+            return
+        gap = relative_gap(objective, bound)
+        if gap is None or gap <= options.gap:
+            return
+        worst = max(parts, key=_slack)
+        others = sum(_slack(p) for p in parts if p is not worst)
+        allowed = max(options.gap * abs(objective) - others, 1e-9)
+        worst.step1 = worst.solver.run(deadline - time.perf_counter(), abs_gap=allowed)
+
+
+def _combined(parts: Sequence[Part], options: PlanOptions, seconds: float, rounds: int) -> Step1:
+    """The parts' results as one :class:`Step1` of the full problem."""
+    steps = [p.step1 for p in parts if p.step1 is not None]
+    failed = [s for s in steps if not s.status.has_plan]
+    if failed or len(steps) < len(parts):
+        first = failed[0] if failed else None
+        status = first.status if first else PlanStatus.ERROR
+        if stops.requested():
+            status = PlanStatus.INTERRUPTED_NO_PLAN
+        return Step1(status, None, None, None, seconds, rounds, 0, first.stop if first else "")
+    objective, bound = _totals(parts)
+    gap = relative_gap(objective, bound)
+    optimal = all(s.status is PlanStatus.OPTIMAL for s in steps)
+    optimal = optimal and gap is not None and gap <= options.gap * (1 + 1e-9)
+    status = PlanStatus.OPTIMAL if optimal else PlanStatus.FEASIBLE
+    if stops.requested() and not optimal:
+        status = PlanStatus.INTERRUPTED
+    return Step1(
+        status=status,
+        objective=objective,
+        bound=bound,
+        gap=gap,
+        seconds=seconds,
+        rounds=rounds,
+        added=sum(s.added for s in steps),
+        stop=steps[-1].stop,
+        completed=any(s.completed for s in steps),
+    )
+
+
+def _hold(full: PlanModel, parts: Sequence[Part]) -> list[tuple[Any, Any, Any]]:
+    """Bound ``x`` and ``u`` of ``full`` to within :data:`HOLD` of the parts' plans.
+
+    Returns ``(variable, lower, upper)`` to restore.
+    """
+    held = []
+    for part in parts:
+        for name in ("x", "u"):
+            source, target = getattr(part.pm.model, name), getattr(full.model, name)
+            for key, var in source.items():
+                goal = target[key]
+                if goal.fixed or var.value is None:
+                    continue
+                lo, hi = goal.bounds
+                held.append((goal, lo, hi))
+                goal.setlb(min(max(lo, var.value - HOLD), hi))
+                goal.setub(max(min(hi, var.value + HOLD), lo))
+    return held
+
+
+def assemble(
+    full: PlanModel, parts: Sequence[Part], options: PlanOptions, clock: Clock
+) -> float | None:
+    """Load the parts' plans into ``full`` with every indicator set; returns its objective.
+
+    The parts' requirements are encoded in ``full``, its states and inputs held near the parts'
+    plans (:func:`_hold`), and one solve chooses the indicators and binaries. None on failure.
+    """
+    assert full.deferral is not None
+    index = {requirement_key(r): n for n, r in enumerate(full.deferral.lazy)}
+    keys = set().union(*(p.added_keys() for p in parts))
+    add_requirements(full, [index[k] for k in keys if k in index])
+    held = _hold(full, parts)
+    with stops.finishing():  # the plan is found: a stop request lets this solve end
+        session = HighsSession(full.model, options, clock, "step1")
+        solved = session.solve(ASSEMBLY_LIMIT, finishing=True)
+    for var, lo, hi in held:
+        var.setlb(lo)
+        var.setub(hi)
+    objective = solved.results.incumbent_objective
+    return None if objective is None else float(objective)
+
+
+def solve_parts(
+    problem: Problem, options: PlanOptions, clock: Clock
+) -> tuple[PlanModel, Step1] | None:
+    """Solve step 1 part by part (module docstring); None when the problem has one part.
+
+    Returns the full problem's model with the plan loaded (when there is one) and the result.
+    """
+    names = agent_parts(problem)
+    if len(names) < 2:
+        return None
+    tick = time.perf_counter()
+    deadline = min(tick + options.time_limit, clock.deadline)
+    with clock.building():
+        full = build_model(problem, options.encoding, lazy=True, floors=False)
+    parts = [_part(problem, agents, options, clock) for agents in names]
+    while True:
+        for part in parts:
+            if part.step1 is None and not stops.requested():
+                part.step1 = part.solver.run(deadline - time.perf_counter())
+        done = _combined(parts, options, time.perf_counter() - tick, clock.round or 1)
+        if not done.status.has_plan:
+            return full, done
+        crossing = _crossing(full, parts)
+        if not crossing:
+            break
+        if stops.requested():  # the parts' plans collide: no plan of the full problem
+            return full, dataclasses.replace(done, status=PlanStatus.INTERRUPTED_NO_PLAN)
+        parts = _merged(problem, parts, crossing, options, clock)
+    if not stops.requested():
+        _tighten(parts, options, deadline)
+    done = _combined(parts, options, time.perf_counter() - tick, clock.round or 1)
+    objective = assemble(full, parts, options, clock)
+    seconds = time.perf_counter() - tick
+    if objective is None:
+        return full, dataclasses.replace(done, status=PlanStatus.ERROR, stop="assembly failed")
+    gap = relative_gap(objective, done.bound)
+    status = done.status
+    if status is PlanStatus.OPTIMAL and (gap is None or gap > options.gap * (1 + 1e-9)):
+        status = PlanStatus.INTERRUPTED if stops.requested() else PlanStatus.FEASIBLE
+    return full, dataclasses.replace(
+        done, status=status, objective=objective, gap=gap, seconds=seconds
+    )
+
+
+def _merged(
+    problem: Problem,
+    parts: list[Part],
+    crossing: Sequence[Requirement],
+    options: PlanOptions,
+    clock: Clock,
+) -> list[Part]:
+    """``parts`` with those linked by ``crossing`` merged (seeded with what they had added)."""
+    out = list(parts)
+    for group in _merge(parts, [set(r.binding.values()) for r in crossing]):
+        agents = {a for p in group for a in p.agents}
+        seed = set().union(*(p.added_keys() for p in group))
+        seed |= {requirement_key(r) for r in crossing if set(r.binding.values()) <= agents}
+        order = [a.name for a in problem.agents if a.name in agents]
+        out = [p for p in out if p not in group]
+        out.append(_part(problem, order, options, clock, seed))
+    return out

@@ -1,0 +1,139 @@
+"""An infeasible verdict of HiGHS is confirmed before it is believed.
+
+HiGHS's MIP solver can call a feasible model infeasible: a presolve reduction or a cut that is
+wrong for one random seed, while other seeds, or the same solve without presolve, find the
+optimum. One "infeasible" is therefore not proof. Whenever a solve says infeasible, the same
+model is solved again with the settings of :func:`attempts` (presolve off, other random seeds),
+one after the other:
+
+* a check that finds a plan **overturns** the verdict: the solve goes on from that plan;
+* a check that ends without a verdict (time limit, a stop request) leaves it **undecided**: the
+  infeasibility is not established, and the run reports what that check ended with;
+* only a verdict every check repeats is **confirmed**.
+
+The rule works on a ``highspy.Highs`` object, so it applies alike to the models Pyomo loads
+(:class:`stlplan.planner.session.HighsSession` drives it through Pyomo's solve) and to a model read
+from an MPS file (:func:`solve_confirmed`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import time
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import highspy
+
+from stlplan.result import Check, Confirmation
+
+Settings = dict[str, Any]
+
+MIN_CHECK_SECONDS = 1.0
+"""Each check may run at least this long, even past the run's time budget."""
+
+_INFEASIBLE = (
+    highspy.HighsModelStatus.kInfeasible,
+    highspy.HighsModelStatus.kUnboundedOrInfeasible,
+)
+
+
+def attempts(seed: int) -> tuple[Settings, ...]:
+    """The confirmation solves: presolve off with another seed, then presolve on, a third seed.
+
+    Presolve is the usual source of a false verdict; a different seed changes the branching, the
+    cuts and the primal heuristics.
+    """
+    return (
+        {"presolve": "off", "random_seed": seed + 1},
+        {"presolve": "on", "random_seed": seed + 2},
+    )
+
+
+def says_infeasible(highs: Any) -> bool:
+    """Whether the last solve of ``highs`` ended with an infeasible verdict."""
+    return highs.getModelStatus() in _INFEASIBLE
+
+
+def has_plan(highs: Any) -> bool:
+    """Whether the last solve of ``highs`` left a primal feasible point."""
+    return int(highs.getInfo().primal_solution_status) == 2
+
+
+def verdict(highs: Any) -> str:
+    """HiGHS's name of its last model status."""
+    return str(highs.modelStatusToString(highs.getModelStatus()))
+
+
+def option(highs: Any, name: str) -> Any:
+    """The value of HiGHS option ``name`` (highspy returns ``(status, value)`` or the value)."""
+    found = highs.getOptionValue(name)
+    return found[1] if isinstance(found, tuple) else found
+
+
+@contextlib.contextmanager
+def applied(highs: Any, settings: Settings) -> Iterator[None]:
+    """HiGHS options ``settings`` set on ``highs`` for the block, the earlier values restored."""
+    saved = {name: option(highs, name) for name in settings}
+    try:
+        for name, value in settings.items():
+            highs.setOptionValue(name, value)
+        yield
+    finally:
+        for name, value in saved.items():
+            highs.setOptionValue(name, value)
+
+
+def confirm(
+    highs: Any,
+    first: tuple[str, float],
+    run: Callable[[Settings, float], None],
+    seed: int,
+    time_left: Callable[[], float],
+    where: str = "",
+) -> Confirmation:
+    """Check the infeasible verdict of the solve ``highs`` just ran by the solves of
+    :func:`attempts`.
+
+    ``first`` is that solve's verdict (HiGHS's name) and wall time. ``run(settings, seconds)`` solves the model
+    again with the HiGHS options ``settings`` (also set on ``highs`` meanwhile) within
+    ``seconds``; ``time_left()`` is what the run's budget still allows (each check gets at least
+    :data:`MIN_CHECK_SECONDS`). On return ``highs`` holds the last check's solve: a plan when
+    overturned.
+    """
+    usual = tuple((name, option(highs, name)) for name in attempts(seed)[0])
+    checks = [Check(usual, *first)]
+    for settings in attempts(seed):
+        seconds = max(MIN_CHECK_SECONDS, time_left())
+        tick = time.perf_counter()
+        with applied(highs, settings):
+            run(settings, seconds)
+        checks.append(Check(tuple(settings.items()), verdict(highs), time.perf_counter() - tick))
+        if has_plan(highs):
+            return Confirmation(where, tuple(checks), "overturned")
+        if not says_infeasible(highs):
+            return Confirmation(where, tuple(checks), "undecided")
+    return Confirmation(where, tuple(checks), "confirmed")
+
+
+def solve_confirmed(highs: Any, seed: int = 0, time_limit: float = math.inf) -> Confirmation | None:
+    """Solve ``highs`` (options as set), confirming an infeasible verdict (module docstring).
+
+    Returns the confirmation, or None when the solve did not say infeasible. ``highs`` holds the
+    last solve. ``time_limit`` bounds all solves together.
+    """
+    deadline = time.perf_counter() + time_limit
+    limit = float(option(highs, "time_limit"))
+
+    def run(settings: Settings, seconds: float) -> None:
+        highs.setOptionValue("time_limit", min(limit, seconds))
+        highs.run()
+
+    with applied(highs, {"random_seed": seed, "time_limit": limit}):
+        tick = time.perf_counter()
+        run({}, max(MIN_CHECK_SECONDS, deadline - tick))
+        if not says_infeasible(highs):
+            return None
+        first = (verdict(highs), time.perf_counter() - tick)
+        return confirm(highs, first, run, seed, lambda: deadline - time.perf_counter())

@@ -1,0 +1,148 @@
+"""Diagnosing infeasible missions.
+
+Two kinds of evidence:
+
+* **cheap reasons**, found without solving: a region that a task's formula requires a role to
+  reach by some step, when too few of the agents that may fill the role can get there in time
+  given their dynamics and bounds (interval reachability, an over-approximation, so a claim
+  "cannot reach" is sound);
+* **a minimal conflict**, found by a deletion filter over the tasks, constraints and separation:
+  drop one item at a time and keep it dropped when the rest is still infeasible. What remains
+  cannot be met together, and dropping any one of its items makes it feasible (when every
+  feasibility solve finished in time).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable, Iterator
+
+import numpy as np
+
+from stlplan.formula.tree import Always, And, Eventually, Formula, InRegion, Until
+from stlplan.mission.problem import Problem, TaskModel
+from stlplan.result import Diagnosis, PlanStatus
+
+Need = tuple[str, str, int]
+"""(role, region, deadline): the role must be in the region at some step <= deadline."""
+
+Feasibility = Callable[[Problem], PlanStatus]
+
+
+def needs(formula: Formula, shift: int = 0) -> Iterator[Need]:
+    """Region visits every satisfying trajectory must make, with their deadlines.
+
+    Follows only ``&``, ``G``, ``F`` and the right side of ``U`` (never ``|`` or ``!``):
+    ``G[a,b] f`` needs ``f`` at ``k+a``; ``F[a,b] f`` at some step up to ``k+b``; ``l U[a,b] r``
+    needs ``r`` by ``k+b`` and ``l`` at ``k``.
+    """
+    if isinstance(formula, InRegion):
+        yield formula.role, formula.region, shift
+    elif isinstance(formula, And):
+        for child in formula.children:
+            yield from needs(child, shift)
+    elif isinstance(formula, Always):
+        yield from needs(formula.child, shift + formula.interval.lo)
+    elif isinstance(formula, Eventually):
+        yield from needs(formula.child, shift + formula.interval.hi)
+    elif isinstance(formula, Until):
+        yield from needs(formula.left, shift)
+        yield from needs(formula.right, shift + formula.interval.hi)
+
+
+def _can_reach(problem: Problem, boxes: dict, agent: str, region: str, deadline: int) -> bool:
+    """Whether the agent's reachable box meets the region's half-spaces at some step <= deadline."""
+    model = problem.agent(agent)
+    lo, hi = boxes[agent]
+    rows, rhs = problem.regions[region]
+    ix, iy = model.position
+    for k in range(min(deadline, problem.horizon) + 1):
+        box_lo, box_hi = np.array([lo[k, ix], lo[k, iy]]), np.array([hi[k, ix], hi[k, iy]])
+        # min over the box of g . z, per row; the region is missed when some row exceeds h
+        lowest = [
+            float(np.sum(np.where(np.array(g) > 0, box_lo, box_hi) * np.array(g))) for g in rows
+        ]
+        if all(m <= h + 1e-9 for m, h in zip(lowest, rhs, strict=False)):
+            return True
+    return False
+
+
+def _task_reasons(problem: Problem, task: TaskModel, boxes: dict) -> Iterator[str]:
+    offset = 0 if task.sync is None else task.sync.b
+    for role, region, deadline in dict.fromkeys(needs(task.formula, offset)):
+        pool = sorted({e[task.roles.index(role)] for e in task.elements})
+        able = [a for a in pool if _can_reach(problem, boxes, a, region, deadline)]
+        wanted = 1 if task.reuse_agents else task.count
+        if len(able) < wanted:
+            which = f"only {', '.join(able)}" if able else "none"
+            yield (
+                f"task '{task.name}': role '{role}' must reach region '{region}' by step "
+                f"{deadline} in {wanted} element(s), but {which} of {', '.join(pool)} can, "
+                f"given the dynamics and bounds"
+            )
+
+
+def _constraint_reasons(problem: Problem, boxes: dict) -> Iterator[str]:
+    for constraint in problem.constraints:
+        for binding in constraint.bindings:
+            for role, region, deadline in dict.fromkeys(needs(constraint.formula)):
+                agent = binding[role]
+                if not _can_reach(problem, boxes, agent, region, deadline):
+                    yield (
+                        f"constraint '{constraint.name}': agent '{agent}' cannot reach region "
+                        f"'{region}' by step {deadline}, given its dynamics and bounds"
+                    )
+
+
+def cheap_reasons(problem: Problem) -> tuple[str, ...]:
+    """Reasons the mission is infeasible that need no solve (empty when none is found)."""
+    from stlplan.planner.encoding.model import reachable_boxes
+
+    boxes = reachable_boxes(problem)
+    found = [r for task in problem.tasks for r in _task_reasons(problem, task, boxes)]
+    found += list(_constraint_reasons(problem, boxes))
+    return tuple(found)
+
+
+def _subset(problem: Problem, items: list[str]) -> Problem:
+    keep = set(items)
+    return dataclasses.replace(
+        problem,
+        tasks=tuple(t for t in problem.tasks if t.name in keep),
+        constraints=tuple(c for c in problem.constraints if c.name in keep),
+        separation=problem.separation if "separation" in keep else None,
+    )
+
+
+def minimal_conflict(
+    problem: Problem, feasibility: Feasibility, budget: float = 120.0
+) -> tuple[tuple[str, ...], bool]:
+    """Deletion filter: a minimal infeasible set of task, constraint and separation names.
+
+    Returns the set and whether every feasibility solve decided (else it may not be minimal).
+    """
+    kept = [t.name for t in problem.tasks] + [c.name for c in problem.constraints]
+    if problem.separation is not None:
+        kept.append("separation")
+    complete, started = True, time.monotonic()
+    for item in list(kept):
+        if time.monotonic() - started >= budget:
+            return tuple(kept), False
+        trial = [i for i in kept if i != item]
+        status = feasibility(_subset(problem, trial))
+        if status is PlanStatus.INFEASIBLE:
+            kept = trial
+        elif not status.has_plan:
+            complete = False
+    return tuple(kept), complete
+
+
+def diagnose(problem: Problem, feasibility: Feasibility, budget: float = 120.0) -> Diagnosis:
+    """Cheap reasons, then (when they name nothing) a minimal conflict by feasibility solves."""
+    reasons = cheap_reasons(problem)
+    if reasons:
+        named = tuple(dict.fromkeys(r.split("'")[1] for r in reasons))
+        return Diagnosis(reasons=reasons, conflict=named, complete=True)
+    conflict, complete = minimal_conflict(problem, feasibility, budget)
+    return Diagnosis(conflict=conflict, complete=complete)

@@ -1,0 +1,159 @@
+"""The continuous stage after step 1: step 2 (effort) or the one-step polish, decisions fixed.
+
+Once step 1's binaries are fixed, the enforced predicates are known (the indicators the
+decisions force to 1; see :func:`stlplan.planner.solve.enforced_predicates`) and the rest of the MILP is
+inert. This module builds the small model that remains:
+
+    x_p(k+1) = A_p x_p(k) + B_p u_p(k),  x_p(0) = x_p^0,  boxes,  s >= |u|,
+    alpha(x(k)) - r >= 0   for every enforced predicate,
+
+with ``r`` the step-1 margin, and either the effort of DESIGN 2.3 (``l2``: ``sum u^2``, a convex
+QP; ``l1``: ``sum s``; ``linf``: ``sum_p v_p`` with ``v_p >= s_{p,k,j}``) to minimize, or the
+step-1 objective restricted to the fixed decisions (``w r - beta sum s``) to maximize. Runs of the
+synchronous tasks, hence every ``rho_s^l``, are fixed with the decisions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, Literal
+
+import numpy as np
+from pyomo.environ import ConcreteModel, Constraint, ConstraintList, Objective, Var, value
+from pyomo.environ import maximize as maximize_sense
+from pyomo.environ import minimize as minimize_sense
+
+from stlplan.planner.encoding.model import PlanModel, reachable_boxes
+from stlplan.planner.encoding.stl import Enforced, alpha
+
+Stage = Literal["effort", "polish"]
+
+MARGIN_SLACK = 1e-7
+"""How far below the step-1 margin ``r`` the continuous stage may go (solver round-off)."""
+
+
+def effort_objective(model: ConcreteModel, agents: Sequence[str], norm: str) -> Any:
+    """The effort of step 2 in ``norm``, to minimize.
+
+    ``l2``: ``sum u^2``; ``l1``: ``sum s`` with ``s >= |u|``; ``linf``: ``sum_p v_p`` with
+    ``v_p >= s_{p,k,j}`` for every ``k, j``.
+    """
+    if norm == "l2":
+        return sum(u * u for u in model.u.values())
+    if norm == "l1":
+        return sum(model.s.values())
+    model.peak = Var(list(agents), bounds=(0.0, None))
+    model.peak_rows = Constraint(list(model.s), rule=lambda m, p, k, j: m.peak[p] >= m.s[p, k, j])
+    return sum(model.peak.values())
+
+
+def _unique(enforced: Sequence[Enforced]) -> list[Enforced]:
+    seen: dict[tuple[Any, ...], Enforced] = {}
+    for node, k, binding in enforced:
+        seen.setdefault((node, k, tuple(sorted(binding.items()))), (node, k, binding))
+    return list(seen.values())
+
+
+def condensed_states(model: ConcreteModel, pm: PlanModel) -> dict[tuple[str, int, int], Any]:
+    """Inputs ``model.u`` with their boxes, and the states as affine expressions of them.
+
+    ``x_p(k) = A^k x_p^0 + sum_{i<k} A^(k-1-i) B u_p(i)``, with the reachable boxes as ranged rows
+    ``lo <= x_p(k) <= hi``. With the states eliminated, ``sum u^2`` has a positive definite
+    Hessian, which HiGHS's QP solver needs to converge reliably.
+    """
+    problem = pm.problem
+    keys = [
+        (a.name, k, j) for a in problem.agents for k in range(problem.horizon) for j in range(a.m)
+    ]
+    u_box = {
+        (a.name, j): (float(a.input_lo[j]), float(a.input_hi[j]))
+        for a in problem.agents
+        for j in range(a.m)
+    }
+    model.u = Var(keys, bounds=lambda _, p, k, j: u_box[p, j])
+    model.box = ConstraintList()
+    states: dict[tuple[str, int, int], Any] = {}
+    boxes = reachable_boxes(problem)
+    for a in problem.agents:
+        free = np.asarray(a.initial_state, dtype=float)
+        gains: list[np.ndarray] = []  # gains[i] = A^(k-1-i) B
+        for k in range(problem.horizon + 1):
+            for i in range(a.n):
+                terms = [
+                    g[i, j] * model.u[a.name, t, j]
+                    for t, g in enumerate(gains)
+                    for j in range(a.m)
+                    if g[i, j]
+                ]
+                states[a.name, k, i] = float(free[i]) + sum(terms)
+                if terms:
+                    lo, hi = boxes[a.name][0][k, i], boxes[a.name][1][k, i]
+                    model.box.add((float(lo), states[a.name, k, i], float(hi)))
+            free = a.A @ free
+            gains = [a.A @ g for g in gains] + [a.B]
+    return states
+
+
+def _absolute_inputs(model: ConcreteModel) -> None:
+    """``s >= u`` and ``s >= -u``, so ``s = |u|`` where ``s`` is minimized."""
+    model.s = Var(list(model.u), bounds=(0.0, None))
+    model.s_rows = ConstraintList()
+    for key, u in model.u.items():
+        model.s_rows.add(model.s[key] >= u)
+        model.s_rows.add(model.s[key] >= -u)
+
+
+def continuous_model(pm: PlanModel, enforced: Sequence[Enforced], stage: Stage) -> ConcreteModel:
+    """The continuous model of step 2 (``effort``) or of the one-step polish (``polish``).
+
+    Parameters
+    ----------
+    pm
+        The step-1 model, its solution loaded (for the margin ``r``).
+    enforced
+        The predicates the fixed decisions enforce.
+    stage
+        ``effort``: minimize the mission's effort norm with ``r`` fixed at its step-1 value;
+        ``polish``: maximize ``w r - beta sum s`` with ``r`` at least its step-1 value.
+    """
+    problem = pm.problem
+    objective = problem.mission.objective
+    model = ConcreteModel(name=f"{problem.mission.name}-{stage}")
+    states = condensed_states(model, pm)
+    if stage == "polish" or objective.effort != "l2":
+        _absolute_inputs(model)
+    margin: Any = float(value(pm.margin))
+    if not isinstance(pm.margin, float):  # maximized in step 1
+        floor = max(float(objective.margin.minimum), margin - MARGIN_SLACK)
+        margin = floor
+        if stage == "polish":
+            model.r = Var(bounds=(floor, None))
+            margin = model.r
+    model.predicates = ConstraintList()
+    for node, k, binding in _unique(enforced):
+        slack = alpha(node, k, binding, states) - margin
+        if not isinstance(slack, float):  # a number: decided by the initial state alone
+            model.predicates.add(slack >= 0)
+    if stage == "effort":
+        names = [a.name for a in problem.agents]
+        expr = effort_objective(model, names, objective.effort)
+        model.goal = Objective(expr=expr, sense=minimize_sense)
+    else:
+        score: Any = -objective.beta * sum(model.s.values())
+        if objective.margin.maximize:
+            score = score + objective.margin.weight * margin
+        model.goal = Objective(expr=score, sense=maximize_sense)
+    model.states = states
+    return model
+
+
+def copy_plan(source: ConcreteModel, pm: PlanModel) -> None:
+    """Copy ``x``, ``u`` (and a maximized margin) of a solved continuous model into ``pm``."""
+    for key, expr in source.states.items():
+        if not pm.model.x[key].fixed:
+            pm.model.x[key].set_value(float(value(expr)), skip_validation=True)
+    for key, var in source.u.items():
+        pm.model.u[key].set_value(var.value, skip_validation=True)
+        pm.model.s[key].set_value(abs(var.value), skip_validation=True)
+    if hasattr(source, "r") and not isinstance(pm.margin, float):
+        pm.margin.set_value(source.r.value, skip_validation=True)

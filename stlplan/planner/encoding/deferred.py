@@ -1,0 +1,264 @@
+"""Step requirements that may be left out of the MILP until a plan violates them (lazy rows).
+
+Obstacle avoidance (``G[0,H] !in(p, Obs)``) and pairwise separation split into one requirement per
+step, each a disjunction of half-planes:
+
+    R(k):  OR_i  alpha_i(x(k)) - r >= 0,
+
+with ``alpha_i`` linear in the states of the bound agents and ``r`` the spatial margin. Most of them
+never bind: an agent rarely comes near the obstacle or another agent. The lazy loop
+(:mod:`stlplan.planner.lazy`) solves without them, finds those the plan violates with numpy, adds exactly
+those (encoded as if they had been there from the start), and solves again. When a plan violates
+none, it satisfies every requirement of the full problem and its objective bound came from a
+relaxation of that problem, so it is the full problem's optimum.
+
+A requirement that one of its half-planes meets at every reachable state (the interval bound of
+:func:`stlplan.planner.encoding.stl.predicate_range` over the reachable boxes) is dropped: it cannot bind.
+
+With inter-sample safety (DESIGN 2.9, the default) a disjunction required by one constraint and
+binding (or one pair's separation) at both ``k`` and ``k+1`` is required on the segment between
+them: one requirement spanning the two steps, one half-plane held at both ends
+(:mod:`stlplan.planner.encoding.segments`). A disjunction required at an isolated step stays a step
+requirement; a single half-plane needs no segment requirement (it holds between two ends that meet
+it).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from stlplan.formula.tree import Formula, Or, Predicate, step_parts
+from stlplan.mission.problem import Problem
+from stlplan.planner.encoding.segments import require_on_steps
+from stlplan.planner.encoding.stl import Boxes, Enforced, StlContext, predicate_range, require
+from stlplan.planner.encoding.tasks import separation_formula
+
+Part = tuple[Formula, int, Mapping[str, str]]
+"""A formula at a step under a binding."""
+
+SEPARATION = "separation"
+"""Source name of the pairwise separation requirements."""
+
+
+@dataclass(frozen=True, eq=False)
+class Requirement:
+    """``OR_i alpha_i(x(k)) - r >= 0`` at step ``k`` under ``binding`` (a single ``alpha`` too);
+    with ``span = 1``, on the segment from step ``k`` to ``k + 1`` (one ``alpha_i`` at both ends).
+
+    Attributes
+    ----------
+    formula
+        A lowered :class:`Predicate` or an :class:`Or` of predicates.
+    k
+        The step.
+    binding
+        Role to agent name.
+    source
+        Name of the constraint it comes from, or :data:`SEPARATION`.
+    span
+        0 for a step, 1 for the segment ``[x(k), x(k+1)]``.
+    """
+
+    formula: Formula
+    k: int
+    binding: Mapping[str, str]
+    source: str
+    span: int = 0
+
+    @property
+    def steps(self) -> range:
+        """The steps whose states the requirement reads."""
+        return range(self.k, self.k + self.span + 1)
+
+    @property
+    def alternatives(self) -> tuple[Predicate, ...]:
+        """The half-planes ``alpha_i`` of the disjunction."""
+        if isinstance(self.formula, Predicate):
+            return (self.formula,)
+        assert isinstance(self.formula, Or)
+        return tuple(c for c in self.formula.children if isinstance(c, Predicate))
+
+    @property
+    def family(self) -> tuple[str, tuple[tuple[str, str], ...]]:
+        """``(source, binding)``: requirements of one agent (or pair) at different steps."""
+        return self.source, tuple(sorted(self.binding.items()))
+
+    def options(self) -> list[list[Enforced]]:
+        """Each half-plane as the predicates ``(alpha_i, t, binding)`` enforcing it, t in steps."""
+        return [[(alt, t, self.binding) for t in self.steps] for alt in self.alternatives]
+
+    def encode(self, ctx: StlContext) -> None:
+        """Enforce the requirement in the model of ``ctx`` (as if it had been there from the start)."""
+        scope = ctx.bound(self.binding)
+        if self.span == 0:
+            require(self.formula, self.k, scope)
+        else:
+            require_on_steps(self.alternatives, self.steps, scope)
+
+
+def _is_step_disjunction(formula: Formula) -> bool:
+    if isinstance(formula, Predicate):
+        return True
+    return isinstance(formula, Or) and all(isinstance(c, Predicate) for c in formula.children)
+
+
+def always_met(requirement: Requirement, boxes: Boxes, margin_ceiling: float) -> bool:
+    """Whether some ``alpha_i`` exceeds every admissible margin on the whole reachable box."""
+    return any(
+        all(
+            predicate_range(alt, t, requirement.binding, boxes)[0] >= margin_ceiling
+            for t in requirement.steps
+        )
+        for alt in requirement.alternatives
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class Deferral:
+    """The constraints and separation of a problem, split into lazy and eager parts.
+
+    Attributes
+    ----------
+    lazy
+        Step requirements the lazy loop may add later.
+    eager
+        ``(formula, k, binding)`` parts with temporal structure below a disjunction, encoded at
+        once.
+    dropped
+        How many step requirements reachability proves (never encoded).
+    """
+
+    lazy: tuple[Requirement, ...]
+    eager: tuple[Part, ...]
+    dropped: int
+
+
+def _all_parts(problem: Problem) -> Iterator[tuple[Formula, int, Mapping[str, str], str]]:
+    """Every constraint (at step 0) and separation (at every step), split into step parts."""
+    for constraint in problem.constraints:
+        for binding in constraint.bindings:
+            lowered = problem.lowered(constraint.formula, binding)
+            for part, k in step_parts(lowered, 0):
+                yield part, k, binding, constraint.name
+    if problem.separation is not None:
+        for p, q in itertools.combinations([a.name for a in problem.agents], 2):
+            formula = separation_formula(problem, p, q)
+            for k in range(problem.horizon + 1):
+                yield formula, k, {"p": p, "q": q}, SEPARATION
+
+
+def on_segments(requirements: Sequence[Requirement]) -> list[Requirement]:
+    """Step requirements with their disjunctions at consecutive steps joined into segments.
+
+    A disjunction of one family required at ``k`` and ``k+1`` becomes a requirement on the segment
+    ``[k, k+1]``; a step that no such segment covers stays a step requirement; a single half-plane
+    stays as it is (it holds on a segment whose ends meet it).
+    """
+    steps: dict[tuple[object, ...], set[int]] = {}
+    for req in requirements:
+        steps.setdefault((*req.family, req.formula), set()).add(req.k)
+    out: list[Requirement] = []
+    for req in requirements:
+        if isinstance(req.formula, Predicate):
+            out.append(req)
+            continue
+        held = steps[(*req.family, req.formula)]
+        if req.k + 1 in held:
+            out.append(Requirement(req.formula, req.k, req.binding, req.source, span=1))
+        elif req.k - 1 not in held:
+            out.append(req)
+    return out
+
+
+def step_requirements(problem: Problem) -> tuple[list[Requirement], list[Part]]:
+    """The problem's constraints and separation as step requirements (segments with
+    inter-sample safety), and the parts with temporal structure below a disjunction."""
+    found: list[Requirement] = []
+    eager: list[Part] = []
+    for part, k, binding, source in _all_parts(problem):
+        if _is_step_disjunction(part):
+            found.append(Requirement(part, k, binding, source))
+        else:
+            eager.append((part, k, binding))
+    return (on_segments(found) if problem.inter_sample else found), eager
+
+
+def segment_requirements(problem: Problem) -> list[Requirement]:
+    """The requirements on segments alone (added to a model that encodes every step)."""
+    if not problem.inter_sample:
+        return []
+    return [req for req in step_requirements(problem)[0] if req.span > 0]
+
+
+def defer(problem: Problem, boxes: Boxes, margin_ceiling: float) -> Deferral:
+    """Split the problem's constraints and separation into lazy step requirements and the rest."""
+    lazy: list[Requirement] = []
+    dropped = 0
+    found, eager = step_requirements(problem)
+    for requirement in found:
+        if always_met(requirement, boxes, margin_ceiling):
+            dropped += 1
+        else:
+            lazy.append(requirement)
+    return Deferral(tuple(lazy), tuple(eager), dropped)
+
+
+def alpha_values(requirement: Requirement, states: Mapping[str, np.ndarray]) -> np.ndarray:
+    """``min_t alpha_i(x(t))`` over the requirement's steps, for every half-plane, on a trajectory
+    (agent name to (H+1, n) states): what the encoding demands of the alternative ``i``."""
+    out = np.full(len(requirement.alternatives), np.inf)
+    for i, alt in enumerate(requirement.alternatives):
+        for t in requirement.steps:
+            total = -alt.bound
+            for term in alt.terms:
+                total += term.coef * states[requirement.binding[term.role]][t, term.component]
+            out[i] = min(out[i], total)
+    return out
+
+
+def violated(
+    requirements: Sequence[Requirement],
+    states: Mapping[str, np.ndarray],
+    margin: float,
+    tolerance: float,
+) -> list[int]:
+    """Indices of the requirements with ``max_i alpha_i(x(k)) - r < -tolerance``."""
+    return [
+        n
+        for n, req in enumerate(requirements)
+        if float(alpha_values(req, states).max()) - margin < -tolerance
+    ]
+
+
+def best_side(requirement: Requirement, states: Mapping[str, np.ndarray]) -> int:
+    """Index of the half-plane with the largest ``alpha_i`` on a trajectory."""
+    return int(np.argmax(alpha_values(requirement, states)))
+
+
+def best_option(requirement: Requirement, states: Mapping[str, np.ndarray]) -> list[Enforced]:
+    """The half-plane with the largest ``alpha_i`` on a trajectory (the side a plan keeps)."""
+    return requirement.options()[best_side(requirement, states)]
+
+
+def neighbours(
+    requirements: Sequence[Requirement], chosen: Sequence[int], window: int | None
+) -> list[int]:
+    """``chosen`` with every requirement of the same family within ``window`` steps.
+
+    ``window = 0`` keeps ``chosen``; None takes the whole family (every step of the pair or agent).
+    """
+    if window == 0:
+        return sorted(set(chosen))
+    wanted: dict[tuple[object, ...], list[int]] = {}
+    for n in chosen:
+        wanted.setdefault(requirements[n].family, []).append(requirements[n].k)
+    picked = set(chosen)
+    for n, req in enumerate(requirements):
+        steps = wanted.get(req.family)
+        if steps and (window is None or any(abs(req.k - k) <= window for k in steps)):
+            picked.add(n)
+    return sorted(picked)

@@ -1,0 +1,332 @@
+"""MILP encoding of lowered STL (Kurtz & Lin, the paper's reference on fewer binaries).
+
+Every subformula ``phi`` at step ``k`` under a role binding gets a continuous indicator
+``z in [0, 1]`` whose value 1 *enforces* ``(S, k) |= phi`` (a value below 1 enforces nothing):
+
+* predicate ``alpha(x) - r >= -M (1 - z)``, with ``r`` the spatial margin and ``M`` from interval
+  arithmetic on the box of states each agent can reach at ``k`` (no binaries);
+* conjunction ``z <= z_i`` for every child (no binaries);
+* disjunction: fresh ``w_i in [0, 1]`` with ``w_i <= z_i`` and ``{1 - z, w_1..w_n}`` SOS1
+  (logarithmic: ``ceil(log2(n + 1))`` binaries). The fresh ``w_i`` keep the encoding sound when a
+  child's indicator is shared with other parents (memoized subformulas);
+* ``G``, ``F`` and ``U`` are conjunctions and disjunctions over time offsets.
+
+:func:`require` enforces a formula outright (constraints, single-group tasks): conjunctions become
+separate requirements, a disjunction needs no "off" slot, and a predicate needs no big-M.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from pyomo.environ import Block
+
+from stlplan.errors import FormulaError
+from stlplan.formula.tree import (
+    Always,
+    And,
+    Eventually,
+    Formula,
+    Or,
+    Predicate,
+    Until,
+    atoms,
+)
+from stlplan.planner.encoding.sos1 import Encoding, sos1
+
+Boxes = Mapping[str, tuple[np.ndarray, np.ndarray]]
+"""Agent name to ``(lo, hi)`` state bounds per step, each of shape (H+1, n)."""
+
+
+Enforced = tuple[Predicate, int, Mapping[str, str]]
+"""A predicate at a step under a binding: ``alpha(x(k)) - r >= 0`` when enforced."""
+
+
+@dataclass(eq=False)
+class Ledger:
+    """Every predicate the encoding placed, and how the indicators above them are linked.
+
+    Step 2 rebuilds a small continuous model from it: the predicates whose indicators the fixed
+    decisions force to 1, plus the unconditional ones. The effort floors
+    (:mod:`stlplan.planner.encoding.floors`) read the links: conjunctions and choices.
+    """
+
+    guarded: list[tuple[Any, Enforced]] = field(default_factory=list)
+    """``(z, (node, k, binding))``: ``z = 1`` enforces the predicate."""
+    required: list[Enforced] = field(default_factory=list)
+    """Predicates enforced outright."""
+    conjunctions: list[tuple[Any, list[Any]]] = field(default_factory=list)
+    """``(z, [z_1..z_n])`` with ``z <= z_i``: ``z = 1`` enforces every child."""
+    choices: list[tuple[Any, list[Any], list[Any]]] = field(default_factory=list)
+    """``(z, [z_1..z_n], [w_1..w_n])`` with ``w_i <= z_i`` and ``sum w = z`` (``z`` None: 1)."""
+
+
+@dataclass(frozen=True, eq=False)
+class StlContext:
+    """Where and how formulas are encoded.
+
+    Parameters
+    ----------
+    block
+        Holds ``indicators`` (VarList in [0, 1]) and ``rows`` (ConstraintList).
+    sos
+        The SOS1 block (:func:`stlplan.planner.encoding.sos1.sos1_block`).
+    states
+        Indexed variable ``x[agent, k, i]``.
+    boxes
+        Agent name to ``(lo, hi)``, arrays of shape (H+1, n): the states reachable at each step
+        (see :func:`stlplan.planner.encoding.model.reachable_boxes`).
+    horizon
+        ``H``: states exist for ``k = 0..H``.
+    margin
+        ``r``: a number, or a variable when the margin is maximized.
+    margin_ceiling
+        Upper bound of ``r`` (equal to ``r`` when it is a number).
+    encoding
+        ``"log"`` or ``"standard"`` SOS1.
+    binding
+        Role to agent name for the formulas being encoded.
+    memo
+        ``(node, k, binding)`` to indicator, shared by every binding.
+    ledger
+        Every predicate placed (shared by every binding).
+    """
+
+    block: Block
+    sos: Block
+    states: Any
+    boxes: Boxes
+    horizon: int
+    margin: Any
+    margin_ceiling: float
+    encoding: Encoding = "log"
+    binding: Mapping[str, str] = field(default_factory=dict)
+    memo: dict[tuple[Any, ...], Any] = field(default_factory=dict)
+    ledger: Ledger = field(default_factory=Ledger)
+
+    def bound(self, binding: Mapping[str, str]) -> StlContext:
+        """The same context with roles bound to agents by ``binding`` (memo shared)."""
+        return replace(self, binding=dict(binding))
+
+
+def indicator(ctx: StlContext) -> Any:
+    """A new continuous indicator ``z in [0, 1]``."""
+    return ctx.block.indicators.add()
+
+
+def conjunction(ctx: StlContext, children: Sequence[Any]) -> Any:
+    """``z <= z_i`` for every child: ``z = 1`` enforces every child (a single child is returned)."""
+    if len(children) == 1:
+        return children[0]
+    z = indicator(ctx)
+    for child in children:
+        ctx.block.rows.add(z <= child)
+    ctx.ledger.conjunctions.append((z, list(children)))
+    return z
+
+
+def choice(ctx: StlContext, children: Sequence[Any], owner: Any = None) -> list[Any]:
+    """SOS1 ``{1 - owner, w_1..w_n}`` with fresh ``w_i <= z_i``; returns the ``w_i``.
+
+    Without ``owner`` the vector is ``{w_1..w_n}``: exactly one child is enforced.
+    """
+    chosen = [indicator(ctx) for _ in children]
+    for w, child in zip(chosen, children, strict=True):
+        ctx.block.rows.add(w <= child)
+    sos1(ctx.sos, chosen if owner is None else [1 - owner, *chosen], ctx.encoding)
+    ctx.ledger.choices.append((owner, list(children), chosen))
+    return chosen
+
+
+def disjunction(ctx: StlContext, children: Sequence[Any]) -> Any:
+    """``{1 - z, w_1..w_n}`` SOS1 with ``w_i <= z_i``: ``z = 1`` enforces one child."""
+    if len(children) == 1:
+        return children[0]
+    z = indicator(ctx)
+    choice(ctx, children, owner=z)
+    return z
+
+
+def predicate_range(
+    node: Predicate, k: int, binding: Mapping[str, str], boxes: Boxes
+) -> tuple[float, float]:
+    """Interval ``[alpha_lo, alpha_hi]`` of ``alpha = sum(c x(k)) - b`` over the boxes at ``k``.
+
+    ``alpha_lo = sum_i min(c_i lo_i, c_i hi_i) - b`` and ``alpha_hi`` likewise with max.
+    """
+    lo = hi = -node.bound
+    for term in node.terms:
+        box_lo, box_hi = boxes[binding[term.role]]
+        x_lo, x_hi = float(box_lo[k, term.component]), float(box_hi[k, term.component])
+        ends = (term.coef * x_lo, term.coef * x_hi)
+        lo, hi = lo + min(ends), hi + max(ends)
+    return lo, hi
+
+
+def alpha(node: Predicate, k: int, binding: Mapping[str, str], states: Any) -> Any:
+    """``alpha(x(k)) = sum(coef * x_role[k, component]) - bound`` over ``states[agent, k, i]``."""
+    return sum(t.coef * states[binding[t.role], k, t.component] for t in node.terms) - node.bound
+
+
+def predicate_value(node: Predicate, k: int, ctx: StlContext) -> Any:
+    """``alpha(x(k))`` of ``node`` under the context's binding, as a Pyomo expression."""
+    if k > ctx.horizon:
+        raise FormulaError(f"a predicate is needed at step {k}, past the horizon {ctx.horizon}")
+    return alpha(node, k, ctx.binding, ctx.states)
+
+
+def encode_predicate(node: Predicate, k: int, ctx: StlContext) -> Any:
+    # alpha(x(k)) - r >= -M (1 - z),  M = r_max - alpha_lo
+    z = indicator(ctx)
+    lo, _ = predicate_range(node, k, ctx.binding, ctx.boxes)
+    big_m = max(0.0, ctx.margin_ceiling - lo)
+    ctx.block.rows.add(predicate_value(node, k, ctx) - ctx.margin >= -big_m * (1 - z))
+    ctx.ledger.guarded.append((z, (node, k, ctx.binding)))
+    return z
+
+
+def encode_and(node: And, k: int, ctx: StlContext) -> Any:
+    # z <= z_i for every child
+    return conjunction(ctx, [encode(c, k, ctx) for c in node.children])
+
+
+def encode_or(node: Or, k: int, ctx: StlContext) -> Any:
+    # {1 - z, w_1..w_n} in SOS1, w_i <= z_i
+    return disjunction(ctx, [encode(c, k, ctx) for c in node.children])
+
+
+def encode_always(node: Always, k: int, ctx: StlContext) -> Any:
+    # G[a,b] phi at k  =  AND_{t in [k+a, k+b]} phi at t
+    lo, hi = node.interval.lo, node.interval.hi
+    return conjunction(ctx, [encode(node.child, t, ctx) for t in range(k + lo, k + hi + 1)])
+
+
+def encode_eventually(node: Eventually, k: int, ctx: StlContext) -> Any:
+    # F[a,b] phi at k  =  OR_{t in [k+a, k+b]} phi at t
+    lo, hi = node.interval.lo, node.interval.hi
+    return disjunction(ctx, [encode(node.child, t, ctx) for t in range(k + lo, k + hi + 1)])
+
+
+def until_terms(node: Until, k: int, ctx: StlContext) -> list[Any]:
+    """For each ``k'`` in ``[k+a, k+b]``: the indicator of ``right(k') and left(k..k')``."""
+    terms = []
+    for t in range(k + node.interval.lo, k + node.interval.hi + 1):
+        lefts = [encode(node.left, s, ctx) for s in range(k, t + 1)]
+        terms.append(conjunction(ctx, [encode(node.right, t, ctx), *lefts]))
+    return terms
+
+
+def encode_until(node: Until, k: int, ctx: StlContext) -> Any:
+    # l U[a,b] r at k  =  OR_{k' in [k+a, k+b]} (r at k' AND_{k'' in [k, k']} l at k'')
+    return disjunction(ctx, until_terms(node, k, ctx))
+
+
+ENCODERS: dict[type, Callable[[Any, int, StlContext], Any]] = {
+    Predicate: encode_predicate,
+    And: encode_and,
+    Or: encode_or,
+    Always: encode_always,
+    Eventually: encode_eventually,
+    Until: encode_until,
+}
+
+
+def encode(node: Formula, k: int, ctx: StlContext) -> Any:
+    """Indicator ``z`` of the lowered ``node`` at step ``k``: ``z = 1`` enforces ``(S, k) |= node``.
+
+    Memoized on ``(node, k, binding)``, so a subformula shared by several parents (or by several
+    groups holding the same element) is encoded once.
+    """
+    key = (node, k, tuple(sorted(ctx.binding.items())))
+    found = ctx.memo.get(key)
+    if found is not None:
+        return found
+    encoder = ENCODERS.get(type(node))
+    if encoder is None:
+        raise FormulaError(f"cannot encode {type(node).__name__}: lower the formula first")
+    z = encoder(node, k, ctx)
+    ctx.memo[key] = z
+    return z
+
+
+def require_predicate(node: Predicate, k: int, ctx: StlContext) -> None:
+    # alpha(x(k)) - r >= 0: no indicator, no big-M
+    ctx.block.rows.add(predicate_value(node, k, ctx) - ctx.margin >= 0)
+    ctx.ledger.required.append((node, k, ctx.binding))
+
+
+def require_and(node: And, k: int, ctx: StlContext) -> None:
+    # every child required
+    for child in node.children:
+        require(child, k, ctx)
+
+
+def require_always(node: Always, k: int, ctx: StlContext) -> None:
+    # child required at every t in [k+a, k+b]
+    for t in range(k + node.interval.lo, k + node.interval.hi + 1):
+        require(node.child, t, ctx)
+
+
+def require_or(node: Or, k: int, ctx: StlContext) -> None:
+    # {w_1..w_n} in SOS1, w_i <= z_i: exactly one child enforced
+    require_one(ctx, [encode(c, k, ctx) for c in node.children])
+
+
+def require_eventually(node: Eventually, k: int, ctx: StlContext) -> None:
+    # {w_a..w_b} in SOS1, w_t <= z(child, t): the child enforced at one t in [k+a, k+b]
+    span = range(k + node.interval.lo, k + node.interval.hi + 1)
+    require_one(ctx, [encode(node.child, t, ctx) for t in span])
+
+
+def require_until(node: Until, k: int, ctx: StlContext) -> None:
+    # one k' in [k+a, k+b] with right(k') and left(k..k') enforced
+    require_one(ctx, until_terms(node, k, ctx))
+
+
+def require_one(ctx: StlContext, children: Sequence[Any]) -> None:
+    """Exactly one of ``children`` enforced: ``z_1 >= 1`` alone, else SOS1 ``{w_1..w_n}``."""
+    if len(children) == 1:
+        ctx.block.rows.add(children[0] >= 1)
+    else:
+        choice(ctx, children)
+
+
+REQUIREMENTS: dict[type, Callable[[Any, int, StlContext], None]] = {
+    Predicate: require_predicate,
+    And: require_and,
+    Or: require_or,
+    Always: require_always,
+    Eventually: require_eventually,
+    Until: require_until,
+}
+
+
+def require(node: Formula, k: int, ctx: StlContext) -> None:
+    """Enforce ``(S, k) |= node`` outright: the indicator fixed at 1, simplified.
+
+    Conjunctions (``And``, ``G``) split into requirements, a predicate is ``alpha - r >= 0`` with no
+    big-M, and a disjunction (``Or``, ``F``, ``U``) is an SOS1 ``{w_1..w_n}`` with no "off" slot.
+    """
+    requirement = REQUIREMENTS.get(type(node))
+    if requirement is None:
+        raise FormulaError(f"cannot encode {type(node).__name__}: lower the formula first")
+    requirement(node, k, ctx)
+
+
+def margin_ceiling(
+    formulas: Sequence[tuple[Formula, Mapping[str, str]]], boxes: Boxes, horizon: int
+) -> float:
+    """Largest value any predicate of ``formulas`` can take at any step (at least 0).
+
+    No enforced predicate holds with a margin above it, so it bounds a maximized margin ``r``.
+    """
+    best = 0.0
+    for formula, binding in formulas:
+        for atom in atoms(formula):
+            if isinstance(atom, Predicate):
+                highs = (predicate_range(atom, k, binding, boxes)[1] for k in range(horizon + 1))
+                best = max(best, *highs)
+    return best

@@ -1,0 +1,108 @@
+"""One value per quantity: the figures reported for a plan are those of the plan written.
+
+HiGHS's objective, margin and ``rho_s`` describe the point it returned; the trajectory written
+can differ from that point slightly (integrality tolerances, a step 2 that moved it, a fallback
+to the step-1 plan). The reported values are therefore recomputed from the written plan:
+
+* ``rho_s`` of each synchronous task: the monitor's;
+* the margin: the monitor's spatial robustness (the smallest over tasks, constraints and
+  separation);
+* the objective of problem (step1): ``t - beta * sum_{p,k} ||u_p(k)||_1 (+ w * margin when the
+  margin is maximized)`` with ``t = min_l min(rho_s^l, gamma_l)`` (absent without synchronous
+  tasks) and the inputs of the trajectory.
+
+The solver's own values are kept as :class:`stlplan.result.SolverFigures`. A solver value the
+plan does not reach (the monitor's value lower by more than the gap, ``tol + gap * |value|``) is
+an error, as is a plan the monitor rejects.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from stlplan.errors import SolverError
+from stlplan.mission.problem import Problem
+from stlplan.result import MonitorReport, PlanResult, SolverFigures, Trajectory
+
+TOL = 1e-6
+"""Absolute tolerance of the comparisons, added to the relative gap."""
+
+
+def plan_objective(problem: Problem, trajectory: Trajectory, report: MonitorReport) -> float:
+    """The step-1 objective of the written plan (module docstring)."""
+    objective = problem.mission.objective
+    effort = sum(float(np.abs(u).sum()) for u in trajectory.inputs.values())
+    score = -objective.beta * effort
+    capped = [
+        min(float(report.verdict(t.name).rho_s or 0.0), t.sync.gamma)
+        for t in problem.tasks
+        if t.sync is not None
+    ]
+    if capped:
+        score += min(capped)
+    margin = report.spatial_robustness
+    if objective.margin.maximize and math.isfinite(margin):
+        score += objective.margin.weight * margin
+    return score
+
+
+def _short_of(claimed: float | None, seen: float | None, gap: float) -> bool:
+    """Whether ``seen`` falls short of ``claimed`` by more than the gap."""
+    if claimed is None:
+        return False
+    return seen is None or seen < claimed - (TOL + gap * abs(claimed))
+
+
+def _check(result: PlanResult, solver: SolverFigures, report: MonitorReport, gap: float) -> None:
+    """Raise when the plan written falls short of what the solver claims of it."""
+    for task, rho in solver.rho_s.items():
+        seen = report.verdict(task).rho_s
+        if _short_of(rho, seen, 0.0):
+            raise SolverError(
+                f"synchronous robustness of '{task}' disagrees: solver {rho}, monitor {seen}"
+            )
+    if _short_of(solver.margin, result.margin, gap):
+        raise SolverError(
+            f"the spatial margin disagrees beyond the gap: solver {solver.margin}, monitor "
+            f"{result.margin}"
+        )
+    one_step = result.steps == 1 and result.fallback is None
+    if one_step and _short_of(solver.objective, result.objective, gap):
+        raise SolverError(
+            f"the objective disagrees beyond the gap: solver {solver.objective}, plan "
+            f"{result.objective}"
+        )
+
+
+def reported(problem: Problem, result: PlanResult, report: MonitorReport, gap: float) -> PlanResult:
+    """``result`` with the written plan's objective, margin and rho_s; the solver's kept apart.
+
+    A fallback's cost is the solver's value minus the plan's, per quantity.
+    """
+    assert result.trajectory is not None
+    solver = SolverFigures(result.objective, result.margin, dict(result.rho_s))
+    margin = report.spatial_robustness
+    rho_s = {t: report.verdict(t).rho_s for t in result.rho_s}
+    out = dataclasses.replace(
+        result,
+        objective=plan_objective(problem, result.trajectory, report),
+        margin=margin if math.isfinite(margin) else None,
+        rho_s={t: float(v) for t, v in rho_s.items() if v is not None},
+        solver=solver,
+        report=report,
+    )
+    _check(out, solver, report, gap)
+    if out.fallback is not None:
+        cost = {
+            name: float(mine - theirs)
+            for name, mine, theirs in (
+                ("objective", solver.objective, out.objective),
+                ("margin", solver.margin, out.margin),
+            )
+            if mine is not None and theirs is not None
+        }
+        out = dataclasses.replace(out, fallback=dataclasses.replace(out.fallback, cost=cost))
+    return out

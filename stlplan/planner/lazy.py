@@ -1,0 +1,362 @@
+"""Step 1 with lazy constraints: solve, add the requirements the plan violates, solve again.
+
+HiGHS has no lazy-constraint callback, so the loop runs around it, on one model kept loaded
+(:class:`stlplan.planner.session.HighsSession`). Round ``i`` solves problem (step1) with only the step
+requirements (:mod:`stlplan.planner.encoding.deferred`) added so far: a relaxation of the full problem,
+so its dual bound ``U_i`` bounds the full optimum from above. The requirements its plan violates
+(found with numpy on the trajectory, with their neighbours in time per ``lazy_window``) are then
+encoded exactly as the up-front formulation encodes them, and the next round starts. Each round
+adds at least one requirement, so the loop ends.
+
+While a round runs, every improving plan HiGHS finds is also checked against the requirements
+not yet in the model. A plan that violates none is feasible for the full problem; the best such
+plan ``L`` is kept across rounds, and the loop stops as soon as ``(U_i - L) / |L|`` is within the
+gap, often before the last round would have ended. Either way the result is the full problem's
+optimum to the same tolerance as an up-front solve.
+
+When the time limit ends the loop without a plan feasible for the full problem, the last round's
+plan is *completed*: its binaries are fixed, all remaining requirements added, and HiGHS looks for
+a plan with those decisions (a small MILP) in the grace a finishing solve has past the run's
+deadline (:class:`stlplan.planner.session.Clock`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from pyomo.environ import Var, value
+
+from stlplan.planner.encoding.deferred import best_side, neighbours, violated
+from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
+from stlplan.planner.session import (
+    MIN_SOLVE_SECONDS,
+    TC,
+    Clock,
+    HighsSession,
+    PlanOptions,
+    Solved,
+    has_solution,
+    plan_status,
+)
+from stlplan.result import PlanStatus
+
+_log = logging.getLogger(__name__)
+
+VIOLATION_TOL = 1e-7
+"""A requirement counts as violated when ``max_i alpha_i - r`` is below ``-VIOLATION_TOL``."""
+
+
+@dataclass(frozen=True)
+class Step1:
+    """How step 1 ended.
+
+    Attributes
+    ----------
+    status
+        Optimal, feasible (time limit), infeasible, no plan or error.
+    objective, bound, gap
+        Best plan's objective, the bound proven for the full problem, their relative gap.
+    seconds
+        Wall time of every round (and of a completion).
+    rounds
+        Solves of the loop (1 without lazy requirements).
+    added
+        Lazy requirements added to the model.
+    stop
+        HiGHS's termination condition of the last round, by name.
+    completed
+        Whether the plan's decisions were completed by a last small solve.
+    """
+
+    status: PlanStatus
+    objective: float | None
+    bound: float | None
+    gap: float | None
+    seconds: float
+    rounds: int
+    added: int
+    stop: str
+    completed: bool = False
+
+
+def relative_gap(objective: float | None, bound: float | None) -> float | None:
+    """``(bound - objective) / |objective|`` (HiGHS's relative gap, for a maximization)."""
+    if objective is None or bound is None:
+        return None
+    return max(0.0, bound - objective) / max(abs(objective), 1e-9)
+
+
+def trajectory_states(pm: PlanModel) -> dict[str, np.ndarray]:
+    """States ``x_p(0..H)`` of the loaded solution, agent name to an (H+1, n) array."""
+    return {
+        a.name: np.array([[float(value(v)) for v in row] for row in pm.states(a)])
+        for a in pm.problem.agents
+    }
+
+
+def pending_violations(pm: PlanModel) -> list[int]:
+    """Lazy requirements not in the model that the loaded plan violates (indices)."""
+    assert pm.deferral is not None
+    states = trajectory_states(pm)
+    found = violated(pm.deferral.lazy, states, float(value(pm.margin)), VIOLATION_TOL)
+    return [n for n in found if n not in pm.added]
+
+
+def near_violations(pm: PlanModel, margin: float) -> list[int]:
+    """Lazy requirements not in the model that the loaded plan meets by less than ``margin``."""
+    assert pm.deferral is not None
+    states = trajectory_states(pm)
+    found = violated(pm.deferral.lazy, states, float(value(pm.margin)), -margin)
+    return [n for n in found if n not in pm.added]
+
+
+@dataclass(eq=False)
+class Watch:
+    """Checks HiGHS's improving plans against the lazy requirements while a round runs.
+
+    Attributes
+    ----------
+    best
+        ``(objective, column values, requirements in the model then)`` of the best plan
+        feasible for the full problem.
+    abs_gap
+        An absolute gap that also closes the loop (None: the relative gap only).
+    stopped
+        Whether the watch interrupted the round (the best plan is within the gap).
+    """
+
+    pm: PlanModel
+    columns: dict[int, int]
+    gap: float
+    best: tuple[float, np.ndarray, frozenset[int]] | None = None
+    abs_gap: float | None = None
+    stopped: bool = False
+
+    def states(self, x: np.ndarray) -> dict[str, np.ndarray]:
+        """Agent states of HiGHS's column vector ``x`` (fixed states keep their value)."""
+        out = {}
+        for agent in self.pm.problem.agents:
+            rows = [[self._value(v, x) for v in row] for row in self.pm.states(agent)]
+            out[agent.name] = np.array(rows)
+        return out
+
+    def _value(self, var: Any, x: np.ndarray) -> float:
+        column = self.columns.get(id(var))
+        return float(var.value) if column is None else float(x[column])
+
+    def on_plan(self, event: Any) -> None:
+        """An improving plan: keep it when it violates no requirement left out of the model."""
+        assert self.pm.deferral is not None
+        objective = float(event.data_out.objective_function_value)
+        if self.best is None or objective > self.best[0]:
+            x = np.array(event.data_out.mip_solution)
+            margin = self.pm.margin
+            r = margin if isinstance(margin, float) else self._value(margin, x)
+            bad = violated(self.pm.deferral.lazy, self.states(x), r, VIOLATION_TOL)
+            if all(n in self.pm.added for n in bad):
+                self.best = (objective, x, frozenset(self.pm.added))
+        self.maybe_stop(event)
+
+    def closed(self, bound: float | None) -> bool:
+        """Whether the best full plan is within the gap (relative, or absolute) of ``bound``."""
+        if self.best is None or bound is None:
+            return False
+        slack = bound - self.best[0]
+        return slack <= max(self.gap * abs(self.best[0]), self.abs_gap or 0.0)
+
+    def maybe_stop(self, event: Any) -> None:
+        """Interrupt the round once the best full plan is within the gap of its bound."""
+        self.stopped = self.stopped or self.closed(float(event.data_out.mip_dual_bound))
+        if self.stopped:
+            event.interrupt()
+
+
+class LazySolver:
+    """The loop of the module docstring on one model; :meth:`run` may be called again.
+
+    Parameters
+    ----------
+    pm
+        A model built with ``lazy=True`` (or without: then a run is one solve).
+    options
+        Time limit, gap, threads, window and margin of the loop.
+    clock
+        Progress reporting; ``clock.round`` counts the solves.
+    """
+
+    def __init__(self, pm: PlanModel, options: PlanOptions, clock: Clock) -> None:
+        self.pm, self.options, self.clock = pm, options, clock
+        clock.round = (clock.round or 0) + 1
+        self.session = HighsSession(pm.model, options, clock, "step1")
+        self.watch: Watch | None = None
+        if pm.deferral is not None:
+            self.watch = Watch(pm, self.session.columns(), options.gap)
+            self.session.highs.cbMipImprovingSolution += self.watch.on_plan
+            self.session.highs.cbMipInterrupt += self.watch.maybe_stop
+        self.step1: Step1 | None = None
+
+    def run(self, time_limit: float, abs_gap: float | None = None) -> Step1:
+        """Solve within ``time_limit`` seconds, to the relative gap (or to ``abs_gap`` alone).
+
+        The plan of the returned :class:`Step1` (when there is one) is loaded into ``pm``.
+        """
+        tick = time.perf_counter()
+        if abs_gap is not None:  # the absolute gap alone decides
+            self.session.solver.config.abs_gap = abs_gap
+            self.session.solver.config.rel_gap = 0.0
+            if self.watch is not None:
+                self.watch.abs_gap, self.watch.gap = abs_gap, 0.0
+        if self.watch is None:
+            solved = self.session.solve(time_limit)
+            self.step1 = _ended(solved, time.perf_counter() - tick, 1, 0)
+        else:
+            self.step1 = self._rounds(time_limit, tick)
+        return self.step1
+
+    def _rounds(self, time_limit: float, tick: float) -> Step1:
+        pm, options, clock, watch = self.pm, self.options, self.clock, self.watch
+        assert pm.deferral is not None and watch is not None
+        first = clock.round or 1
+        while True:
+            remaining = time_limit - (time.perf_counter() - tick)
+            watch.stopped = False  # (the session clears HiGHS's stale interrupt flag)
+            solved = self.session.solve(remaining)
+            rounds, seconds = (clock.round or 1) - first + 1, time.perf_counter() - tick
+            results = solved.results
+            _log.debug(
+                "round %d: %.1f s, %s, bound %s, best %s, added %d",
+                clock.round,
+                solved.seconds,
+                results.termination_condition.name,
+                results.objective_bound,
+                watch.best and watch.best[0],
+                len(pm.added),
+            )
+            if watch.best is not None and watch.closed(results.objective_bound):
+                return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
+            converged = results.termination_condition == TC.convergenceCriteriaSatisfied
+            bad = pending_violations(pm) if has_solution(results) else []
+            if converged and not bad:
+                return _ended(solved, seconds, rounds, len(pm.added))
+            left = min(time_limit - seconds, clock.remaining())
+            out_of_time = not (converged or watch.stopped) or left < MIN_SOLVE_SECONDS
+            if solved.stopped or out_of_time:
+                return self._last(solved, tick, rounds)
+            add_requirements(pm, neighbours(pm.deferral.lazy, bad, options.lazy_window))
+            if options.lazy_margin > 0:
+                add_requirements(pm, near_violations(pm, options.lazy_margin))
+            clock.round = (clock.round or 0) + 1
+
+    def _last(self, last: Solved, tick: float, rounds: int) -> Step1:
+        """The loop ends short of the optimum (time, a stop request, infeasible, an error).
+
+        The best plan feasible for the full problem is kept. Without one, the last round's plan
+        (which violates some requirement left out) is completed (:func:`_complete`), unless the
+        user asked to stop: then there is no plan.
+        """
+        status = PlanStatus.INTERRUPTED if last.stopped else PlanStatus.FEASIBLE
+        if self.watch is not None and self.watch.best is not None:
+            return self._from_best(last, tick, rounds, status)
+        ended = _ended(last, time.perf_counter() - tick, rounds, len(self.pm.added))
+        if last.stopped:
+            return dataclasses.replace(
+                ended, status=PlanStatus.INTERRUPTED_NO_PLAN, objective=None, gap=None
+            )
+        if not has_solution(last.results):
+            return ended
+        return _complete(self.pm, self.session, last, tick, rounds)
+
+    def _from_best(self, last: Solved, tick: float, rounds: int, status: PlanStatus) -> Step1:
+        """Load the best plan feasible for the full problem; the bound is the last round's.
+
+        Requirements added after the plan was found get the side the plan meets best
+        (:func:`stlplan.planner.encoding.model.assign_side`), so every indicator and binary agrees.
+        """
+        pm, watch = self.pm, self.watch
+        assert watch is not None and watch.best is not None and pm.deferral is not None
+        objective, x, added_then = watch.best
+        columns = self.session.columns()
+        for v in pm.model.component_data_objects(Var):
+            column = columns.get(id(v))
+            if column is not None and column < len(x):
+                v.set_value(float(x[column]), skip_validation=True)
+        states = trajectory_states(pm)
+        for n in pm.added - added_then:
+            assign_side(pm, n, best_side(pm.deferral.lazy[n], states))
+        bound = last.results.objective_bound
+        return Step1(
+            status=status,
+            objective=objective,
+            bound=bound,
+            gap=relative_gap(objective, bound),
+            seconds=time.perf_counter() - tick,
+            rounds=rounds,
+            added=len(pm.added),
+            stop=last.results.termination_condition.name,
+        )
+
+
+def solve_step1(pm: PlanModel, options: PlanOptions, clock: Clock) -> Step1:
+    """Solve problem (step1) of ``pm``, lazily when ``pm`` was built with ``lazy=True``."""
+    return LazySolver(pm, options, clock).run(options.time_limit)
+
+
+def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Step1:
+    results = solved.results
+    return Step1(
+        status=plan_status(results, solved.stopped),
+        objective=results.incumbent_objective,
+        bound=results.objective_bound,
+        gap=solved.gap,
+        seconds=seconds,
+        rounds=rounds,
+        added=added,
+        stop=results.termination_condition.name,
+    )
+
+
+def _fix_and_solve(pm: PlanModel, session: HighsSession, values: dict[int, float]) -> Solved:
+    """Fix the binaries with a value in ``values`` (by id), add every requirement, solve (a
+    finishing solve)."""
+    fixed = []
+    for v in pm.model.component_data_objects(Var):
+        if v.is_binary() and not v.fixed and id(v) in values:
+            v.fix(float(round(values[id(v)])))
+            fixed.append(v)
+    add_requirements(pm, pm.pending())
+    solved = session.solve(finishing=True)
+    for v in fixed:
+        v.unfix()
+    return solved
+
+
+def _complete(
+    pm: PlanModel,
+    session: HighsSession,
+    last: Solved,
+    tick: float,
+    rounds: int,
+) -> Step1:
+    """Out of time with no plan feasible for the full problem: complete the last round's plan.
+
+    The bound stays the last round's (it bounds the full problem); the gap is recomputed.
+    """
+    bound = last.results.objective_bound
+    values = {id(v): float(v.value) for v in pm.model.component_data_objects(Var)
+              if v.is_binary() and v.value is not None}  # fmt: skip
+    solved = _fix_and_solve(pm, session, values)
+    seconds = time.perf_counter() - tick
+    stop = last.results.termination_condition.name
+    if not has_solution(solved.results):  # (an interrupt by the watch still leaves a plan)
+        status = PlanStatus.INTERRUPTED_NO_PLAN if solved.stopped else PlanStatus.NO_PLAN
+        return Step1(status, None, bound, None, seconds, rounds + 1, len(pm.added),
+                     stop, completed=True)  # fmt: skip
+    objective = float(solved.results.incumbent_objective)
+    status = PlanStatus.INTERRUPTED if solved.stopped else PlanStatus.FEASIBLE
+    return Step1(status, objective, bound, relative_gap(objective, bound), seconds,
+                 rounds + 1, len(pm.added), stop, completed=True)  # fmt: skip

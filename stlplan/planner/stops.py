@@ -1,0 +1,169 @@
+"""Stop requests: Ctrl-C or SIGTERM while HiGHS works ends the solve at its next callback.
+
+A signal handler that raised ``KeyboardInterrupt`` inside HiGHS would unwind through C++ and lose
+the incumbent. While planning in the main thread, :func:`stop_on_signals` installs handlers that
+only record the request when a solve is running; every :class:`stlplan.planner.session.HighsSession`
+polls :func:`should_interrupt` from HiGHS's callbacks and interrupts. The planner then keeps the
+best plan found so far (verified by the monitor like any other) with status ``interrupted``.
+
+A second signal is a hard stop: every solve ends at once and nothing is kept. Outside a solve
+(building the model, writing outputs) a signal raises :class:`Interrupted` straight away.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from types import FrameType
+from typing import Any
+
+CAUGHT = (signal.SIGINT, signal.SIGTERM)
+
+
+class Interrupted(KeyboardInterrupt):
+    """Planning stopped by a signal before anything could be kept."""
+
+    def __init__(self, signum: int = signal.SIGINT) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+    @property
+    def exit_code(self) -> int:
+        """The shell's convention: 128 plus the signal number (130 for Ctrl-C, 143 for TERM)."""
+        return 128 + self.signum
+
+
+@dataclass
+class StopState:
+    """The request of the current planning call.
+
+    Attributes
+    ----------
+    signum
+        The first signal received, or None.
+    hard
+        A second signal arrived: stop everything, keep nothing.
+    solving
+        How many HiGHS solves are running (a signal outside one raises at once).
+    depth
+        Nested :func:`stop_on_signals` calls (the outermost owns the handlers).
+    finishing
+        Nested :func:`finishing` blocks: solves that turn the best plan so far into an output.
+    enabled
+        False in processes whose parent handles signals (:func:`leave_signals_alone`).
+    """
+
+    signum: int | None = None
+    hard: bool = False
+    solving: int = 0
+    depth: int = 0
+    finishing: int = 0
+    enabled: bool = True
+
+
+STATE = StopState()
+
+
+def requested() -> bool:
+    """Whether a stop was requested during the current planning call (False outside one)."""
+    return STATE.depth > 0 and STATE.signum is not None
+
+
+def last_signal() -> int | None:
+    """The signal that stopped the last planning call (for the exit code), or None."""
+    return STATE.signum
+
+
+def should_interrupt() -> bool:
+    """Whether a running solve must stop (inside :func:`finishing`, only on a hard stop)."""
+    return requested() and (STATE.hard or not STATE.finishing)
+
+
+@contextmanager
+def finishing() -> Iterator[None]:
+    """Solves that turn the best plan so far into an output: a first request does not stop them."""
+    STATE.finishing += 1
+    try:
+        yield
+    finally:
+        STATE.finishing -= 1
+
+
+def raise_if_hard() -> None:
+    """Raise :class:`Interrupted` after a hard stop."""
+    if requested() and STATE.hard and STATE.signum is not None:
+        raise Interrupted(STATE.signum)
+
+
+@contextmanager
+def solving() -> Iterator[None]:
+    """Mark a HiGHS solve as running (signals then only record the request)."""
+    STATE.solving += 1
+    try:
+        yield
+    finally:
+        STATE.solving -= 1
+
+
+def _on_signal(signum: int, frame: FrameType | None) -> None:
+    if STATE.solving == 0:
+        STATE.signum = STATE.signum or signum
+        raise Interrupted(signum)
+    if STATE.signum is not None:
+        STATE.hard = True
+    else:
+        STATE.signum = signum
+
+
+@contextmanager
+def held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back during a short critical section; they arrive after it."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, CAUGHT)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
+def leave_signals_alone() -> None:
+    """Never install handlers in this process (a pool worker, stopped by its parent)."""
+    STATE.enabled, STATE.depth, STATE.signum, STATE.hard = False, 0, None, False
+
+
+@contextmanager
+def stop_on_signals() -> Iterator[None]:
+    """Handle SIGINT and SIGTERM as stop requests for the duration of one planning call.
+
+    Only in the main thread, and only for signals whose handler is Python's default (a caller
+    that ignores SIGINT, like a pool worker, keeps ignoring it). The previous handlers come back
+    on exit. The request state is reset on entry; nested calls share the outer one.
+    """
+    if (
+        STATE.depth
+        or not STATE.enabled
+        or threading.current_thread() is not threading.main_thread()
+    ):
+        yield
+        return
+    previous: dict[int, Any] = {}
+    with held():  # installed together with the state, or not at all
+        STATE.signum, STATE.hard, STATE.solving, STATE.finishing = None, False, 0, 0
+        for caught in CAUGHT:
+            handler = signal.getsignal(caught)
+            if handler in (signal.default_int_handler, signal.SIG_DFL):
+                previous[caught] = handler
+                signal.signal(caught, _on_signal)
+        STATE.depth += 1
+    try:
+        yield
+    finally:
+        with held():
+            STATE.depth -= 1
+            for signum, handler in previous.items():
+                signal.signal(signum, handler)
