@@ -34,19 +34,19 @@ from stlplan.errors import StlplanError
 MISSIONS = Path(__file__).resolve().parents[1] / "missions"
 CASES = ("farm", "farm-case2", "farm-case3")
 
-FORMULATIONS: dict[str, dict[str, Any]] = {
-    "default": {},
-    "sampled": {"inter_sample": False},
-    "straightforward": {"lazy": False, "floors": False},
-    "no-floors": {"floors": False},
-    "no-parts": {"decompose": False},
-    "lazy-only": {"decompose": False, "floors": False},
-    "pair-window": {"lazy_window": None},
-    "window1": {"lazy_window": 1},
-    "near-0.1": {"lazy_margin": 0.1},
-    "log": {"encoding": "log"},
-    "heuristics-0.01": {"highs_options": (("mip_heuristic_effort", 0.01),)},
-    "heuristics-0.2": {"highs_options": (("mip_heuristic_effort", 0.2),)},
+FORMULATIONS: dict[str, tuple[tuple[str, Any], ...]] = {
+    "default": (),
+    "sampled": (("inter_sample", False),),
+    "straightforward": (("lazy", False), ("floors", False)),
+    "no-floors": (("floors", False),),
+    "no-parts": (("decompose", False),),
+    "lazy-only": (("decompose", False), ("floors", False)),
+    "pair-window": (("lazy_window", None),),
+    "window1": (("lazy_window", 1),),
+    "near-0.1": (("lazy_margin", 0.1),),
+    "log": (("encoding", "log"),),
+    "heuristics-0.01": (("highs_options", (("mip_heuristic_effort", 0.01),)),),
+    "heuristics-0.2": (("highs_options", (("mip_heuristic_effort", 0.2),)),),
 }
 """Formulation name to :class:`stlplan.planner.solve.PlanOptions` overrides (``inter_sample`` goes to the
 problem: ``sampled`` is the paper's semantics, safety judged at the steps only)."""
@@ -81,6 +81,20 @@ def _initial_problem(case: str, seed: int, run: int) -> Any:
     return build_problem(with_initial_positions(mission, positions), source=str(path))
 
 
+def _overrides(job: Job, threads: int | None) -> Any:
+    """The job's formulation as :class:`stlplan.api.Overrides` (inter-sample safety apart)."""
+    from stlplan.api import Overrides
+
+    chosen = dict(FORMULATIONS[job.formulation])
+    inter_sample = chosen.pop("inter_sample", None)
+    return Overrides(
+        time_limit=job.time_limit,
+        threads=threads,
+        inter_sample=inter_sample,
+        tuning=tuple(chosen.items()),
+    )
+
+
 def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
     """Solve one job through the API (plan, then the monitor); never raises for a bad solve."""
     from stlplan import api
@@ -94,10 +108,10 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
         rounds[0] = max(rounds[0], progress.round or 1)
 
     problem = _initial_problem(job.case, seed, job.run)
-    overrides = {"time_limit": job.time_limit, "threads": threads, **FORMULATIONS[job.formulation]}
+    overrides = _overrides(job, threads)
     tick = time.perf_counter()
     try:
-        _, result = api.plan(problem, progress=on_progress, **overrides)
+        _, result = api.plan(problem, overrides, progress=on_progress)
     except StlplanError as exc:  # the monitor rejected the plan, or HiGHS failed
         row.update(status="error", accepted=False, message=str(exc))
         row["wall_s"] = round(time.perf_counter() - tick, 2)

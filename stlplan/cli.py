@@ -197,18 +197,17 @@ def solve(
     from stlplan.outputs.progress import ProgressLine
     from stlplan.outputs.render import print_plan
 
-    overrides: dict[str, Any] = dict(
+    overrides = api.Overrides(
         time_limit=time_limit,
         gap=gap,
         threads=threads,
         seed=seed,
         encoding=None if encoding is None else encoding.value,
         two_step=False if one_step else None,
+        inter_sample=inter_sample,
     )
     with ProgressLine(err_console, enabled=not quiet) as line:
-        result = api.solve(
-            mission, out=out, progress=line.update, inter_sample=inter_sample, **overrides
-        )
+        result = api.solve(mission, out=out, overrides=overrides, progress=line.update)
     if not quiet:
         print_plan(out_console, result)
     code = STATUS_EXIT[result.status]
@@ -257,7 +256,7 @@ def sweep(
             resume,
             on_record=bar.advance,
             on_start=bar.start,
-            time_limit=time_limit,
+            overrides=api.Overrides(time_limit=time_limit),
         )
     from stlplan.sweep.progress import print_table
 

@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from stlplan import api
+from stlplan.api import Overrides
 from stlplan.result import PlanStatus
 from tests.conftest import MISSIONS
 
@@ -24,7 +25,9 @@ def test_a_small_time_limit_bounds_a_long_horizon_run(tmp_path: Path) -> None:
     mission = _long_mission(tmp_path, 600)  # unbounded, its effort floors alone take a minute
     limit = 4.0
     tick = time.perf_counter()
-    result = api.solve(mission, out=tmp_path / "out", time_limit=limit, threads=1)
+    result = api.solve(
+        mission, out=tmp_path / "out", overrides=Overrides(time_limit=limit, threads=1)
+    )
     wall = time.perf_counter() - tick
     assert wall < limit + 4.0, wall  # the grace of finishing solves, loading, writing
     assert result.status in (PlanStatus.NO_PLAN, PlanStatus.FEASIBLE, PlanStatus.OPTIMAL)

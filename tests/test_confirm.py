@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from stlplan import api
+from stlplan.api import Overrides
 from stlplan.planner.confirm import attempts, has_plan, option, solve_confirmed, verdict
 from tests.conftest import MISSIONS
 
@@ -126,10 +127,10 @@ def test_a_false_verdict_in_a_lazy_round_is_overturned_and_the_loop_goes_on(
         finally:
             highs.deleteRows(1, [highs.getNumRow() - 1])
 
-    _, reference = api.plan(MISSIONS / "reach-avoid.yaml", threads=1)
+    _, reference = api.plan(MISSIONS / "reach-avoid.yaml", overrides=Overrides(threads=1))
     assert reference.confirmations == ()
     monkeypatch.setattr(HighsSession, "_run", spoil_first)
-    _, result = api.plan(MISSIONS / "reach-avoid.yaml", threads=1)
+    _, result = api.plan(MISSIONS / "reach-avoid.yaml", overrides=Overrides(threads=1))
     assert spoiled and result.status.value == "optimal"
     assert result.report is not None and result.report.satisfied
     first = result.confirmations[0]

@@ -9,6 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from stlplan import api
+from stlplan.api import Overrides
 from stlplan.cli import app
 from stlplan.planner.figures import plan_objective
 from tests.conftest import MISSIONS
@@ -50,7 +51,7 @@ def test_a_failed_continuous_solve_says_why_and_what_it_costs(
         return "the continuous solve ended maxTimeLimit", 0.0
 
     monkeypatch.setattr(stlplan.planner.solve, "_continuous", failing)
-    _, result = api.plan(MISSIONS / "reach-avoid.yaml", threads=1)
+    _, result = api.plan(MISSIONS / "reach-avoid.yaml", overrides=Overrides(threads=1))
     assert result.status.has_plan and result.report is not None
     assert result.fallback is not None
     assert "maxTimeLimit" in result.fallback.reason and "maxTimeLimit" in result.message

@@ -17,6 +17,7 @@ import pytest
 from typer.testing import CliRunner
 
 from stlplan import api
+from stlplan.api import Overrides
 from stlplan.cli import app
 from stlplan.planner import stops
 from stlplan.result import PlanStatus
@@ -80,7 +81,7 @@ def test_an_ignored_signal_stays_ignored() -> None:
 
 
 def test_interrupted_solve_keeps_its_best_plan_verified() -> None:
-    _, result = api.plan(PAIR, progress=signal_at_first_plan(), threads=1)
+    _, result = api.plan(PAIR, progress=signal_at_first_plan(), overrides=Overrides(threads=1))
     assert result.status is PlanStatus.INTERRUPTED
     assert result.trajectory is not None
     assert result.report is not None and result.report.satisfied
@@ -90,7 +91,7 @@ def test_interrupted_solve_keeps_its_best_plan_verified() -> None:
 def test_interrupted_lazy_round_without_a_full_plan_keeps_nothing() -> None:
     # Case II's first round leaves obstacle and collision rows out: its first plan violates
     # some, so it is not a plan of the mission and is not kept.
-    _, result = api.plan(CASE2, progress=signal_at_first_plan(), threads=1)
+    _, result = api.plan(CASE2, progress=signal_at_first_plan(), overrides=Overrides(threads=1))
     assert result.status is PlanStatus.INTERRUPTED_NO_PLAN
     assert result.trajectory is None and result.report is None
 
@@ -126,7 +127,9 @@ def test_cli_sigterm_exits_143(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) 
 def test_second_signal_stops_hard_and_writes_nothing(tmp_path: Path) -> None:
     out = tmp_path / "plan"
     with pytest.raises(stops.Interrupted):
-        api.solve(PAIR, out=out, progress=signal_at_first_plan(times=2), threads=1)
+        api.solve(
+            PAIR, out=out, progress=signal_at_first_plan(times=2), overrides=Overrides(threads=1)
+        )
     assert not out.exists()
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from stlplan import api
+from stlplan.api import Overrides
 from stlplan.result import PlanStatus
 from tests.conftest import MISSIONS
 
@@ -32,7 +33,7 @@ def test_sync_pair_synchronizes_from_the_first_reachable_step() -> None:
 
 def test_one_step_and_two_step_share_decisions_and_step_two_lowers_effort() -> None:
     _, two = api.plan(MISSIONS / "sync-pair.yaml")
-    _, one = api.plan(MISSIONS / "sync-pair.yaml", two_step=False)
+    _, one = api.plan(MISSIONS / "sync-pair.yaml", overrides=Overrides(two_step=False))
     assert one.objective == pytest.approx(two.objective, abs=1e-6)
     assert two.effort is not None and one.effort is not None
     assert two.effort <= one.effort + 1e-6

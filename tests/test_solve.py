@@ -13,6 +13,7 @@ import pytest
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
+from stlplan.planner.session import Overrides
 from stlplan.planner.solve import PlanOptions, Progress, plan
 from stlplan.result import PlanStatus
 
@@ -182,13 +183,15 @@ def test_progress_errors_are_raised() -> None:
 
 def test_options_from_mission_with_overrides() -> None:
     problem = load_problem(FARM)
-    options = PlanOptions.from_mission(problem.mission, time_limit=12.5, threads=None, seed=3)
-    assert options.time_limit == 12.5 and options.seed == 3
+    overrides = Overrides(time_limit=12.5, threads=None, seed=3, tuning=(("lazy", False),))
+    options = PlanOptions.from_mission(problem.mission, overrides)
+    assert options.time_limit == 12.5 and options.seed == 3 and options.lazy is False
     assert options.threads == problem.mission.solver.threads
     assert options.gap == problem.mission.solver.gap
     assert options.two_step is problem.mission.objective.two_step
+    assert overrides.given() == {"time_limit": 12.5, "seed": 3, "lazy": False}
     with pytest.raises(TypeError, match="colour"):
-        PlanOptions.from_mission(problem.mission, colour="red")
+        PlanOptions.from_mission(problem.mission, Overrides(tuning=(("colour", "red"),)))
 
 
 @pytest.mark.slow
@@ -199,7 +202,9 @@ def test_farm_case_one(encoding: str) -> None:
     problem = load_problem(FARM)
     result = plan(
         problem,
-        PlanOptions.from_mission(problem.mission, encoding=encoding, time_limit=300, threads=2),
+        PlanOptions.from_mission(
+            problem.mission, Overrides(encoding=encoding, time_limit=300, threads=2)
+        ),
     )
     assert result.status.has_plan
     assert result.trajectory is not None

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from stlplan import api
+from stlplan.api import Overrides
 from stlplan.errors import UsageError
 from stlplan.mission.loader import load_mission
 from stlplan.sweep.initial import draw_positions, with_initial_positions
@@ -41,7 +42,7 @@ def test_drawn_states_are_at_rest() -> None:
 
 def test_sweep_records_every_run_and_resumes(tmp_path: Path) -> None:
     out = tmp_path / "sweep"
-    rows = api.sweep([PAIR], runs=2, seed=1, out=out, workers=1)
+    rows = api.sweep([PAIR], runs=2, out=out, workers=1, overrides=Overrides(seed=1))
     records = read_records(out)
     assert sorted(r["run"] for r in records) == [0, 1]
     assert all(r["monitor_satisfied"] for r in records)
@@ -49,9 +50,17 @@ def test_sweep_records_every_run_and_resumes(tmp_path: Path) -> None:
     assert (out / "table.md").read_text().startswith("| mission")
     assert (out / "solve-times.png").stat().st_size > 1000
     with pytest.raises(UsageError):
-        api.sweep([PAIR], runs=2, seed=1, out=out, workers=1)
+        api.sweep([PAIR], runs=2, out=out, workers=1, overrides=Overrides(seed=1))
     seen: list[dict] = []
-    api.sweep([PAIR], runs=3, seed=1, out=out, workers=1, resume=True, on_record=seen.append)
+    api.sweep(
+        [PAIR],
+        runs=3,
+        out=out,
+        workers=1,
+        resume=True,
+        on_record=seen.append,
+        overrides=Overrides(seed=1),
+    )
     assert [r["run"] for r in seen] == [2]
     assert len(read_records(out)) == 3
 
@@ -68,11 +77,15 @@ def test_sweep_on_a_local_dask_cluster_matches_local_runs(tmp_path: Path) -> Non
     )
     try:
         api.sweep(
-            [PAIR], runs=2, seed=5, out=tmp_path / "dask", scheduler=cluster.scheduler_address
+            [PAIR],
+            runs=2,
+            out=tmp_path / "dask",
+            scheduler=cluster.scheduler_address,
+            overrides=Overrides(seed=5),
         )
     finally:
         cluster.close()
-    api.sweep([PAIR], runs=2, seed=5, out=tmp_path / "local", workers=2)
+    api.sweep([PAIR], runs=2, out=tmp_path / "local", workers=2, overrides=Overrides(seed=5))
     by_run = {r["run"]: r for r in read_records(tmp_path / "dask")}
     for record in read_records(tmp_path / "local"):
         remote = by_run[record["run"]]

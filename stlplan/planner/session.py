@@ -18,7 +18,7 @@ import logging
 import math
 import sys
 import time
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import highspy
@@ -109,25 +109,63 @@ class PlanOptions:
     highs_options: tuple[tuple[str, Any], ...] = ()
 
     @classmethod
-    def from_mission(cls, mission: Mission, **overrides: Any) -> PlanOptions:
-        """Defaults from ``mission.solver`` and ``mission.objective``; None overrides are ignored.
+    def from_mission(cls, mission: Mission, overrides: Overrides | None = None) -> PlanOptions:
+        """Defaults from ``mission.solver`` and ``mission.objective``, then ``overrides``."""
+        base = cls(
+            time_limit=mission.solver.time_limit,
+            gap=mission.solver.gap,
+            threads=mission.solver.threads,
+            seed=mission.solver.seed,
+            encoding=mission.solver.encoding,
+            two_step=mission.objective.two_step,
+        )
+        return base if overrides is None else overrides.applied(base)
 
-        ``lazy_window`` is taken as given (None means "every step").
+
+@dataclass(frozen=True)
+class Overrides:
+    """What one run changes of a mission's settings (the command line's options); None keeps
+    the mission's value.
+
+    Attributes
+    ----------
+    time_limit, gap, threads, seed, encoding, two_step
+        As in :class:`PlanOptions`.
+    inter_sample
+        Judge safety on the segments between steps (the mission's ``safety.inter_sample``).
+    tuning
+        Other :class:`PlanOptions` fields as ``(name, value)`` pairs, e.g. ``(("lazy", False),)``
+        (benchmarks compare formulations with them).
+    """
+
+    time_limit: float | None = None
+    gap: float | None = None
+    threads: int | None = None
+    seed: int | None = None
+    encoding: Encoding | None = None
+    two_step: bool | None = None
+    inter_sample: bool | None = None
+    tuning: tuple[tuple[str, Any], ...] = ()
+
+    def given(self) -> dict[str, Any]:
+        """The values set (not None), by name, as the summary records them."""
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "tuning"}
+        return {k: v for k, v in out.items() if v is not None} | dict(self.tuning)
+
+    def applied(self, options: PlanOptions) -> PlanOptions:
+        """``options`` with the values set here.
+
+        Raises
+        ------
+        TypeError
+            If ``tuning`` names a field :class:`PlanOptions` does not have.
         """
-        known = {f.name for f in fields(cls)}
-        unknown = set(overrides) - known
+        known = {f.name for f in fields(PlanOptions)}
+        unknown = {name for name, _ in self.tuning} - known
         if unknown:
             raise TypeError(f"unknown plan option(s): {', '.join(sorted(unknown))}")
-        base: dict[str, Any] = {
-            "time_limit": mission.solver.time_limit,
-            "gap": mission.solver.gap,
-            "threads": mission.solver.threads,
-            "seed": mission.solver.seed,
-            "encoding": mission.solver.encoding,
-            "two_step": mission.objective.two_step,
-        }
-        base.update({k: v for k, v in overrides.items() if v is not None or k == "lazy_window"})
-        return cls(**base)
+        chosen = {k: v for k, v in self.given().items() if k in known}
+        return replace(options, **chosen)
 
 
 MIN_SOLVE_SECONDS = 1.0

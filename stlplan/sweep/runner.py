@@ -21,6 +21,7 @@ from typing import Any
 
 from stlplan.errors import SolverError, StlplanError, UsageError
 from stlplan.planner import stops
+from stlplan.planner.session import Overrides
 from stlplan.result import PlanResult
 
 RECORDS = "runs.jsonl"
@@ -35,14 +36,14 @@ class RunSpec:
     source: str
     run: int
     seed: int
-    overrides: dict[str, Any] = field(default_factory=dict)
+    overrides: Overrides = field(default_factory=Overrides)
 
 
 def run_one(spec: RunSpec) -> dict[str, Any]:
     """Draw the run's initial state, plan and verify; never raises for a failed solve."""
-    from stlplan.api import plan
     from stlplan.mission.loader import problem_from_text
     from stlplan.mission.problem import build_problem
+    from stlplan.pipeline import plan
     from stlplan.sweep.initial import draw_positions, with_initial_positions
 
     record: dict[str, Any] = {"mission": spec.mission_key, "run": spec.run, "seed": spec.seed}
@@ -54,7 +55,7 @@ def run_one(spec: RunSpec) -> dict[str, Any]:
             a.name: [float(v) for v in z] for a, z in zip(base.agents, positions, strict=False)
         }
         problem = build_problem(with_initial_positions(base, positions), source=spec.source)
-        _, result = plan(problem, **spec.overrides)
+        _, result = plan(problem, spec.overrides)
     except StlplanError as exc:
         record.update(status="error", message=str(exc), wall_seconds=time.monotonic() - started)
         return record

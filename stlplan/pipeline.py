@@ -1,0 +1,124 @@
+"""One planning run: cheap checks, the solve, the diagnosis of an infeasible mission, and the
+monitor's verdict on the plan (the core of :func:`stlplan.api.plan`, :func:`stlplan.api.solve`
+and every sweep run).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import logging
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+from stlplan.errors import SolverError
+from stlplan.mission.loader import load_problem
+from stlplan.mission.problem import Problem
+from stlplan.monitor.verdicts import check as monitor_check
+from stlplan.planner import stops
+from stlplan.planner.diagnose import cheap_reasons, diagnose
+from stlplan.planner.figures import reported
+from stlplan.planner.session import Overrides, PlanOptions
+from stlplan.result import Diagnosis, PlanResult, PlanStatus
+
+
+def _verified(problem: Problem, result: PlanResult, gap: float) -> PlanResult:
+    """Attach the monitor's report and report the written plan's figures
+    (:func:`stlplan.planner.figures.reported`); a plan the monitor rejects is an error, never an output.
+    """
+    if result.trajectory is None:
+        return result
+    report = monitor_check(problem, result.trajectory)
+    failed = [v for v in report.verdicts if not v.satisfied]
+    if failed:
+        lines = "; ".join(f"{v.name}: {v.detail}" for v in failed)
+        raise SolverError(f"the solver's plan is rejected by the monitor ({lines})")
+    return reported(problem, result, report, gap)
+
+
+@contextlib.contextmanager
+def _quiet_pyomo() -> Iterator[None]:
+    """Silence Pyomo's warnings about solver values a hair outside bounds (solver round-off)."""
+    logger = logging.getLogger("pyomo.core")
+    level = logger.level
+    logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
+def plan(
+    mission: str | Path | Problem,
+    overrides: Overrides | None = None,
+    progress: Callable[[Any], None] | None = None,
+    diagnose_infeasible: bool = True,
+) -> tuple[Problem, PlanResult]:
+    """Solve a mission and verify the plan with the monitor.
+
+    ``overrides`` change the mission's settings for this run (:class:`Overrides`: time limit,
+    gap, threads, seed, encoding, two steps, inter-sample safety, tuning). The time limit bounds
+    the whole call, diagnosis included. An infeasible mission comes back with a
+    :class:`~stlplan.result.Diagnosis` (cheap reasons found before solving, or a minimal
+    conflict found by feasibility solves).
+
+    In the main thread, SIGINT and SIGTERM during a solve stop HiGHS and the best plan so far
+    comes back verified with status ``interrupted`` (:mod:`stlplan.planner.stops`); a second signal, or
+    one outside a solve, raises :class:`stlplan.planner.stops.Interrupted`.
+    """
+    from stlplan.planner.solve import plan as solve_plan
+
+    overrides = overrides or Overrides()
+    problem = mission if isinstance(mission, Problem) else load_problem(mission)
+    problem = problem.with_inter_sample(overrides.inter_sample)
+    options = PlanOptions.from_mission(problem.mission, overrides)
+    deadline = time.perf_counter() + options.time_limit
+    reasons = cheap_reasons(problem)
+    if reasons:
+        diagnosis = Diagnosis(reasons, tuple(dict.fromkeys(r.split("'")[1] for r in reasons)))
+        message = f"infeasible before solving: {len(reasons)} requirement(s) cannot be met in time"
+        return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis)
+    with stops.stop_on_signals(), _quiet_pyomo():
+        result = solve_plan(problem, options, progress=progress, deadline=deadline)
+        if result.status is PlanStatus.INFEASIBLE and diagnose_infeasible:
+            result = _diagnosed(problem, options, result, deadline)
+        return problem, _verified(problem, result, options.gap)
+
+
+class _DiagnosisStopped(Exception):
+    """A stop request ended the diagnosis."""
+
+
+PROBE_LIMIT, DIAGNOSIS_LIMIT = 30.0, 120.0
+"""Time limit of one feasibility solve of the diagnosis, and of the whole diagnosis, seconds
+(both within what is left of the run's time limit)."""
+
+
+def _diagnosed(
+    problem: Problem, options: PlanOptions, result: PlanResult, deadline: float
+) -> PlanResult:
+    """``result`` with a minimal conflict found by feasibility solves (deletion filter), each
+    infeasible verdict confirmed (recorded as a diagnosis probe), all before ``deadline``."""
+    from stlplan.planner.solve import plan as solve_plan
+
+    probe = dataclasses.replace(options, time_limit=PROBE_LIMIT, two_step=False)
+    confirmations = list(result.confirmations)
+
+    def feasibility(subset: Problem) -> PlanStatus:
+        found = solve_plan(subset, probe, deadline=deadline)
+        confirmations.extend(
+            dataclasses.replace(c, where=f"diagnosis probe, {c.where}") for c in found.confirmations
+        )
+        if found.status.interrupted:
+            raise _DiagnosisStopped
+        return found.status
+
+    budget = max(0.0, min(DIAGNOSIS_LIMIT, deadline - time.perf_counter()))
+    try:
+        diagnosis = diagnose(problem, feasibility, budget)
+        out = dataclasses.replace(result, diagnosis=diagnosis)
+    except _DiagnosisStopped:
+        out = dataclasses.replace(result, message=result.message + " (diagnosis interrupted)")
+    return dataclasses.replace(out, confirmations=tuple(confirmations))
