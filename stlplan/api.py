@@ -78,7 +78,11 @@ def write_plan(
         files["trajectory.csv"] = lambda p: write_trajectory_csv(problem, traj, p)
         files["plan.png"] = lambda p: plot_plan(problem, traj, report, p, title=title)
         files["timeline.png"] = lambda p: plot_timeline(problem, traj, report, p)
-    return write_all(out, files)
+    return write_all(out, files, owned=PLAN_FILES)
+
+
+PLAN_FILES = ("summary.json", "trajectory.csv", "plan.png", "timeline.png")
+"""Everything a solve writes into its output folder (a rerun removes what it does not write)."""
 
 
 def solve(

@@ -159,6 +159,13 @@ def schema(
     out_console.print(f"wrote {out}")
 
 
+def _directory(value: str) -> str:
+    """An output directory must be named: ``--out ''`` would write into the current folder."""
+    if not value.strip():
+        raise typer.BadParameter("expected a directory name, found an empty string")
+    return value
+
+
 SOLVE_EPILOG = (
     "Exit codes: 0 a plan (optimal, or feasible at the time limit), 3 bad input, 4 infeasible "
     "(with a diagnosis in summary.json), 5 no plan within the time limit, 6 solver error or a "
@@ -171,7 +178,7 @@ SOLVE_EPILOG = (
 @handled
 def solve(
     mission: MissionArg,
-    out: Annotated[Path, typer.Option(help="Output directory.")] = Path("out"),
+    out: Annotated[str, typer.Option(help="Output directory.", callback=_directory)] = "out",
     time_limit: Annotated[
         float | None,
         typer.Option(help="Seconds for the whole run (default: mission's).", min=0.001),
@@ -236,7 +243,7 @@ def sweep(
     scheduler: Annotated[
         str | None, typer.Option(help="Dask scheduler address, e.g. tcp://host:8786.")
     ] = None,
-    out: Annotated[Path, typer.Option(help="Output directory.")] = Path("out/sweep"),
+    out: Annotated[str, typer.Option(help="Output directory.", callback=_directory)] = "out/sweep",
     time_limit: Annotated[float | None, typer.Option(help="Seconds per solve.", min=0.001)] = None,
     resume: Annotated[
         bool, typer.Option("--resume", help="Skip runs already in OUT/runs.jsonl.")
@@ -261,7 +268,8 @@ def sweep(
     from stlplan.sweep.progress import print_table
 
     print_table(out_console, rows)
-    out_console.print(f"records in {out / 'runs.jsonl'}; table in {out / 'table.md'}")
+    folder = Path(out)
+    out_console.print(f"records in {folder / 'runs.jsonl'}; table in {folder / 'table.md'}")
 
 
 def main() -> None:

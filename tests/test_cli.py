@@ -114,3 +114,46 @@ def test_solve_options(tmp_path: Path, flag: str) -> None:
     assert code == 0, output
     summary = json.loads((out / "summary.json").read_text())
     assert summary["steps"] == (1 if flag == "--one-step" else 2)
+
+
+def test_an_empty_output_directory_is_refused(tmp_path: Path) -> None:
+    found = CliRunner().invoke(app, ["solve", str(MISSIONS / "reach-avoid.yaml"), "--out", ""])
+    assert found.exit_code == 2
+    assert "expected a directory name" in found.output
+
+
+def test_a_rerun_leaves_only_its_own_outputs(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    first = CliRunner().invoke(
+        app, ["solve", str(MISSIONS / "reach-avoid.yaml"), "--out", str(out), "-q"]
+    )
+    assert first.exit_code == 0, first.output
+    assert (out / "trajectory.csv").exists() and (out / "plan.png").exists()
+    (out / "notes.txt").write_text("mine", encoding="utf-8")
+    # the same mission, infeasible: the goal is out of reach in time
+    text = (MISSIONS / "reach-avoid.yaml").read_text(encoding="utf-8")
+    infeasible = tmp_path / "late.yaml"
+    infeasible.write_text(
+        text.replace("F[0,12] in(p, Goal)", "F[0,2] in(p, Goal)"), encoding="utf-8"
+    )
+    second = CliRunner().invoke(app, ["solve", str(infeasible), "--out", str(out), "-q"])
+    assert second.exit_code == 4, second.output
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["notes.txt", "summary.json"]
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    assert summary["status"] == "infeasible"
+
+
+def test_summary_json_is_strict(tmp_path: Path) -> None:
+    from stlplan.outputs.directory import write_json
+
+    def refuse(name: str) -> None:
+        raise ValueError(f"not strict JSON: {name}")
+
+    path = tmp_path / "x.json"
+    write_json({"a": float("inf"), "b": [float("nan"), 1.5], "c": (2.0, -float("inf"))}, path)
+    assert json.loads(path.read_text(encoding="utf-8"), parse_constant=refuse) == {
+        "a": None,
+        "b": [None, 1.5],
+        "c": [2.0, None],
+    }

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import tempfile
@@ -28,21 +29,35 @@ def prepare_directory(out: Path) -> None:
 
 
 def write_json(data: object, path: Path) -> None:
-    """Write ``data`` as indented JSON."""
-    path.write_text(json.dumps(data, indent=2, default=_plain) + "\n", encoding="utf-8")
+    """Write ``data`` as indented, strict JSON: an infinite or undefined number is ``null``."""
+    text = json.dumps(strict_json(data), indent=2, default=_plain, allow_nan=False)
+    path.write_text(text + "\n", encoding="utf-8")
+
+
+def strict_json(data: object) -> object:
+    """``data`` with every non-finite float (``inf``, ``nan``) replaced by None, recursively."""
+    if isinstance(data, float):
+        return data if math.isfinite(data) else None
+    if isinstance(data, dict):
+        return {k: strict_json(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [strict_json(v) for v in data]
+    if hasattr(data, "tolist"):
+        return strict_json(data.tolist())  # numpy scalars and arrays
+    return data
 
 
 def _plain(value: object) -> object:
-    if hasattr(value, "tolist"):
-        return value.tolist()  # numpy scalars and arrays
     return str(value)
 
 
-def write_all(out: Path, files: dict[str, Writer]) -> list[Path]:
+def write_all(out: Path, files: dict[str, Writer], owned: tuple[str, ...] = ()) -> list[Path]:
     """Write every file into a staging folder inside ``out``, then move them in place.
 
     A reader of ``out`` sees either the previous files or the complete new set of each name,
     never a partial file; if any writer fails, nothing is moved and the staging folder is removed.
+    Files named in ``owned`` that this call does not write (an earlier run's) are removed, so the
+    folder holds one run's outputs.
     """
     prepare_directory(out)
     staging = Path(tempfile.mkdtemp(prefix=".stlplan-", dir=out))
@@ -54,6 +69,8 @@ def write_all(out: Path, files: dict[str, Writer]) -> list[Path]:
             for name in files:
                 os.replace(staging / name, out / name)
                 written.append(out / name)
+            for name in set(owned) - set(files):
+                (out / name).unlink(missing_ok=True)
         return written
     finally:
         shutil.rmtree(staging, ignore_errors=True)
