@@ -12,6 +12,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from stlplan.errors import UsageError
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
@@ -133,8 +134,14 @@ def sweep(
     import os
 
     from stlplan.sweep import report
+    from stlplan.sweep.identity import claim
     from stlplan.sweep.runner import execute, pending, read_records
 
+    if workers is not None and scheduler:
+        raise UsageError(
+            "--workers sets the local processes; with --scheduler the Dask cluster's workers run "
+            "the solves (start them with `dask worker ... --nworkers N`)"
+        )
     out = Path(out)
     prepare_directory(out)
     workers = workers or max(1, min(os.cpu_count() or 1, runs * len(missions)))
@@ -143,6 +150,7 @@ def sweep(
         overrides = dataclasses.replace(overrides, threads=1)
     specs = _sweep_specs(missions, runs, seed, overrides)
     todo = pending(specs, out, resume)
+    claim(out, specs, resume)
     if on_start is not None:
         on_start(len(todo))
     execute(todo, out, workers, scheduler, on_record)

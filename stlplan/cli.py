@@ -252,6 +252,11 @@ def sweep(
     """Solve missions from random initial states; print and write the paper's Table 3."""
     from stlplan.sweep.progress import SweepProgress
 
+    if scheduler:
+        where = f"on the Dask cluster at {scheduler}"
+    else:
+        where = f"in {workers} local processes" if workers else "in one local process per core"
+    err_console.print(f"sweep runs {where}")
     with SweepProgress(err_console) as bar:
         rows = api.sweep(
             list(missions),

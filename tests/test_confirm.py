@@ -15,6 +15,8 @@ from stlplan.planner.confirm import attempts, has_plan, option, solve_confirmed,
 from tests.conftest import MISSIONS
 
 DATA = Path(__file__).parent / "data"
+# both plans proven to the true optimum, so that they can be compared to 1e-6
+EXACT = Overrides(threads=1, gap=1e-9)
 
 
 def _highs(path: Path) -> highspy.Highs:
@@ -127,10 +129,10 @@ def test_a_false_verdict_in_a_lazy_round_is_overturned_and_the_loop_goes_on(
         finally:
             highs.deleteRows(1, [highs.getNumRow() - 1])
 
-    _, reference = api.plan(MISSIONS / "reach-avoid.yaml", overrides=Overrides(threads=1))
+    _, reference = api.plan(MISSIONS / "reach-avoid.yaml", overrides=EXACT)
     assert reference.confirmations == ()
     monkeypatch.setattr(HighsSession, "_run", spoil_first)
-    _, result = api.plan(MISSIONS / "reach-avoid.yaml", overrides=Overrides(threads=1))
+    _, result = api.plan(MISSIONS / "reach-avoid.yaml", overrides=EXACT)
     assert spoiled and result.status.value == "optimal"
     assert result.report is not None and result.report.satisfied
     first = result.confirmations[0]

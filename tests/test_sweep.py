@@ -92,3 +92,37 @@ def test_sweep_on_a_local_dask_cluster_matches_local_runs(tmp_path: Path) -> Non
         assert remote["initial_positions"] == record["initial_positions"]
         assert remote["status"] == record["status"]
         assert json.dumps(remote["rho_s"]) == json.dumps(record["rho_s"])
+
+
+def test_workers_with_a_scheduler_are_refused(tmp_path: Path) -> None:
+    with pytest.raises(UsageError, match="--workers sets the local processes"):
+        api.sweep([PAIR], runs=1, out=tmp_path, workers=2, scheduler="tcp://127.0.0.1:1")
+    assert not (tmp_path / "runs.jsonl").exists()
+
+
+def test_a_scheduler_without_dask_says_how_to_install_it(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    import sys
+
+    from stlplan.sweep.runner import execute
+
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed -> ImportError
+    with pytest.raises(UsageError, match=r"pip install 'stlplan\[dask\]'"):
+        execute([], tmp_path, 1, scheduler="tcp://127.0.0.1:1")
+
+
+def test_resume_refuses_another_seed_or_time_limit(tmp_path: Path) -> None:
+    out = tmp_path / "sweep"
+    api.sweep([PAIR], runs=1, seed=1, out=out, workers=1)
+    with pytest.raises(UsageError, match="seed 1 recorded, 2 now"):
+        api.sweep([PAIR], runs=2, seed=2, out=out, workers=1, resume=True)
+    with pytest.raises(UsageError, match="time_limit"):
+        api.sweep(
+            [PAIR], runs=2, seed=1, out=out, workers=1, resume=True,
+            overrides=Overrides(time_limit=7.0),
+        )  # fmt: skip
+    with pytest.raises(UsageError, match="missions"):
+        api.sweep([PAIR, MISSIONS / "farm.yaml"], 2, 1, out, 1, resume=True)
+    rows = api.sweep([PAIR], runs=2, seed=1, out=out, workers=1, resume=True)
+    assert sum(r["runs"] for r in rows) == 2

@@ -162,8 +162,14 @@ def _local(specs: Sequence[RunSpec], workers: int) -> Generator[dict[str, Any], 
 
 
 def _dask(specs: Sequence[RunSpec], scheduler: str) -> Generator[dict[str, Any], None, None]:
-    from distributed import Client
-    from distributed import as_completed as dask_completed
+    try:
+        from distributed import Client
+        from distributed import as_completed as dask_completed
+    except ImportError:
+        raise UsageError(
+            "--scheduler runs the sweep on a Dask cluster, and Dask is not installed: "
+            "pip install 'stlplan[dask]'"
+        ) from None
 
     try:
         client = Client(scheduler, timeout="20s")

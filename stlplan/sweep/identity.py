@@ -1,0 +1,72 @@
+"""What makes a sweep one sweep: its missions, seed and settings, kept beside its records.
+
+``--resume`` continues the sweep recorded in a folder; it is refused when the command asks for
+something else (other missions, another seed, another time limit or setting), since the records
+would then mix two experiments. The number of runs may grow: resuming with more runs extends it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from stlplan.errors import UsageError
+
+IDENTITY = "sweep.json"
+"""The file in a sweep's folder that records its identity."""
+
+
+def identity(specs: Sequence[Any]) -> dict[str, Any]:
+    """Missions (name to a digest of the text), seed and the settings that change results.
+
+    ``specs`` are :class:`stlplan.sweep.runner.RunSpec`; threads do not count (they change the
+    time a run takes, not its answer).
+    """
+    if not specs:
+        return {}
+    missions = {
+        s.mission_key: hashlib.sha256(s.mission_text.encode("utf-8")).hexdigest()[:16]
+        for s in specs
+    }
+    settings = {k: v for k, v in specs[0].overrides.given().items() if k != "threads"}
+    return {"missions": missions, "seed": specs[0].seed, "settings": _plain(settings)}
+
+
+def _plain(value: Any) -> Any:
+    """``value`` as JSON would give it back (tuples as lists)."""
+    return json.loads(json.dumps(value, default=str))
+
+
+def claim(out: Path, specs: Sequence[Any], resume: bool) -> None:
+    """Record the sweep's identity in ``out``; with ``resume``, first refuse a different one."""
+    wanted = identity(specs)
+    path = out / IDENTITY
+    if resume and path.exists():
+        recorded = json.loads(path.read_text(encoding="utf-8"))
+        changes = differences(recorded, wanted)
+        if changes:
+            raise UsageError(
+                f"--resume continues the sweep recorded in {out}, and this one differs: "
+                + "; ".join(changes)
+                + ". Run it with the recorded settings, or choose another --out"
+            )
+    path.write_text(json.dumps(wanted, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+
+
+def differences(recorded: dict[str, Any], wanted: dict[str, Any]) -> list[str]:
+    """What ``wanted`` changes of ``recorded``, in words."""
+    out = []
+    old_missions, new_missions = recorded.get("missions", {}), wanted.get("missions", {})
+    if set(old_missions) != set(new_missions):
+        out.append(f"missions {sorted(old_missions)} recorded, {sorted(new_missions)} now")
+    changed = [m for m in old_missions if m in new_missions and old_missions[m] != new_missions[m]]
+    if changed:
+        out.append(f"the text of {', '.join(changed)} changed since")
+    if recorded.get("seed") != wanted.get("seed"):
+        out.append(f"seed {recorded.get('seed')} recorded, {wanted.get('seed')} now")
+    if recorded.get("settings") != wanted.get("settings"):
+        out.append(f"settings {recorded.get('settings')} recorded, {wanted.get('settings')} now")
+    return out
