@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from stlplan.errors import UsageError
-from stlplan.mission.loader import load_problem
+from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.outputs.directory import prepare_directory, write_all, write_json
@@ -21,7 +21,7 @@ from stlplan.outputs.summary import summary_dict
 from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
 from stlplan.pipeline import plan
 from stlplan.planner import stops
-from stlplan.planner.session import Overrides
+from stlplan.planner.session import Overrides, PlanOptions
 from stlplan.result import MonitorReport, PlanResult
 
 __all__ = [
@@ -94,6 +94,8 @@ def solve(
 ) -> PlanResult:
     """Plan, verify and (with ``out``) write the plan directory; returns the verified result."""
     problem = load_problem(mission)  # a bad mission leaves no output folder behind
+    if PlanOptions.from_mission(problem.mission, overrides).tasks == "groups":
+        check_enumerable(problem)
     created = out is not None and not Path(out).exists()
     if out is not None:
         prepare_directory(Path(out))

@@ -20,6 +20,8 @@ EXACT = Overrides(threads=1, gap=1e-9)
 
 
 def _highs(path: Path) -> highspy.Highs:
+    # earlier solves in this process may have sized HiGHS's thread pool for more threads
+    highspy.Highs.resetGlobalScheduler(True)
     highs = highspy.Highs()
     highs.setOptionValue("output_flag", False)
     highs.setOptionValue("threads", 1)

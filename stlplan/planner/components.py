@@ -140,6 +140,7 @@ def _part(
             lazy=True,
             floors=options.floors,
             floors_deadline=clock.share(FLOORS_SHARE),
+            task_encoding=options.tasks,
         )
     assert pm.deferral is not None
     add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
@@ -290,7 +291,9 @@ def solve_parts(
     tick = time.perf_counter()
     deadline = min(tick + options.time_limit, clock.deadline)
     with clock.building():
-        full = build_model(problem, options.encoding, lazy=True, floors=False)
+        full = build_model(
+            problem, options.encoding, lazy=True, floors=False, task_encoding=options.tasks
+        )
     parts = [_part(problem, agents, options, clock) for agents in names]
     while True:
         for part in parts:

@@ -36,6 +36,7 @@ from stlplan.planner.clock import (
     Progress,
     ProgressCallback,
 )
+from stlplan.planner.encoding.selection import TaskForm
 from stlplan.planner.encoding.sos1 import Encoding
 from stlplan.result import PlanStatus
 
@@ -75,6 +76,9 @@ class PlanOptions:
         HiGHS random seed.
     encoding
         Disjunctions as a logarithmic SOS1 (``log``) or one binary per entry (``standard``).
+    tasks
+        Tasks by selecting elements (``selection``, no group enumerated) or by the paper's
+        group enumeration (``groups``).
     two_step
         Run step 2 (fix step 1's decisions, minimize the mission's effort norm).
     lazy
@@ -100,6 +104,7 @@ class PlanOptions:
     threads: int | None = None
     seed: int = 0
     encoding: Encoding = "log"
+    tasks: TaskForm = "selection"
     two_step: bool = True
     lazy: bool = True
     lazy_window: int | None = 0
@@ -117,6 +122,7 @@ class PlanOptions:
             threads=mission.solver.threads,
             seed=mission.solver.seed,
             encoding=mission.solver.encoding,
+            tasks=mission.solver.tasks,
             two_step=mission.objective.two_step,
         )
         return base if overrides is None else overrides.applied(base)
@@ -129,7 +135,7 @@ class Overrides:
 
     Attributes
     ----------
-    time_limit, gap, threads, seed, encoding, two_step
+    time_limit, gap, threads, seed, encoding, tasks, two_step
         As in :class:`PlanOptions`.
     inter_sample
         Judge safety on the segments between steps (the mission's ``safety.inter_sample``).
@@ -143,6 +149,7 @@ class Overrides:
     threads: int | None = None
     seed: int | None = None
     encoding: Encoding | None = None
+    tasks: TaskForm | None = None
     two_step: bool | None = None
     inter_sample: bool | None = None
     tuning: tuple[tuple[str, Any], ...] = ()

@@ -155,6 +155,7 @@ def _step1(problem: Problem, options: PlanOptions, clock: Clock) -> tuple[PlanMo
             lazy=options.lazy,
             floors=options.floors,
             floors_deadline=clock.share(FLOORS_SHARE),
+            task_encoding=options.tasks,
         )
     return pm, solve_step1(pm, options, clock)
 

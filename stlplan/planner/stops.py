@@ -120,14 +120,43 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
 
 @contextmanager
 def held() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM back during a short critical section; they arrive after it."""
-    if not hasattr(signal, "pthread_sigmask"):
+    """Hold SIGINT and SIGTERM back during a short critical section; they arrive after it.
+
+    The signals are blocked for the calling thread and, in the main thread, their handlers are
+    replaced by one that only records them: a signal the kernel hands to another thread (HiGHS's
+    workers, say) still runs its Python handler in the main thread, where blocking does not
+    reach. A recorded signal is raised again, with the earlier handlers back, on leaving.
+    """
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
-    before = signal.pthread_sigmask(signal.SIG_BLOCK, CAUGHT)
+    arrived: list[int] = []
+
+    def record(signum: int, frame: FrameType | None) -> None:
+        arrived.append(signum)
+
+    before = _block()
+    saved = {s: signal.signal(s, record) for s in CAUGHT}
     try:
         yield
     finally:
+        for s, handler in saved.items():
+            if signal.getsignal(s) is record:  # a handler set inside the section stays
+                signal.signal(s, handler)
+        _unblock(before)
+        for signum in dict.fromkeys(arrived):
+            signal.raise_signal(signum)
+
+
+def _block() -> Any:
+    """Block the caught signals for this thread; returns the earlier mask (None if unsupported)."""
+    if not hasattr(signal, "pthread_sigmask"):
+        return None
+    return signal.pthread_sigmask(signal.SIG_BLOCK, CAUGHT)
+
+
+def _unblock(before: Any) -> None:
+    if before is not None:
         signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
@@ -151,14 +180,12 @@ def stop_on_signals() -> Iterator[None]:
     ):
         yield
         return
-    previous: dict[int, Any] = {}
+    defaults = (signal.default_int_handler, signal.SIG_DFL)
+    previous = {c: h for c in CAUGHT if (h := signal.getsignal(c)) in defaults}
     with held():  # installed together with the state, or not at all
         STATE.signum, STATE.hard, STATE.solving, STATE.finishing = None, False, 0, 0
-        for caught in CAUGHT:
-            handler = signal.getsignal(caught)
-            if handler in (signal.default_int_handler, signal.SIG_DFL):
-                previous[caught] = handler
-                signal.signal(caught, _on_signal)
+        for caught in previous:
+            signal.signal(caught, _on_signal)
         STATE.depth += 1
     try:
         yield
