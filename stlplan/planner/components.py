@@ -33,16 +33,11 @@ from typing import Any
 
 from stlplan.mission.problem import Problem
 from stlplan.planner import stops
+from stlplan.planner.clock import FLOORS_SHARE, Clock
 from stlplan.planner.encoding.deferred import Requirement, violated
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
 from stlplan.planner.lazy import VIOLATION_TOL, LazySolver, Step1, relative_gap, trajectory_states
-from stlplan.planner.session import (
-    FLOORS_SHARE,
-    MIN_SOLVE_SECONDS,
-    Clock,
-    HighsSession,
-    PlanOptions,
-)
+from stlplan.planner.session import MIN_SOLVE_SECONDS, HighsSession, PlanOptions
 from stlplan.result import PlanStatus
 
 HOLD = 1e-4

@@ -1,6 +1,6 @@
 """HiGHS through Pyomo: planning options and a model kept loaded across solves.
 
-The run's clock and progress reports are in :mod:`stlplan.planner.clock` (re-exported here); every
+The run's clock and progress reports are in :mod:`stlplan.planner.clock`; every
 infeasible verdict a solve returns is first confirmed (:mod:`stlplan.planner.confirm`).
 
 A :class:`HighsSession` loads a Pyomo model into one ``highspy.Highs`` object once; later solves
@@ -30,33 +30,12 @@ from pyomo.environ import ConcreteModel
 from stlplan.mission.schema import Mission
 from stlplan.planner import confirm, stops
 from stlplan.planner.clock import (
-    FLOORS_SHARE,
     Clock,
     Phase,
-    Progress,
-    ProgressCallback,
 )
 from stlplan.planner.encoding.selection import TaskForm
 from stlplan.planner.encoding.sos1 import Encoding
 from stlplan.result import PlanStatus
-
-__all__ = [
-    "FLOORS_SHARE",
-    "MIN_SOLVE_SECONDS",
-    "TC",
-    "Clock",
-    "HighsSession",
-    "Phase",
-    "PlanOptions",
-    "Progress",
-    "ProgressCallback",
-    "Solved",
-    "forget_threads",
-    "has_solution",
-    "plan_status",
-    "solve_once",
-    "use_threads",
-]
 
 
 @dataclass(frozen=True)
