@@ -30,6 +30,7 @@ __all__ = [
     "plan",
     "plot_trajectory",
     "solve",
+    "summary",
     "sweep",
     "validate",
     "write_plan",
@@ -61,6 +62,15 @@ def plot_trajectory(
     plot_plan(problem, traj, report, out, title=f"{problem.mission.name}: {Path(trajectory).name}")
 
 
+def summary(
+    problem: Problem, result: PlanResult, overrides: Overrides | None = None
+) -> dict[str, Any]:
+    """What ``summary.json`` holds for ``result``, a plan of ``problem`` under ``overrides``."""
+    overrides = overrides or Overrides()
+    planned = problem.with_inter_sample(overrides.inter_sample)
+    return summary_dict(planned, result, overrides.given())
+
+
 def write_plan(
     problem: Problem, result: PlanResult, out: str | Path, options: dict[str, Any] | None = None
 ) -> list[Path]:
@@ -87,13 +97,14 @@ PLAN_FILES = ("summary.json", "trajectory.csv", "plan.png", "timeline.png")
 
 
 def solve(
-    mission: str | Path,
+    mission: str | Path | Problem,
     out: str | Path | None = None,
     overrides: Overrides | None = None,
     progress: Callable[[Any], None] | None = None,
 ) -> PlanResult:
     """Plan, verify and (with ``out``) write the plan directory; returns the verified result."""
-    problem = load_problem(mission)  # a bad mission leaves no output folder behind
+    # a bad mission leaves no output folder behind
+    problem = mission if isinstance(mission, Problem) else load_problem(mission)
     created = out is not None and not Path(out).exists()
     if out is not None:
         prepare_directory(Path(out))

@@ -362,7 +362,7 @@ CASES: dict[str, tuple[Case, int, tuple[str, ...]]] = {
         2,
         ("No such command 'frobnicate'",),
     ),
-    "missing_argument": (lambda t: ["check", str(MISSION)], 2, ("Missing argument 'trajectory'",)),
+    "missing_argument": (lambda t: ["check", str(MISSION)], 2, ("Missing argument 'TRAJECTORY'",)),
     "unknown_option": (
         lambda t: ["validate", str(MISSION), "--strict"],
         2,

@@ -1,0 +1,130 @@
+"""Commands that read and write files without planning: validate, check, schema."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from stlplan import api
+from stlplan.cli.shell import EXIT_VIOLATED, EXITS_COMMON, JsonOption, Output, QuietOption, handled
+from stlplan.mission.problem import Problem
+
+MissionArg = Annotated[
+    Path, typer.Argument(help="Mission file (YAML).", metavar="MISSION", show_default=False)
+]
+InterSampleOption = Annotated[
+    bool | None,
+    typer.Option(
+        "--inter-sample/--no-inter-sample",
+        help="Judge avoidance and separation on the straight segments between steps too "
+        "(default: the mission's safety.inter_sample, true); --no-inter-sample judges the "
+        "steps only, as the paper does.",
+        show_default=False,
+    ),
+]
+SCHEMA_PATH = Path("schemas") / "mission.schema.json"
+
+VALIDATE_EPILOG = f"Exit codes: 0 valid, {EXITS_COMMON}"
+CHECK_EPILOG = (
+    f"Exit codes: 0 every task, constraint and physical check holds, 1 the trajectory violates "
+    f"the mission, {EXITS_COMMON}"
+)
+SCHEMA_EPILOG = "Exit codes: 0 written, 2 the file cannot be written."
+
+
+def problem_counts(problem: Problem, mission: Path) -> dict[str, object]:
+    """What ``validate --json`` prints: the mission's size and each task's number of groups."""
+    return {
+        "valid": True,
+        "file": str(mission),
+        "mission": problem.mission.name,
+        "horizon": problem.horizon,
+        "agents": len(problem.agents),
+        "regions": len(problem.regions),
+        "tasks": len(problem.tasks),
+        "synchronous_tasks": sum(1 for t in problem.tasks if t.sync is not None),
+        "constraints": len(problem.constraints),
+        "groups": {t.name: len(t.groups) for t in problem.tasks},
+        "elements": {t.name: len(t.elements) for t in problem.tasks},
+    }
+
+
+@handled
+def validate(mission: MissionArg, as_json: JsonOption = False, quiet: QuietOption = False) -> None:
+    """Check a mission file: schema, names, shapes, horizons and Patterns."""
+    output = Output(as_json, quiet)
+    problem = api.validate(mission)
+    if as_json:
+        output.document(problem_counts(problem, mission))
+        return
+    groups = ", ".join(f"{t.name}: {len(t.groups)}" for t in problem.tasks)
+    output.line(
+        f"[green]valid[/]: {mission} ({len(problem.agents)} agents, "
+        f"{len(problem.tasks)} tasks, {len(problem.constraints)} constraints; "
+        f"groups {groups or 'none'})"
+    )
+
+
+@handled
+def check(
+    mission: MissionArg,
+    trajectory: Annotated[
+        Path,
+        typer.Argument(
+            help="Trajectory CSV (agent, k, x0.., u0..).", metavar="TRAJECTORY", show_default=False
+        ),
+    ],
+    inter_sample: InterSampleOption = None,
+    plot: Annotated[
+        Path | None,
+        typer.Option(
+            help="Also draw the map of the trajectory to this PNG (crossings in red).",
+            metavar="PNG",
+        ),
+    ] = None,
+    as_json: JsonOption = False,
+    quiet: QuietOption = False,
+) -> None:
+    """Judge a team trajectory with the independent monitor; exit 1 when anything fails."""
+    from stlplan.outputs.render import print_report, report_line
+    from stlplan.outputs.summary import report_dict
+
+    output = Output(as_json, quiet)
+    problem, report = api.check(mission, trajectory, inter_sample=inter_sample)
+    if plot is not None:
+        api.plot_trajectory(problem, trajectory, report, plot)
+    if as_json:
+        doc: dict[str, object] = {"mission": problem.mission.name, "file": str(mission)}
+        doc |= {"trajectory": str(trajectory), "inter_sample": problem.inter_sample}
+        output.document(doc | report_dict(report))
+    elif quiet:
+        output.line(report_line(report))
+    else:
+        print_report(output.out, report)
+        if plot is not None:
+            output.line(f"map in {plot}")
+    if not report.satisfied:
+        raise typer.Exit(EXIT_VIOLATED)
+
+
+@handled
+def schema(
+    out: Annotated[
+        str, typer.Option(help="Where to write the JSON Schema ('-': stdout).", metavar="PATH")
+    ] = str(SCHEMA_PATH),
+    quiet: QuietOption = False,
+) -> None:
+    """Write the mission file JSON Schema (for editors and validation)."""
+    from stlplan.mission.schema import json_schema
+
+    text = json_schema()
+    if out == "-":
+        sys.stdout.write(text)
+        return
+    target = Path(out)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    target.write_text(text, encoding="utf-8")
+    Output(quiet=quiet).line(f"wrote {target}")
