@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,9 @@ from stlplan.pipeline import plan
 from stlplan.planner import stops
 from stlplan.planner.session import Overrides
 from stlplan.result import MonitorReport, PlanResult
+
+DEFAULT_TOLERANCE = 1e-6
+"""The monitor's tolerance when none is given: solver round-off."""
 
 __all__ = [
     "Overrides",
@@ -43,13 +47,24 @@ def validate(mission: str | Path) -> Problem:
 
 
 def check(
-    mission: str | Path | Problem, trajectory: str | Path, inter_sample: bool | None = None
+    mission: str | Path | Problem,
+    trajectory: str | Path,
+    inter_sample: bool | None = None,
+    tolerance: float = DEFAULT_TOLERANCE,
 ) -> tuple[Problem, MonitorReport]:
-    """The monitor's verdicts on a trajectory CSV for a mission (``inter_sample``: judge safety
-    between steps too; None keeps the mission's ``safety.inter_sample``)."""
+    """The monitor's verdicts on a trajectory CSV for a mission.
+
+    ``inter_sample``: judge safety between steps too (None keeps the mission's
+    ``safety.inter_sample``). ``tolerance``: how far each number of the trajectory may be off,
+    ``tolerance * max(1, |v|)``, in the dynamics and bounds; requirements hold at robustness
+    ``>= -tolerance`` (:mod:`stlplan.monitor.dynamics`).
+    """
+    if not (tolerance >= 0 and math.isfinite(tolerance)):
+        raise UsageError(f"tolerance: expected a finite number >= 0, found {tolerance!r}")
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
     problem = problem.with_inter_sample(inter_sample)
-    return problem, monitor_check(problem, read_trajectory_csv(problem, Path(trajectory)))
+    traj = read_trajectory_csv(problem, Path(trajectory))
+    return problem, monitor_check(problem, traj, tol=tolerance)
 
 
 def plot_trajectory(

@@ -178,3 +178,63 @@ def test_piped_output_keeps_a_long_path_on_one_line(tmp_path: Path) -> None:
     assert len(str(mission)) > 150
     assert str(mission) in done.stdout.splitlines()[0]
     assert "\x1b[" not in done.stdout  # no colour codes in a pipe
+
+
+def _columns(source: Path, target: Path, keep: list[str], decimals: int | None = None) -> Path:
+    """``source`` with only the ``keep`` columns, numbers rounded to ``decimals``."""
+    lines = [line.split(",") for line in source.read_text(encoding="utf-8").splitlines()]
+    index = [lines[0].index(name) for name in keep]
+
+    def cell(text: str, i: int) -> str:
+        if decimals is None or i < 2 or text == "":
+            return text
+        return f"{round(float(text), decimals)}"
+
+    rows = [[lines[0][i] for i in index]]
+    rows += [[cell(line[i], i) for i in index] for line in lines[1:]]
+    target.write_text("\n".join(",".join(r) for r in rows) + "\n", encoding="utf-8")
+    return target
+
+
+def test_a_csv_rounded_to_3_decimals_passes_with_tolerance_1e_3(
+    solved: tuple[Path, dict[str, object]], tmp_path: Path
+) -> None:
+    out, _ = solved
+    header = (out / "trajectory.csv").read_text(encoding="utf-8").splitlines()[0].split(",")
+    coarse = _columns(out / "trajectory.csv", tmp_path / "coarse.csv", header, decimals=3)
+    code, _, _ = _invoke("check", str(PAIR), str(coarse), "--json")
+    assert code == 1
+    code, stdout, _ = _invoke("check", str(PAIR), str(coarse), "--tolerance", "1e-3", "--json")
+    assert code == 0
+    document = json.loads(stdout)
+    assert document["tolerance"] == 1e-3 and document["trajectory_gives"] == "inputs"
+
+
+@pytest.mark.parametrize(
+    ("keep", "gives", "says"),
+    [
+        (["agent", "step", "x0", "x1", "x2", "x3"], "states", "checked on the states only"),
+        (["agent", "t", "x0", "x1"], "positions", "dynamics not checked (positions only)"),
+    ],
+)
+def test_check_says_how_the_dynamics_were_checked(
+    solved: tuple[Path, dict[str, object]],
+    tmp_path: Path,
+    keep: list[str],
+    gives: str,
+    says: str,
+) -> None:
+    out, _ = solved
+    text = (
+        (out / "trajectory.csv")
+        .read_text(encoding="utf-8")
+        .replace("agent,k,", f"agent,{keep[1]},", 1)
+    )
+    (tmp_path / "renamed.csv").write_text(text, encoding="utf-8")
+    other = _columns(tmp_path / "renamed.csv", tmp_path / "other.csv", keep, decimals=3)
+    code, stdout, _ = _invoke("check", str(PAIR), str(other), "--tolerance", "1e-3", "--json")
+    assert code == 0, stdout
+    document = json.loads(stdout)
+    assert document["trajectory_gives"] == gives and says in document["dynamics"]
+    code, stdout, _ = _invoke("check", str(PAIR), str(other), "--tolerance", "1e-3")
+    assert code == 0 and says in stdout

@@ -74,7 +74,9 @@ def check(
     trajectory: Annotated[
         Path,
         typer.Argument(
-            help="Trajectory CSV (agent, k, x0.., u0..).", metavar="TRAJECTORY", show_default=False
+            help="Trajectory CSV: agent, k (or t, step), x0.., u0.. (optional).",
+            metavar="TRAJECTORY",
+            show_default=False,
         ),
     ],
     inter_sample: InterSampleOption = None,
@@ -85,15 +87,31 @@ def check(
             metavar="PNG",
         ),
     ] = None,
+    tolerance: Annotated[
+        float,
+        typer.Option(
+            help="How far each number of the trajectory may be off: T max(1, |v|) in the "
+            "dynamics and bounds, and a requirement holds at robustness >= -T (1e-3 accepts a "
+            "CSV rounded to 3 decimals).",
+            min=0.0,
+            metavar="T",
+        ),
+    ] = api.DEFAULT_TOLERANCE,
     as_json: JsonOption = False,
     quiet: QuietOption = False,
 ) -> None:
-    """Judge a team trajectory with the independent monitor; exit 1 when anything fails."""
+    """Judge a team trajectory with the independent monitor; exit 1 when anything fails.
+
+    The trajectory may come from any tool: the step column may be k, t or step; without the
+    inputs u0.. the dynamics are checked on the states only; when every task and constraint
+    reads positions only, the position columns alone (x0, x1 or x, y) are enough and the
+    dynamics are not checked. The report says which.
+    """
     from stlplan.outputs.render import print_report, report_line
     from stlplan.outputs.summary import report_dict
 
     output = Output(as_json, quiet)
-    problem, report = api.check(mission, trajectory, inter_sample=inter_sample)
+    problem, report = api.check(mission, trajectory, inter_sample, tolerance)
     if plot is not None:
         api.plot_trajectory(problem, trajectory, report, plot)
     if as_json:

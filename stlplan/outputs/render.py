@@ -5,6 +5,7 @@ from __future__ import annotations
 from rich.console import Console
 from rich.table import Table
 
+from stlplan.monitor.dynamics import DYNAMICS_CHECKED
 from stlplan.result import Confirmation, Diagnosis, MonitorReport, PlanResult, Verdict
 
 
@@ -73,8 +74,9 @@ def report_line(report: MonitorReport) -> str:
 
 
 def print_report(console: Console, report: MonitorReport) -> None:
-    """The per-task table, a one-line verdict and what fails."""
+    """The per-task table, how the dynamics were checked, a one-line verdict and what fails."""
     console.print(verdict_table(report))
+    console.print(f"{DYNAMICS_CHECKED[report.known]}; tolerance {report.tolerance:g}")
     console.print(report_line(report))
     for v in report.verdicts:
         if not v.satisfied:
