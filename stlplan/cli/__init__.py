@@ -62,6 +62,7 @@ app.command(cls=Command, epilog=files.CHECK_EPILOG)(files.check)
 app.command(cls=Command, epilog=files.SCHEMA_EPILOG)(files.schema)
 app.command(cls=Command, epilog=planning.SOLVE_EPILOG)(planning.solve)
 app.command(cls=Command, epilog=planning.SWEEP_EPILOG)(planning.sweep)
+app.command(cls=Command, epilog=files.EXAMPLE_EPILOG)(files.example)
 
 
 def main() -> None:

@@ -10,6 +10,7 @@ import typer
 
 from stlplan import api
 from stlplan.cli.shell import EXIT_VIOLATED, EXITS_COMMON, JsonOption, Output, QuietOption, handled
+from stlplan.errors import UsageError
 from stlplan.mission.problem import Problem
 
 MissionArg = Annotated[
@@ -146,3 +147,56 @@ def schema(
     target.parent.mkdir(parents=True, exist_ok=True)
     target.write_text(text, encoding="utf-8")
     Output(quiet=quiet).line(f"wrote {target}")
+
+
+EXAMPLE_EPILOG = (
+    "Exit codes: 0 written (or listed), 2 no such example, the file exists (without --force) or "
+    "cannot be written."
+)
+
+
+@handled
+def example(
+    name: Annotated[
+        str | None,
+        typer.Argument(help="A shipped mission; without it, list them.", metavar="NAME"),
+    ] = None,
+    out: Annotated[
+        str | None,
+        typer.Option(
+            help="Where to write it (default: NAME.yaml here; '-': stdout).", metavar="FILE"
+        ),
+    ] = None,
+    force: Annotated[bool, typer.Option("--force", help="Replace an existing file.")] = False,
+    as_json: JsonOption = False,
+    quiet: QuietOption = False,
+) -> None:
+    """Write one of the shipped missions (paper Cases I-III and small ones) to start from.
+
+    Its schema line points at the schema installed with stlplan, from where it is written.
+    """
+    from stlplan import examples
+
+    output = Output(as_json, quiet)
+    if name is None:
+        shipped = examples.examples()
+        if as_json:
+            output.document([{"name": e.name, "description": e.description} for e in shipped])
+        elif quiet:
+            output.line(" ".join(e.name for e in shipped))
+        else:
+            for item in shipped:
+                output.line(f"[bold]{item.name:<12}[/] {item.description}")
+        return
+    if out == "-":
+        sys.stdout.write(examples.example_text(name))
+        return
+    target = Path(out or f"{examples.example(name).name}.yaml")
+    if target.exists() and not force:
+        raise UsageError("the file exists; choose another --out or add --force", source=str(target))
+    target.parent.mkdir(parents=True, exist_ok=True)
+    target.write_text(examples.example_text(name, target), encoding="utf-8")
+    if as_json:
+        output.document({"example": examples.example(name).name, "file": str(target)})
+    else:
+        output.line(f"wrote {target}")
