@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -24,12 +25,16 @@ from stlplan.planner import stops
 from stlplan.planner.session import Overrides, PlanOptions
 from stlplan.result import MonitorReport, PlanResult
 
+DEFAULT_TOLERANCE = 1e-6
+"""The monitor's tolerance when none is given: solver round-off."""
+
 __all__ = [
     "Overrides",
     "check",
     "plan",
     "plot_trajectory",
     "solve",
+    "summary",
     "sweep",
     "validate",
     "write_plan",
@@ -42,13 +47,24 @@ def validate(mission: str | Path) -> Problem:
 
 
 def check(
-    mission: str | Path | Problem, trajectory: str | Path, inter_sample: bool | None = None
+    mission: str | Path | Problem,
+    trajectory: str | Path,
+    inter_sample: bool | None = None,
+    tolerance: float = DEFAULT_TOLERANCE,
 ) -> tuple[Problem, MonitorReport]:
-    """The monitor's verdicts on a trajectory CSV for a mission (``inter_sample``: judge safety
-    between steps too; None keeps the mission's ``safety.inter_sample``)."""
+    """The monitor's verdicts on a trajectory CSV for a mission.
+
+    ``inter_sample``: judge safety between steps too (None keeps the mission's
+    ``safety.inter_sample``). ``tolerance``: how far each number of the trajectory may be off,
+    ``tolerance * max(1, |v|)``, in the dynamics and bounds; requirements hold at robustness
+    ``>= -tolerance`` (:mod:`stlplan.monitor.dynamics`).
+    """
+    if not (tolerance >= 0 and math.isfinite(tolerance)):
+        raise UsageError(f"tolerance: expected a finite number >= 0, found {tolerance!r}")
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
     problem = problem.with_inter_sample(inter_sample)
-    return problem, monitor_check(problem, read_trajectory_csv(problem, Path(trajectory)))
+    traj = read_trajectory_csv(problem, Path(trajectory))
+    return problem, monitor_check(problem, traj, tol=tolerance)
 
 
 def plot_trajectory(
@@ -59,6 +75,15 @@ def plot_trajectory(
 
     traj = read_trajectory_csv(problem, Path(trajectory))
     plot_plan(problem, traj, report, out, title=f"{problem.mission.name}: {Path(trajectory).name}")
+
+
+def summary(
+    problem: Problem, result: PlanResult, overrides: Overrides | None = None
+) -> dict[str, Any]:
+    """What ``summary.json`` holds for ``result``, a plan of ``problem`` under ``overrides``."""
+    overrides = overrides or Overrides()
+    planned = problem.with_inter_sample(overrides.inter_sample)
+    return summary_dict(planned, result, overrides.given())
 
 
 def write_plan(
@@ -87,13 +112,14 @@ PLAN_FILES = ("summary.json", "trajectory.csv", "plan.png", "timeline.png")
 
 
 def solve(
-    mission: str | Path,
+    mission: str | Path | Problem,
     out: str | Path | None = None,
     overrides: Overrides | None = None,
     progress: Callable[[Any], None] | None = None,
 ) -> PlanResult:
     """Plan, verify and (with ``out``) write the plan directory; returns the verified result."""
-    problem = load_problem(mission)  # a bad mission leaves no output folder behind
+    # a bad mission leaves no output folder behind
+    problem = mission if isinstance(mission, Problem) else load_problem(mission)
     if PlanOptions.from_mission(problem.mission, overrides).tasks == "groups":
         check_enumerable(problem)
     created = out is not None and not Path(out).exists()

@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 
 from stlplan.errors import StlplanError
+from stlplan.examples import missions_dir
 
-MISSIONS = Path(__file__).resolve().parents[1] / "missions"
 CASES = ("farm", "farm-case2", "farm-case3")
 SCALE_CASES = ("scale/farm-x2", "scale/farm-x3", "scale/farm-x4")
 """Case I's map and tasks with the team replicated 2, 3 and 4 times (16, 24, 32 agents)."""
@@ -78,7 +78,7 @@ def _initial_problem(case: str, seed: int, run: int) -> Any:
     from stlplan.mission.problem import build_problem
     from stlplan.sweep.initial import draw_positions, with_initial_positions
 
-    path = MISSIONS / f"{case}.yaml"
+    path = missions_dir() / f"{case}.yaml"
     mission = load_problem(path).mission
     positions = draw_positions(mission, seed, run)
     return build_problem(with_initial_positions(mission, positions), source=str(path))

@@ -11,16 +11,24 @@ import numpy as np
 
 Element = tuple[str, ...]
 
+Known = Literal["inputs", "states", "positions"]
+"""What a trajectory gives: states and inputs, the states only, or the planar positions only."""
+
 
 @dataclass(frozen=True, eq=False)
 class Trajectory:
-    """A team trajectory: states ``x_p(0..H)`` and inputs ``u_p(0..H-1)`` per agent."""
+    """A team trajectory: states ``x_p(0..H)`` and inputs ``u_p(0..H-1)`` per agent.
+
+    A trajectory from another tool may lack the inputs (``known = "states"``: they are NaN) or
+    every state component but the planar position (``known = "positions"``: the others are NaN).
+    """
 
     horizon: int
     states: Mapping[str, np.ndarray]
     """Agent name to an array of shape (H+1, n)."""
     inputs: Mapping[str, np.ndarray]
     """Agent name to an array of shape (H, m)."""
+    known: Known = "inputs"
 
     def position(self, agent: str, components: tuple[int, int]) -> np.ndarray:
         """The agent's planar position over time, shape (H+1, 2)."""
@@ -56,6 +64,10 @@ class MonitorReport:
     """Every verdict on one team trajectory."""
 
     verdicts: tuple[Verdict, ...]
+    known: Known = "inputs"
+    """What the judged trajectory gave, hence how its dynamics were checked."""
+    tolerance: float = 1e-6
+    """How far each number of the trajectory may be off (see :mod:`stlplan.monitor.dynamics`)."""
 
     @property
     def satisfied(self) -> bool:

@@ -33,7 +33,7 @@ total of 91 distinct mistakes.
  21  trajectory_is_directory      3     file, "is a directory", expected a CSV file
  22  empty_trajectory             3     file, line 1, the expected header
  23  binary_trajectory            3     file, line/column, not UTF-8
- 24  trajectory_bad_header        3     file, line 1, missing column k, expected columns
+ 24  trajectory_bad_header        3     file, line 1, no step column, expected k, t or step
  25  trajectory_unknown_agent     3     file, line, unknown agent, the mission's agents
  26  trajectory_non_numeric       3     file, line, column x1, expected a finite number
  27  trajectory_missing_step      3     file, line, agent and step, one row per step
@@ -300,9 +300,9 @@ CASES: dict[str, tuple[Case, int, tuple[str, ...]]] = {
         ("bin.csv", "line 2, column 2", "not UTF-8", "expected a trajectory CSV file"),
     ),
     "trajectory_bad_header": (
-        lambda t: _trajectory(t, lambda rows: [rows[0].replace(",k,", ",step,"), *rows[1:]]),
+        lambda t: _trajectory(t, lambda rows: [rows[0].replace(",k,", ",time,"), *rows[1:]]),
         3,
-        ("trajectory.csv", "line 1", "missing column(s) k", "expected the columns agent, k"),
+        ("trajectory.csv", "line 1", "no step column", "expected exactly one of k, t or step"),
     ),
     "trajectory_unknown_agent": (
         lambda t: _trajectory(t, lambda rows: _set(rows, "north", 2, "north", "nort")),
@@ -369,7 +369,7 @@ CASES: dict[str, tuple[Case, int, tuple[str, ...]]] = {
         2,
         ("No such command 'frobnicate'",),
     ),
-    "missing_argument": (lambda t: ["check", str(MISSION)], 2, ("Missing argument 'trajectory'",)),
+    "missing_argument": (lambda t: ["check", str(MISSION)], 2, ("Missing argument 'TRAJECTORY'",)),
     "unknown_option": (
         lambda t: ["validate", str(MISSION), "--strict"],
         2,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,7 @@ from stlplan.result import Trajectory
 H = 3
 
 
-def make_problem() -> Problem:
+def make_problem(constraints: dict[str, object] | None = None) -> Problem:
     """A double integrator ``ground`` (n = 4, m = 2) and a planar point ``dot`` (n = 2, m = 1)."""
     ground = {
         "A": [[1, 0, 1, 0], [0, 1, 0, 1], [0, 0, 1, 0], [0, 0, 0, 1]],
@@ -40,6 +41,7 @@ def make_problem() -> Problem:
                 {"name": "uv1", "dynamics": "ground", "initial_state": [0.2, 4.8, 0, 0]},
                 {"name": "d", "dynamics": "dot", "initial_state": [1.0, 1.0]},
             ],
+            "constraints": constraints or {},
         }
     )
     return build_problem(mission)
@@ -212,3 +214,96 @@ def test_missing_input_before_the_horizon(problem: Problem, written: Path) -> No
     message = read_error(problem, written)
     expected = f"line {H + 1}: column u1: agent 'uv1' needs an input at step {H - 1} (one per step"
     assert expected in message
+
+
+# --- trajectories from other tools ---------------------------------------------------------
+
+
+def _rewrite(path: Path, change: Callable[[list[list[str]]], list[list[str]]]) -> Path:
+    rows = [line.split(",") for line in path.read_text().splitlines()]
+    out = path.with_name("other.csv")
+    out.write_text("\n".join(",".join(r) for r in change(rows)) + "\n")
+    return out
+
+
+def _keep(rows: list[list[str]], names: list[str]) -> list[list[str]]:
+    index = [rows[0].index(n) for n in names]
+    return [[r[i] for i in index] for r in rows]
+
+
+@pytest.mark.parametrize("name", ["t", "step"])
+def test_the_step_column_may_be_t_or_step(problem: Problem, written: Path, name: str) -> None:
+    renamed = _rewrite(
+        written, lambda rows: [[name if c == "k" else c for c in rows[0]], *rows[1:]]
+    )
+    back = read_trajectory_csv(problem, renamed)
+    assert np.array_equal(back.states["uv1"], make_trajectory().states["uv1"])
+    assert back.known == "inputs"
+
+
+def test_integral_times_written_as_decimals_are_steps(problem: Problem, written: Path) -> None:
+    decimal = _rewrite(
+        written, lambda rows: [rows[0], *([r[0], r[1] + ".0", *r[2:]] for r in rows[1:])]
+    )
+    assert np.array_equal(
+        read_trajectory_csv(problem, decimal).states["d"], make_trajectory().states["d"]
+    )
+
+
+def test_without_inputs_the_states_are_read(problem: Problem, written: Path) -> None:
+    states = _rewrite(written, lambda rows: _keep(rows, ["agent", "k", "x0", "x1", "x2", "x3"]))
+    back = read_trajectory_csv(problem, states)
+    assert back.known == "states"
+    assert np.array_equal(back.states["uv1"], make_trajectory().states["uv1"])
+    assert np.isnan(back.inputs["uv1"]).all()
+
+
+@pytest.mark.parametrize("names", [["x0", "x1"], ["x", "y"]])
+def test_positions_only(problem: Problem, written: Path, names: list[str]) -> None:
+    def positions(rows: list[list[str]]) -> list[list[str]]:
+        kept = _keep(rows, ["agent", "k", "x0", "x1"])
+        return [["agent", "k", *names], *kept[1:]]
+
+    back = read_trajectory_csv(problem, _rewrite(written, positions))
+    assert back.known == "positions"
+    original = make_trajectory()
+    assert np.array_equal(back.states["uv1"][:, :2], original.states["uv1"][:, :2])
+    assert np.isnan(back.states["uv1"][:, 2:]).all()
+
+
+def test_positions_only_are_refused_when_a_task_reads_a_velocity(tmp_path: Path) -> None:
+    slow = {"formula": "G[0,3] p.x[2] <= 1", "for_each": "p", "agents": ["uv1"]}
+    problem = make_problem({"slow": slow})
+    path = tmp_path / "pos.csv"
+    path.write_text("agent,k,x0,x1\n" + "".join(f"uv1,{k},1,1\nd,{k},1,1\n" for k in range(H + 1)))
+    message = read_error(problem, path)
+    assert "line 1: only the position columns are given, but slow: p.x[2] of uv1" in message
+
+
+def test_a_partial_set_of_state_columns_is_refused(problem: Problem, written: Path) -> None:
+    partial = _rewrite(written, lambda rows: _keep(rows, ["agent", "k", "x0", "x1", "x2"]))
+    assert "line 1: missing column(s) x3; expected the columns" in read_error(problem, partial)
+
+
+@pytest.mark.parametrize(
+    ("header", "says"),
+    [
+        ("agent, k, x0, x1, x2, x3, u0, u1", "column name ' k' has spaces around it"),
+        ("agent;k;x0;x1;x2;x3;u0;u1", "the header is separated by ';', expected commas"),
+        ("agent,k,x0,x1,x2,x2,u0,u1", "column 'x2' appears more than once (columns 5, 6)"),
+        ("agent,time,x0,x1,x2,x3,u0,u1", "no step column; expected exactly one of k, t or step"),
+        ("agent,k,t,x0,x1,x2,x3,u0", "two step columns k and t"),
+    ],
+)
+def test_header_mistakes_are_refused_with_a_hint(
+    problem: Problem, written: Path, header: str, says: str
+) -> None:
+    lines = written.read_text().splitlines()
+    written.write_text("\n".join([header, *lines[1:]]) + "\n")
+    assert f"{written}: line 1: {says}" in read_error(problem, written)
+
+
+def test_a_row_longer_than_the_header_is_refused(problem: Problem, written: Path) -> None:
+    edit(written, 4, "uv1,2,", "uv1,2,0,")  # a decimal comma shifts every later cell
+    message = read_error(problem, written)
+    assert "line 4: 9 cells, but the header has 8 columns; expected one cell per column" in message

@@ -25,16 +25,18 @@ Semantics (DESIGN.md section 2; ``tol`` is the tolerance on every ``>= 0`` test)
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from stlplan.errors import TrajectoryError
+from stlplan.formula.tree import Formula, Linear, atoms
 from stlplan.mission.groups import best_group
-from stlplan.mission.problem import AgentModel, ConstraintModel, Problem, TaskModel
+from stlplan.mission.problem import ConstraintModel, Problem, TaskModel
 from stlplan.monitor.crossings import separation_segments, worst_segment
+from stlplan.monitor.dynamics import dynamics_verdict
 from stlplan.monitor.robustness import robustness
 from stlplan.result import Element, MonitorReport, Trajectory, Verdict
 
@@ -49,7 +51,9 @@ def check(problem: Problem, trajectory: Trajectory, tol: float = 1e-6) -> Monito
     trajectory
         States ``x_p(0..H)`` and inputs ``u_p(0..H-1)`` of every agent of the mission.
     tol
-        Tolerance of the monitor: a robustness ``>= -tol`` counts as satisfied.
+        Tolerance of the monitor: a robustness ``>= -tol`` counts as satisfied, and each number
+        of the trajectory may be off by ``tol * max(1, |v|)`` in the physical checks
+        (:mod:`stlplan.monitor.dynamics`).
 
     Raises
     ------
@@ -65,8 +69,26 @@ def check(problem: Problem, trajectory: Trajectory, tol: float = 1e-6) -> Monito
     if problem.separation is not None:
         verdicts.append(_separation_verdict(problem, trajectory, problem.separation, tol))
     for agent in problem.agents:
-        verdicts.append(_dynamics_verdict(agent, trajectory, tol))
-    return MonitorReport(tuple(verdicts))
+        verdicts.append(dynamics_verdict(agent, trajectory, tol))
+    return MonitorReport(tuple(verdicts), known=trajectory.known, tolerance=tol)
+
+
+def non_position_reads(problem: Problem) -> list[str]:
+    """Where a task or constraint reads a state component that is not its agent's position
+    (``name: p.x[2] of uv1``); empty when the positions alone decide every requirement."""
+    found = []
+    named: list[tuple[str, Formula, list[Mapping[str, str]]]] = [
+        (t.name, t.formula, [t.binding(e) for e in t.elements]) for t in problem.tasks
+    ]
+    named += [(c.name, c.formula, list(c.bindings)) for c in problem.constraints]
+    for name, formula, bindings in named:
+        terms = [t for a in atoms(formula) if isinstance(a, Linear) for t in a.terms]
+        for binding in bindings:
+            for term in terms:
+                agent = problem.agent(binding[term.role])
+                if term.component not in agent.position:
+                    found.append(f"{name}: {term.role}.x[{term.component}] of {agent.name}")
+    return list(dict.fromkeys(found))
 
 
 def _check_shapes(problem: Problem, trajectory: Trajectory) -> None:
@@ -287,93 +309,3 @@ def _separation_verdict(
         else f"{pair} are closer than {separation:g} by {-value:.3g}"
     )
     return Verdict(name, "separation", satisfied, value, detail=detail)
-
-
-Violation = tuple[int, int, int, float, str]
-"""``(step, check order, component, size, message)`` of one dynamics violation."""
-
-
-def _violations(
-    steps: np.ndarray,
-    order: int,
-    error: np.ndarray,
-    allowed: np.ndarray,
-    describe: Callable[[int, int], str],
-) -> list[Violation]:
-    """Entries ``(r, i)`` whose ``error`` exceeds ``allowed`` (NaN counts as a violation).
-
-    ``steps[r]`` is row ``r``'s step; ``describe(r, i)`` says what was found and expected.
-    """
-    out: list[Violation] = []
-    for r, i in np.argwhere(~(error <= allowed)):
-        size = float(error[r, i]) if np.isfinite(error[r, i]) else float("inf")
-        out.append((int(steps[r]), order, int(i), size, describe(int(r), int(i))))
-    return out
-
-
-def _bound_violations(
-    values: np.ndarray, lo: np.ndarray, hi: np.ndarray, symbol: str, order: int, tol: float
-) -> list[Violation]:
-    # lo - tol * max(1, |lo|, |hi|) <= v <= hi + tol * max(1, |lo|, |hi|)
-    excess = np.maximum(np.maximum(lo - values, values - hi), 0.0)
-    allowed = np.broadcast_to(
-        tol * np.maximum(1.0, np.maximum(np.abs(lo), np.abs(hi))), values.shape
-    )
-    return _violations(
-        np.arange(len(values)),
-        order,
-        excess,
-        allowed,
-        lambda r, i: f"{symbol}[{i}] = {values[r, i]:.6g}, expected within [{lo[i]:g}, {hi[i]:g}]",
-    )
-
-
-def _dynamics_violations(
-    agent: AgentModel, x: np.ndarray, u: np.ndarray, tol: float
-) -> list[Violation]:
-    """Violations of ``x(0) = x_init``, ``x(k+1) = A x(k) + B u(k)`` and the bounds.
-
-    The equalities allow ``tol * max(1, |x_init|)`` and ``tol * (1 + |A| |x(k)| + |B| |u(k)|)``
-    (the scale of the terms summed), the bounds ``tol * max(1, |bound|)``.
-    """
-    init = agent.initial_state
-    found = []
-    found += _violations(
-        np.zeros(1, dtype=int),
-        0,
-        np.abs(x[:1] - init),
-        tol * np.maximum(1.0, np.abs(init))[None],
-        lambda r, i: f"x[{i}] = {x[0, i]:.6g}, expected the initial state {init[i]:.6g}",
-    )
-    expected = x[:-1] @ agent.A.T + u @ agent.B.T
-    scale = 1.0 + np.abs(x[:-1]) @ np.abs(agent.A).T + np.abs(u) @ np.abs(agent.B).T
-    found += _violations(
-        np.arange(1, len(x)),
-        1,
-        np.abs(x[1:] - expected),
-        tol * scale,
-        lambda r, i: f"x[{i}] = {x[r + 1, i]:.6g}, expected A x(k) + B u(k) = {expected[r, i]:.6g}",
-    )
-    found += _bound_violations(x, agent.state_lo, agent.state_hi, "x", 2, tol)
-    found += _bound_violations(u, agent.input_lo, agent.input_hi, "u", 3, tol)
-    return found
-
-
-def _dynamics_verdict(agent: AgentModel, trajectory: Trajectory, tol: float) -> Verdict:
-    # robustness = -(largest violation) or 0 when every equation and bound holds within tol
-    name = f"dynamics {agent.name}"
-    x = np.asarray(trajectory.states[agent.name], dtype=float)
-    u = np.asarray(trajectory.inputs[agent.name], dtype=float)
-    found = _dynamics_violations(agent, x, u, tol)
-    if not found:
-        detail = (
-            f"{agent.name}: initial state, x(k+1) = A x(k) + B u(k) and bounds hold for "
-            f"steps 0..{trajectory.horizon}"
-        )
-        return Verdict(name, "dynamics", True, 0.0, detail=detail)
-    step, _, _, _, text = min(found)
-    worst = max(v[3] for v in found)
-    more = f" ({len(found)} violations in all)" if len(found) > 1 else ""
-    return Verdict(
-        name, "dynamics", False, -worst, detail=f"{agent.name} step {step}: {text}{more}"
-    )

@@ -5,6 +5,7 @@ from __future__ import annotations
 from rich.console import Console
 from rich.table import Table
 
+from stlplan.monitor.dynamics import DYNAMICS_CHECKED
 from stlplan.result import Confirmation, Diagnosis, MonitorReport, PlanResult, Verdict
 
 
@@ -57,20 +58,29 @@ def verdict_table(report: MonitorReport, title: str = "Monitor") -> Table:
     return table
 
 
-def print_report(console: Console, report: MonitorReport) -> None:
-    """The per-task table and a one-line verdict."""
-    console.print(verdict_table(report))
-    failed = [v for v in report.verdicts if not v.satisfied]
+def report_line(report: MonitorReport) -> str:
+    """The monitor's verdict in one line (rich markup)."""
+    failed = [v.name for v in report.verdicts if not v.satisfied]
     if failed:
-        console.print(f"[red]not satisfied[/]: {len(failed)} of {len(report.verdicts)} checks fail")
-        for v in failed:
-            console.print(f"  {v.name}: {v.detail}")
-    else:
-        rho = "" if report.rho_s is None else f", rho_s(Phi) = {_num(report.rho_s)}"
-        console.print(
-            f"[green]satisfied[/]: every task and constraint holds{rho}, spatial "
-            f"robustness {_num(report.spatial_robustness)}"
+        return (
+            f"[red]not satisfied[/]: {len(failed)} of {len(report.verdicts)} checks fail "
+            f"({', '.join(failed)})"
         )
+    rho = "" if report.rho_s is None else f", rho_s(Phi) = {_num(report.rho_s)}"
+    return (
+        f"[green]satisfied[/]: every task and constraint holds{rho}, spatial "
+        f"robustness {_num(report.spatial_robustness)}"
+    )
+
+
+def print_report(console: Console, report: MonitorReport) -> None:
+    """The per-task table, how the dynamics were checked, a one-line verdict and what fails."""
+    console.print(verdict_table(report))
+    console.print(f"{DYNAMICS_CHECKED[report.known]}; tolerance {report.tolerance:g}")
+    console.print(report_line(report))
+    for v in report.verdicts:
+        if not v.satisfied:
+            console.print(f"  {v.name}: {v.detail}")
 
 
 def print_plan(console: Console, result: PlanResult) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from stlplan.mission.problem import Problem
+from stlplan.monitor.dynamics import DYNAMICS_CHECKED
 from stlplan.result import Confirmation, Fallback, MonitorReport, PlanResult, SolverFigures, Verdict
 
 
@@ -29,6 +30,9 @@ def report_dict(report: MonitorReport) -> dict[str, Any]:
         "satisfied": report.satisfied,
         "rho_s": report.rho_s,
         "spatial_robustness": report.spatial_robustness,
+        "trajectory_gives": report.known,
+        "dynamics": DYNAMICS_CHECKED[report.known],
+        "tolerance": report.tolerance,
         "verdicts": [_verdict(v) for v in report.verdicts],
     }
 

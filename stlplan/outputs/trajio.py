@@ -5,6 +5,13 @@ Columns: ``agent``, ``k``, ``x0 .. x{n-1}`` (state), ``u0 .. u{m-1}`` (input), w
 the extra cells empty, and every ``u`` cell is empty at ``k = H`` (there is no input ``u(H)``).
 Numbers are written with ``repr`` precision, so a written trajectory reads back bit for bit.
 Further columns may follow; the reader ignores them.
+
+The reader also takes trajectories from other tools: the step column may be named ``k``, ``t`` or
+``step`` (integer values, ``3.0`` included); the inputs may be left out (the monitor then checks
+the dynamics on the states only); and when every task and constraint reads positions only, the
+state columns may be the position components alone (``x0``, ``x1`` for ``position: [0, 1]``, or
+``x``, ``y``). A header that would shift cells (spaces after the commas, another separator,
+a column named twice) and a row with more cells than the header are refused with the line.
 """
 
 from __future__ import annotations
@@ -15,14 +22,17 @@ import math
 import os
 import tempfile
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from stlplan.errors import TrajectoryError
 from stlplan.mission.problem import AgentModel, Problem
 from stlplan.mission.yamldoc import decode_utf8
-from stlplan.result import Trajectory
+from stlplan.monitor.verdicts import non_position_reads
+from stlplan.result import Known, Trajectory
 
 
 def columns(problem: Problem) -> list[str]:
@@ -80,6 +90,98 @@ def write_trajectory_csv(problem: Problem, trajectory: Trajectory, path: str | P
         raise
 
 
+TIME_COLUMNS = ("k", "t", "step")
+"""Accepted names of the step column."""
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Which columns of a trajectory CSV hold what.
+
+    ``state[agent]`` lists ``(component, column)`` pairs read for the agent's state (every
+    component, or its two position components only), ``inputs`` tells whether ``u0..`` are read.
+    """
+
+    time: str
+    known: Known
+    state: dict[str, list[tuple[int, str]]]
+    inputs: bool
+
+
+def _header_mistake(fields: list[str]) -> str | None:
+    """What is wrong with a header that would shift cells, or None."""
+    if len(fields) == 1 and any(sep in fields[0] for sep in ";\t|"):
+        sep = next(sep for sep in ";\t|" if sep in fields[0])
+        return f"the header is separated by {sep!r}, expected commas (agent,k,x0,...)"
+    spaced = [f for f in fields if f != f.strip()]
+    if spaced:
+        return (
+            f"column name {spaced[0]!r} has spaces around it; write the header without spaces "
+            "after the commas (agent,k,x0,...)"
+        )
+    twice = [f for f in dict.fromkeys(fields) if fields.count(f) > 1]
+    if twice:
+        places = [str(i + 1) for i, f in enumerate(fields) if f == twice[0]]
+        return f"column {twice[0]!r} appears more than once (columns {', '.join(places)})"
+    return None
+
+
+def _time_column(fields: list[str]) -> str | None:
+    found = [c for c in TIME_COLUMNS if c in fields]
+    return found[0] if len(found) == 1 else None
+
+
+def _known(problem: Problem, fields: list[str]) -> tuple[Known, bool] | str:
+    """What the header gives (and whether positions come as ``x``, ``y``), or what is missing."""
+    n = max(a.n for a in problem.agents)
+    m = max(a.m for a in problem.agents)
+    present = {i for i in range(n) if f"x{i}" in fields}
+    inputs = [f"u{i}" for i in range(m)]
+    if len(present) == n:
+        given = [u for u in inputs if u in fields]
+        if 0 < len(given) < m:
+            return f"missing column(s) {', '.join(u for u in inputs if u not in fields)}"
+        return ("inputs" if given else "states"), False
+    positions = {i for a in problem.agents for i in a.position}
+    if present == positions or (not present and "x" in fields and "y" in fields):
+        return "positions", not present
+    missing = ", ".join(f"x{i}" for i in range(n) if i not in present)
+    return f"missing column(s) {missing}"
+
+
+def header_layout(problem: Problem, fields: list[str]) -> Layout | str:
+    """The layout a header describes, or what is wrong with it (a message)."""
+    wanted = ", ".join(columns(problem))
+    mistake = _header_mistake(fields)
+    if mistake:
+        return mistake
+    time = _time_column(fields)
+    if time is None:
+        given = [c for c in TIME_COLUMNS if c in fields]
+        what = "two step columns " + " and ".join(given) if given else "no step column"
+        return f"{what}; expected exactly one of k, t or step (the columns {wanted})"
+    if "agent" not in fields:
+        return f"missing column(s) agent; expected the columns {wanted}"
+    known = _known(problem, fields)
+    if isinstance(known, str):
+        return f"{known}; expected the columns {wanted} (inputs u.. may be left out)"
+    kind, xy = known
+    if kind == "positions":
+        reads = non_position_reads(problem)
+        if reads:
+            return (
+                f"only the position columns are given, but {reads[0]} reads another state "
+                f"component; expected the columns {wanted}"
+            )
+    state = {
+        a.name: [(i, ("x", "y")[j] if xy else f"x{i}") for j, i in enumerate(a.position)]
+        if kind == "positions"
+        else [(i, f"x{i}") for i in range(a.n)]
+        for a in problem.agents
+    }
+    return Layout(time, kind, state, kind == "inputs")
+
+
 class _Reader:
     """Collects the cells of one trajectory file, failing with the file and line."""
 
@@ -90,32 +192,37 @@ class _Reader:
         self.states = {a.name: np.full((self.H + 1, a.n), np.nan) for a in problem.agents}
         self.inputs = {a.name: np.full((self.H, a.m), np.nan) for a in problem.agents}
         self.seen: dict[tuple[str, int], int] = {}
+        self.layout = Layout("k", "inputs", {}, True)
+        self.width = 0
 
     def fail(self, line: int, message: str) -> TrajectoryError:
         return TrajectoryError(message, source=str(self.path), where=f"line {line}")
 
     def header(self, fields: list[str] | None) -> None:
         if not fields:
-            raise self.fail(1, "empty file: expected a header line " + ", ".join(self._wanted()))
-        missing = [c for c in self._wanted() if c not in fields]
-        if missing:
             raise self.fail(
-                1,
-                f"missing column(s) {', '.join(missing)}; expected the columns "
-                f"{', '.join(self._wanted())}",
+                1, "empty file: expected a header line " + ", ".join(columns(self.problem))
             )
+        layout = header_layout(self.problem, fields)
+        if isinstance(layout, str):
+            raise self.fail(1, layout)
+        self.layout, self.width = layout, len(fields)
 
-    def _wanted(self) -> list[str]:
-        return columns(self.problem)
-
-    def row(self, line: int, row: dict[str, str | None]) -> None:
+    def row(self, line: int, row: dict[str | None, Any]) -> None:
+        extra = row.get(None)
+        if extra:
+            raise self.fail(
+                line,
+                f"{self.width + len(extra)} cells, but the header has {self.width} columns; "
+                "expected one cell per column (a decimal comma, or a ',' inside a cell?)",
+            )
         name = (row.get("agent") or "").strip()
         if not name:
             raise self.fail(line, "column agent: expected an agent name, found an empty cell")
         if name not in self.states:
             known = ", ".join(a.name for a in self.problem.agents)
             raise self.fail(line, f"unknown agent {_cell(name)}; agents of the mission: {known}")
-        k = self._step(line, row.get("k"))
+        k = self._step(line, row.get(self.layout.time))
         if (name, k) in self.seen:
             raise self.fail(
                 line,
@@ -124,23 +231,29 @@ class _Reader:
             )
         self.seen[name, k] = line
         agent = self.problem.agent(name)
-        for i in range(agent.n):
-            self.states[name][k, i] = self._number(line, row, f"x{i}", agent, k)
-        if k < self.H:
+        for i, column in self.layout.state[name]:
+            self.states[name][k, i] = self._number(line, row, column, agent, k)
+        if k < self.H and self.layout.inputs:
             for i in range(agent.m):
                 self.inputs[name][k, i] = self._number(line, row, f"u{i}", agent, k)
 
     def _step(self, line: int, text: str | None) -> int:
         text = (text or "").strip()
-        if not (text.isascii() and text.isdigit()) or int(text) > self.H:
+        try:
+            value = float(text)
+        except ValueError:
+            value = -1.0
+        if not (value.is_integer() and 0 <= value <= self.H):
             shown = _cell(text) if text else "an empty cell"
             raise self.fail(
-                line, f"column k: expected an integer step in 0..{self.H}, found {shown}"
+                line,
+                f"column {self.layout.time}: expected an integer step in 0..{self.H}, "
+                f"found {shown}",
             )
-        return int(text)
+        return int(value)
 
     def _number(
-        self, line: int, row: dict[str, str | None], column: str, agent: AgentModel, k: int
+        self, line: int, row: dict[str | None, Any], column: str, agent: AgentModel, k: int
     ) -> float:
         text = (row.get(column) or "").strip()
         if not text:
@@ -178,7 +291,7 @@ class _Reader:
                     f"end of file: agent '{agent.name}' has no row for step(s) {shown}; "
                     f"expected one row per step 0..{self.H}",
                 )
-        return Trajectory(self.H, self.states, self.inputs)
+        return Trajectory(self.H, self.states, self.inputs, known=self.layout.known)
 
 
 def _cell(text: str, limit: int = 40) -> str:
@@ -188,14 +301,15 @@ def _cell(text: str, limit: int = 40) -> str:
 
 
 def read_trajectory_csv(problem: Problem, path: str | Path) -> Trajectory:
-    """Read a trajectory of ``problem`` written by :func:`write_trajectory_csv` (or by hand).
+    """Read a trajectory of ``problem`` written by :func:`write_trajectory_csv`, by hand or by
+    another tool; its ``known`` says whether it gave the inputs, the states or the positions only.
 
     Raises
     ------
     TrajectoryError
-        Naming the file, the line and what was expected: missing file or columns, unknown or
-        missing agent, missing or duplicate step, a non-numeric or non-finite value, or a missing
-        input before step ``H``.
+        Naming the file, the line and what was expected: missing file or columns, a header that
+        would shift cells, a row longer than the header, unknown or missing agent, missing or
+        duplicate step, a non-numeric or non-finite value, or a missing input before step ``H``.
     """
     path = Path(path)
     reader = _Reader(problem, path)

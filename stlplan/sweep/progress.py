@@ -15,7 +15,7 @@ from stlplan.sweep.report import COLUMNS
 class SweepProgress:
     """A rich progress bar advanced once per finished run."""
 
-    def __init__(self, console: Console) -> None:
+    def __init__(self, console: Console, enabled: bool = True) -> None:
         self._progress = Progress(
             TextColumn("sweep"),
             BarColumn(),
@@ -24,6 +24,7 @@ class SweepProgress:
             TimeRemainingColumn(),
             console=console,
             transient=False,
+            disable=not enabled,
         )
         self._task: Any = None
 

@@ -1,0 +1,74 @@
+"""The ``stlplan`` command line: a thin shell over :mod:`stlplan.api`.
+
+Exit codes: 0 satisfied / valid; 1 a checked trajectory violates the mission; 2 usage error
+(including a file the operating system refuses to read or write);
+3 bad input (mission, formula, trajectory); 4 infeasible; 5 no plan within the time limit;
+6 solver error or a plan the monitor rejects; 70 internal error; 128 + the signal's number when
+a signal stopped the run (130 for Ctrl-C, 143 for SIGTERM), with the best plan so far written
+when there was one.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Annotated
+
+import typer
+
+from stlplan import __version__
+from stlplan.cli import files, planning
+from stlplan.cli.help import Command, Group
+from stlplan.cli.shell import EXIT_INTERRUPTED, console
+from stlplan.planner import stops
+
+EPILOG = (
+    "Exit codes: 0 satisfied or valid, 1 a checked trajectory violates the mission, 2 usage "
+    "error, 3 bad input, 4 infeasible, 5 no plan within the time limit, 6 solver error or a plan "
+    "the monitor rejects, 70 internal error, 130 / 143 stopped by Ctrl-C / SIGTERM. Every "
+    "command takes --json (one JSON document on stdout) and --quiet (one line)."
+)
+
+app = typer.Typer(
+    cls=Group,
+    help="Plan coordinated trajectories for a heterogeneous team from global STL tasks.",
+    epilog=EPILOG,
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+    rich_markup_mode=None,
+)
+
+
+def _version(value: bool) -> None:
+    if value:
+        sys.stdout.write(f"stlplan {__version__}\n")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _root(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version", help="Print the version and exit.", callback=_version, is_eager=True
+        ),
+    ] = False,
+) -> None:
+    """Plan coordinated trajectories for a heterogeneous team from global STL tasks."""
+
+
+app.command(cls=Command, epilog=files.VALIDATE_EPILOG)(files.validate)
+app.command(cls=Command, epilog=files.CHECK_EPILOG)(files.check)
+app.command(cls=Command, epilog=files.SCHEMA_EPILOG)(files.schema)
+app.command(cls=Command, epilog=planning.SOLVE_EPILOG)(planning.solve)
+app.command(cls=Command, epilog=planning.SWEEP_EPILOG)(planning.sweep)
+app.command(cls=Command, epilog=files.EXAMPLE_EPILOG)(files.example)
+
+
+def main() -> None:
+    """Console entry point (``stlplan``)."""
+    try:
+        app()
+    except KeyboardInterrupt as exc:
+        console(stderr=True).print("interrupted")
+        sys.exit(exc.exit_code if isinstance(exc, stops.Interrupted) else EXIT_INTERRUPTED)

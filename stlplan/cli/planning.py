@@ -1,0 +1,233 @@
+"""Commands that plan: solve one mission, sweep missions over random initial states."""
+
+from __future__ import annotations
+
+from enum import Enum
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from stlplan import api
+from stlplan.cli.files import InterSampleOption, MissionArg
+from stlplan.cli.shell import (
+    EXIT_INFEASIBLE,
+    EXIT_INTERRUPTED,
+    EXIT_NO_PLAN,
+    EXIT_SOLVER,
+    EXITS_COMMON,
+    JsonOption,
+    Output,
+    QuietOption,
+    handled,
+    solver_output_to_stderr,
+)
+from stlplan.planner import stops
+from stlplan.result import PlanResult, PlanStatus
+
+STATUS_EXIT = {
+    PlanStatus.OPTIMAL: 0,
+    PlanStatus.FEASIBLE: 0,
+    PlanStatus.INFEASIBLE: EXIT_INFEASIBLE,
+    PlanStatus.NO_PLAN: EXIT_NO_PLAN,
+    PlanStatus.ERROR: EXIT_SOLVER,
+    PlanStatus.INTERRUPTED: EXIT_INTERRUPTED,
+    PlanStatus.INTERRUPTED_NO_PLAN: EXIT_INTERRUPTED,
+}
+
+SOLVE_EPILOG = (
+    "Exit codes: 0 a plan (optimal, or feasible at the time limit), 2 usage error, 3 bad input, "
+    "4 infeasible (with a diagnosis in summary.json), 5 no plan within the time limit, 6 solver "
+    "error or a plan the monitor rejects, 70 internal error, 130 / 143 stopped by Ctrl-C / "
+    "SIGTERM (the best plan so far is written when there is one; Ctrl-C twice writes nothing)."
+)
+SWEEP_EPILOG = (
+    "Exit codes: 0 the sweep finished (a failed run is a record, not an exit code), "
+    f"{EXITS_COMMON} A sweep stopped by a signal goes on with --resume."
+)
+
+
+class Encoding(str, Enum):
+    """Disjunction encodings."""
+
+    log = "log"
+    standard = "standard"
+
+
+class TaskForm(str, Enum):
+    """Task encodings."""
+
+    selection = "selection"
+    groups = "groups"
+
+
+def _directory(value: str) -> str:
+    """An output directory must be named: ``--out ''`` would write into the current folder."""
+    if not value.strip():
+        raise typer.BadParameter("expected a directory name, found an empty string")
+    return value
+
+
+OutOption = Annotated[
+    str, typer.Option(help="Output directory.", callback=_directory, metavar="DIR")
+]
+
+
+def _exit_code(result: PlanResult) -> int:
+    code = STATUS_EXIT[result.status]
+    stopped_by = stops.last_signal()
+    if result.status.interrupted and stopped_by is not None:  # 130 for Ctrl-C, 143 for TERM
+        code = 128 + stopped_by
+    return code
+
+
+@handled
+def solve(
+    mission: MissionArg,
+    out: OutOption = "out",
+    time_limit: Annotated[
+        float | None,
+        typer.Option(
+            help="Seconds for the whole run, at least 0.001 (default: the mission's).",
+            min=0.001,
+            metavar="SECONDS",
+        ),
+    ] = None,
+    gap: Annotated[
+        float | None,
+        typer.Option(
+            help="Relative optimality gap, at least 0 (default: the mission's).",
+            min=0.0,
+            metavar="GAP",
+        ),
+    ] = None,
+    threads: Annotated[
+        int | None,
+        typer.Option(
+            help="HiGHS threads, at least 1 (default: the mission's or HiGHS').", min=1, metavar="N"
+        ),
+    ] = None,
+    seed: Annotated[int | None, typer.Option(help="HiGHS random seed.", min=0, metavar="N")] = None,
+    one_step: Annotated[
+        bool,
+        typer.Option("--one-step", help="Skip step 2 (effort minimization with decisions fixed)."),
+    ] = False,
+    encoding: Annotated[
+        Encoding | None,
+        typer.Option(help="Disjunction encoding (default: the mission's).", metavar="log|standard"),
+    ] = None,
+    tasks: Annotated[
+        TaskForm | None,
+        typer.Option(
+            help="Task encoding: select elements, or enumerate groups as the paper does "
+            "(default: the mission's, selection).",
+            metavar="selection|groups",
+        ),
+    ] = None,
+    inter_sample: InterSampleOption = None,
+    as_json: JsonOption = False,
+    quiet: QuietOption = False,
+) -> None:
+    """Plan a mission: solve the MILP, verify with the monitor, write CSV, JSON and plots.
+
+    With --json the document printed is summary.json.
+    """
+    from stlplan.outputs.progress import ProgressLine
+    from stlplan.outputs.render import print_plan
+
+    output = Output(as_json, quiet)
+    overrides = api.Overrides(
+        time_limit=time_limit,
+        gap=gap,
+        threads=threads,
+        seed=seed,
+        encoding=None if encoding is None else encoding.value,
+        tasks=None if tasks is None else tasks.value,
+        two_step=False if one_step else None,
+        inter_sample=inter_sample,
+    )
+    problem = api.validate(mission)
+    with solver_output_to_stderr(), ProgressLine(output.err, enabled=output.full) as line:
+        result = api.solve(problem, out=out, overrides=overrides, progress=line.update)
+    code = _exit_code(result)
+    if as_json:
+        output.document(api.summary(problem, result, overrides))
+        raise typer.Exit(code)
+    if output.full:
+        print_plan(output.out, result)
+    verdict = "satisfied" if code == 0 else result.status.value
+    output.line(f"{verdict}: {result.message}; outputs in {out}", error=code != 0)
+    raise typer.Exit(code)
+
+
+@handled
+def sweep(
+    missions: Annotated[
+        list[Path],
+        typer.Argument(help="Mission files (YAML).", metavar="MISSION", show_default=False),
+    ],
+    runs: Annotated[
+        int, typer.Option(help="Random initial states per mission.", min=1, metavar="N")
+    ] = 30,
+    seed: Annotated[
+        int,
+        typer.Option(help="Seed: run i of seed S always gets the same state.", min=0, metavar="S"),
+    ] = 0,
+    workers: Annotated[
+        int | None,
+        typer.Option(help="Local worker processes (default: one per core).", min=1, metavar="W"),
+    ] = None,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(help="Dask scheduler address, e.g. tcp://host:8786.", metavar="ADDRESS"),
+    ] = None,
+    out: OutOption = "out/sweep",
+    time_limit: Annotated[
+        float | None,
+        typer.Option(
+            help="Seconds per solve (default: the mission's).", min=0.001, metavar="SECONDS"
+        ),
+    ] = None,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="Skip runs already in OUT/runs.jsonl.")
+    ] = False,
+    as_json: JsonOption = False,
+    quiet: QuietOption = False,
+) -> None:
+    """Solve missions from random initial states; print and write the paper's Table 3.
+
+    With --json the document printed is the table: one object per mission.
+    """
+    from stlplan.sweep.progress import SweepProgress, print_table
+
+    output = Output(as_json, quiet)
+    if scheduler:
+        where = f"on the Dask cluster at {scheduler}"
+    else:
+        where = f"in {workers} local processes" if workers else "in one local process per core"
+    if output.full:
+        output.err.print(f"sweep runs {where}")
+    with solver_output_to_stderr(), SweepProgress(output.err, enabled=output.full) as bar:
+        rows = api.sweep(
+            list(missions),
+            runs,
+            seed,
+            out,
+            workers,
+            scheduler,
+            resume,
+            on_record=bar.advance,
+            on_start=bar.start,
+            overrides=api.Overrides(time_limit=time_limit),
+        )
+    folder = Path(out)
+    if as_json:
+        output.document(rows)
+        return
+    if output.full:
+        print_table(output.out, rows)
+    total = sum(int(row["runs"]) for row in rows)
+    output.line(
+        f"sweep of {total} runs over {len(rows)} missions {where}: records in "
+        f"{folder / 'runs.jsonl'}; table in {folder / 'table.md'}"
+    )

@@ -1,0 +1,190 @@
+"""The physical checks of one agent: initial state, dynamics and bounds, with a tolerance.
+
+A trajectory's numbers may be off by a little (the solver's round-off, a CSV rounded to a few
+decimals, another tool's integrator). With tolerance ``T`` each number ``v`` of the trajectory
+may be off by ``s(v) = T max(1, |v|)`` (``T`` absolute up to 1, relative above), and every check
+allows exactly what those errors can add up to:
+
+* initial state: ``|x(0) - x_init| <= s(x(0))``;
+* bounds: ``lo - s(v) <= v <= hi + s(v)`` for every state and input value;
+* with the inputs: ``|x(k+1) - A x(k) - B u(k)| <= s(x(k+1)) + |A| s(x(k)) + |B| s(u(k))``.
+
+Without the inputs (``known = "states"``) the transition ``r(k) = x(k+1) - A x(k)`` must be
+``B u(k)`` for some admissible input: ``u(k) = B^+ r(k)`` (least squares, the only candidate when
+``B`` has full column rank), the residual ``|r - B u| <= |I - B B^+| e`` and the input bounds
+widened by ``|B^+| e``, where ``e = s(x(k+1)) + |A| s(x(k))`` bounds the error of ``r``. With the
+positions only, the initial position and the position bounds are checked and the dynamics are
+not.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from stlplan.mission.problem import AgentModel
+from stlplan.result import Known, Trajectory, Verdict
+
+DYNAMICS_CHECKED: dict[Known, str] = {
+    "inputs": "dynamics checked with the inputs",
+    "states": "dynamics checked on the states only (inputs recovered from x(k+1) - A x(k))",
+    "positions": "dynamics not checked (positions only); initial positions and position "
+    "bounds checked",
+}
+"""How the dynamics of a trajectory are checked, by what it gives."""
+
+Violation = tuple[int, int, int, float, str]
+"""``(step, check order, component, size, message)`` of one dynamics violation."""
+
+
+def slack(values: np.ndarray, tol: float) -> np.ndarray:
+    """``s(v) = tol * max(1, |v|)``: how far each number may be off."""
+    return tol * np.maximum(1.0, np.abs(values))
+
+
+def _violations(
+    steps: np.ndarray,
+    order: int,
+    error: np.ndarray,
+    allowed: np.ndarray,
+    describe: Callable[[int, int], str],
+) -> list[Violation]:
+    """Entries ``(r, i)`` whose ``error`` exceeds ``allowed`` (NaN counts as a violation).
+
+    ``steps[r]`` is row ``r``'s step; ``describe(r, i)`` says what was found and expected.
+    """
+    out: list[Violation] = []
+    for r, i in np.argwhere(~(error <= allowed)):
+        size = float(error[r, i]) if np.isfinite(error[r, i]) else float("inf")
+        out.append((int(steps[r]), order, int(i), size, describe(int(r), int(i))))
+    return out
+
+
+def _bounds(
+    values: np.ndarray,
+    bounds: tuple[np.ndarray, np.ndarray],
+    allowed: np.ndarray,
+    symbol: str,
+    order: int,
+    components: list[int] | None = None,
+) -> list[Violation]:
+    # lo - allowed <= v <= hi + allowed, on the listed components (all by default)
+    lo, hi = bounds
+    keep = list(range(values.shape[1])) if components is None else components
+    excess = np.maximum(np.maximum(lo[keep] - values[:, keep], values[:, keep] - hi[keep]), 0.0)
+    return _violations(
+        np.arange(len(values)),
+        order,
+        excess,
+        np.broadcast_to(allowed, values.shape)[:, keep],
+        lambda r, j: (
+            f"{symbol}[{keep[j]}] = {values[r, keep[j]]:.6g}, expected within "
+            f"[{lo[keep[j]]:g}, {hi[keep[j]]:g}]"
+        ),
+    )
+
+
+def _initial(agent: AgentModel, x: np.ndarray, tol: float, keep: list[int]) -> list[Violation]:
+    # |x(0) - x_init| <= s(x(0)) on the listed components
+    init = agent.initial_state
+    return _violations(
+        np.zeros(1, dtype=int),
+        0,
+        np.abs(x[:1, keep] - init[keep]),
+        slack(x[:1, keep], tol),
+        lambda r, j: (
+            f"x[{keep[j]}] = {x[0, keep[j]]:.6g}, expected the initial state {init[keep[j]]:.6g}"
+        ),
+    )
+
+
+def _with_inputs(agent: AgentModel, x: np.ndarray, u: np.ndarray, tol: float) -> list[Violation]:
+    """Violations of ``x(0) = x_init``, ``x(k+1) = A x(k) + B u(k)`` and the bounds."""
+    everything = list(range(agent.n))
+    expected = x[:-1] @ agent.A.T + u @ agent.B.T
+    allowed = (
+        slack(x[1:], tol)
+        + slack(x[:-1], tol) @ np.abs(agent.A).T
+        + slack(u, tol) @ np.abs(agent.B).T
+    )
+    found = _initial(agent, x, tol, everything)
+    found += _violations(
+        np.arange(1, len(x)),
+        1,
+        np.abs(x[1:] - expected),
+        allowed,
+        lambda r, i: f"x[{i}] = {x[r + 1, i]:.6g}, expected A x(k) + B u(k) = {expected[r, i]:.6g}",
+    )
+    found += _bounds(x, (agent.state_lo, agent.state_hi), slack(x, tol), "x", 2)
+    found += _bounds(u, (agent.input_lo, agent.input_hi), slack(u, tol), "u", 3)
+    return found
+
+
+def recovered_inputs(agent: AgentModel, x: np.ndarray) -> np.ndarray:
+    """``u(k) = B^+ (x(k+1) - A x(k))``: the inputs that explain the states (least squares)."""
+    return (x[1:] - x[:-1] @ agent.A.T) @ np.linalg.pinv(agent.B).T
+
+
+def _with_states(agent: AgentModel, x: np.ndarray, tol: float) -> list[Violation]:
+    """Violations of ``x(0) = x_init``, ``x(k+1) - A x(k) = B u(k)`` with ``u(k)`` in its bounds,
+    and the state bounds."""
+    pinv = np.linalg.pinv(agent.B)
+    u = recovered_inputs(agent, x)
+    residual = np.abs(x[1:] - x[:-1] @ agent.A.T - u @ agent.B.T)
+    error = slack(x[1:], tol) + slack(x[:-1], tol) @ np.abs(agent.A).T  # bounds the error of r(k)
+    off_range = np.abs(np.eye(agent.n) - agent.B @ pinv)
+    found = _initial(agent, x, tol, list(range(agent.n)))
+    found += _violations(
+        np.arange(1, len(x)),
+        1,
+        residual,
+        error @ off_range.T,
+        lambda r, i: (
+            f"x[{i}] = {x[r + 1, i]:.6g}: no input u(k) gives x(k+1) - A x(k) "
+            f"(off by {residual[r, i]:.3g})"
+        ),
+    )
+    found += _bounds(x, (agent.state_lo, agent.state_hi), slack(x, tol), "x", 2)
+    found += _bounds(
+        u, (agent.input_lo, agent.input_hi), error @ np.abs(pinv).T, "u (recovered)", 3
+    )
+    return found
+
+
+def _with_positions(agent: AgentModel, x: np.ndarray, tol: float) -> list[Violation]:
+    """Violations of the initial position and the position bounds."""
+    keep = list(agent.position)
+    found = _initial(agent, x, tol, keep)
+    found += _bounds(x, (agent.state_lo, agent.state_hi), slack(x, tol), "x", 2, keep)
+    return found
+
+
+def dynamics_verdict(agent: AgentModel, trajectory: Trajectory, tol: float) -> Verdict:
+    """The agent's physical verdict; robustness ``-(largest violation)``, 0 when all hold."""
+    name = f"dynamics {agent.name}"
+    x = np.asarray(trajectory.states[agent.name], dtype=float)
+    u = np.asarray(trajectory.inputs[agent.name], dtype=float)
+    if trajectory.known == "inputs":
+        found = _with_inputs(agent, x, u, tol)
+    elif trajectory.known == "states":
+        found = _with_states(agent, x, tol)
+    else:
+        found = _with_positions(agent, x, tol)
+    if not found:
+        detail = f"{agent.name}: {_held(trajectory.known)} for steps 0..{trajectory.horizon}"
+        return Verdict(name, "dynamics", True, 0.0, detail=detail)
+    step, _, _, _, text = min(found)
+    worst = max(v[3] for v in found)
+    more = f" ({len(found)} violations in all)" if len(found) > 1 else ""
+    return Verdict(
+        name, "dynamics", False, -worst, detail=f"{agent.name} step {step}: {text}{more}"
+    )
+
+
+def _held(known: Known) -> str:
+    if known == "inputs":
+        return "initial state, x(k+1) = A x(k) + B u(k) and bounds hold"
+    if known == "states":
+        return "initial state, bounds and x(k+1) - A x(k) = B u(k) with u(k) in bounds hold"
+    return "initial position and position bounds hold (positions only: dynamics not checked)"
