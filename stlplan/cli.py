@@ -24,6 +24,7 @@ from rich.markup import escape
 
 from stlplan import api
 from stlplan.errors import StlplanError, UsageError
+from stlplan.mission.schema import MAX_SEED
 from stlplan.planner import stops
 from stlplan.result import PlanStatus
 
@@ -166,6 +167,13 @@ def _directory(value: str) -> str:
     return value
 
 
+def _gap(value: float | None) -> float | None:
+    """A relative gap of 1 or more would call any plan optimal."""
+    if value is not None and value >= 1:
+        raise typer.BadParameter(f"expected a relative gap 0 <= G < 1, found {value:g}")
+    return value
+
+
 SOLVE_EPILOG = (
     "Exit codes: 0 a plan (optimal, or feasible at the time limit), 3 bad input, 4 infeasible "
     "(with a diagnosis in summary.json), 5 no plan within the time limit, 6 solver error or a "
@@ -184,12 +192,17 @@ def solve(
         typer.Option(help="Seconds for the whole run (default: mission's).", min=0.001),
     ] = None,
     gap: Annotated[
-        float | None, typer.Option(help="Relative optimality gap (default: mission's).", min=0.0)
+        float | None,
+        typer.Option(
+            help="Relative optimality gap, 0 <= G < 1 (default: mission's).", min=0.0, callback=_gap
+        ),
     ] = None,
     threads: Annotated[
         int | None, typer.Option(help="HiGHS threads (default: mission's or HiGHS').", min=1)
     ] = None,
-    seed: Annotated[int | None, typer.Option(help="HiGHS random seed.", min=0)] = None,
+    seed: Annotated[
+        int | None, typer.Option(help="HiGHS random seed.", min=0, max=MAX_SEED)
+    ] = None,
     one_step: Annotated[
         bool,
         typer.Option("--one-step", help="Skip step 2 (effort minimization with decisions fixed)."),

@@ -26,7 +26,15 @@ from stlplan.formula.tree import (
     regions,
     roles,
 )
-from stlplan.mission.schema import Constraint, Mission, PinnedRole, Synchronous, Task
+from stlplan.mission.schema import (
+    MAGNITUDE_TEXT,
+    MAX_MAGNITUDE,
+    Constraint,
+    Mission,
+    PinnedRole,
+    Synchronous,
+    Task,
+)
 
 MAX_ELEMENTS = 10_000
 """Elements a task's roles may admit (they are enumerated)."""
@@ -72,12 +80,7 @@ def _atoms_fit(
         if a.dynamics in mission.dynamics
     }
     for atom in atoms(formula):
-        if not all(math.isfinite(v) for v in _numbers(atom)):
-            raise FormulaError(
-                f"'{to_text(atom)}' has a number that is not finite (too large)",
-                source=source,
-                where=where,
-            )
+        _atom_is_sane(atom, where, source)
         if isinstance(atom, Linear):
             for term in atom.terms:
                 for agent in role_agents.get(term.role, []):
@@ -88,6 +91,31 @@ def _atoms_fit(
                             source=source,
                             where=where,
                         )
+
+
+def _atom_is_sane(atom: Atom, where: str, source: str | None) -> None:
+    """Finite numbers of magnitude at most ``MAX_MAGNITUDE``; ``dist`` between two roles."""
+    numbers = _numbers(atom)
+    if not all(math.isfinite(v) for v in numbers):
+        raise FormulaError(
+            f"'{to_text(atom)}' has a number that is not finite (too large)",
+            source=source,
+            where=where,
+        )
+    if any(abs(v) > MAX_MAGNITUDE for v in numbers):
+        raise FormulaError(
+            f"'{to_text(atom)}' has a number of magnitude above {MAGNITUDE_TEXT}; expected "
+            f"numbers between -{MAGNITUDE_TEXT} and {MAGNITUDE_TEXT} (rescale the units)",
+            source=source,
+            where=where,
+        )
+    if isinstance(atom, Distance) and atom.left == atom.right:
+        raise FormulaError(
+            f"'{to_text(atom)}' measures role '{atom.left}' against itself (always 0); expected "
+            "two different roles, such as dist(p, q)",
+            source=source,
+            where=where,
+        )
 
 
 def _numbers(atom: Atom) -> tuple[float, ...]:

@@ -1,6 +1,8 @@
 """Reading a mission file as a YAML document, guarded, with every value's line and column.
 
-The file is read as UTF-8 text and parsed with PyYAML's safe loader, after guards that reject
+The file is read as UTF-8 text and parsed with PyYAML's safe loader, with YAML 1.2's plain
+scalars (only ``true``/``false`` are booleans, ``1e-3`` is a number, ``yes`` and ``No`` are text,
+and an integer with a leading zero is refused rather than read as octal), after guards that reject
 lists and mappings nested too deep, aliases (``*name``) that form cycles or expand the document
 too far, and duplicate keys. Syntax errors are rendered as one short phrase with their line and
 column; :func:`locate` maps a field path such as ``("agents", 0, "initial_state")`` back to the
@@ -9,6 +11,7 @@ line and column of its value, so later stages can point at the offending text.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +26,31 @@ MAX_NESTING = 32
 """Levels of nested lists and mappings a mission file may have (a mission needs about 6)."""
 MAX_VALUES = 200_000
 """Values a mission file may hold once YAML aliases (``*name``) are expanded."""
+
+
+class MissionLoader(yaml.SafeLoader):
+    """PyYAML's safe loader with the YAML 1.2 core schema's booleans, integers and floats."""
+
+
+MissionLoader.yaml_implicit_resolvers = {
+    first: [(tag, rx) for tag, rx in resolvers if tag.rsplit(":", 1)[-1] in ("null", "merge")]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+for _tag, _pattern, _first in (
+    ("bool", r"^(?:true|True|TRUE|false|False|FALSE)$", "tTfF"),
+    ("int", r"^[-+]?[0-9]+$", "-+0123456789"),
+    (
+        "float",
+        r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+        r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$",
+        "-+.0123456789",
+    ),
+):
+    MissionLoader.add_implicit_resolver(
+        f"tag:yaml.org,2002:{_tag}", re.compile(_pattern), list(_first)
+    )
+
+_LEADING_ZERO = re.compile(r"^[-+]?0[0-9]+$")
 
 
 def read_text(path: Path) -> str:
@@ -70,9 +98,10 @@ def parse_yaml(text: str, source: str) -> tuple[Any, yaml.Node | None]:
     """
     try:
         _check_nesting(text, source)
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
+        node = yaml.compose(text, Loader=MissionLoader)
         _check_expansion(node, source)
-        data = yaml.safe_load(text)
+        _reject_leading_zeros(node, source)
+        data = yaml.load(text, Loader=MissionLoader)
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else None
@@ -144,6 +173,31 @@ def _check_expansion(root: yaml.Node | None, source: str) -> None:
             open_nodes.add(id(node))
             stack.append((node, True))
             stack.extend((k, False) for k in kids)
+
+
+def _reject_leading_zeros(root: yaml.Node | None, source: str) -> None:
+    """An integer written with a leading zero (``010``) is refused: YAML 1.1 reads it as octal
+    (8), YAML 1.2 as decimal (10), and a mission must not depend on which."""
+    stack = [] if root is None else [root]
+    seen: set[int] = set()
+    while stack:
+        node = stack.pop()
+        if id(node) in seen:
+            continue
+        seen.add(id(node))
+        if (
+            isinstance(node, yaml.ScalarNode)
+            and node.tag.endswith(":int")
+            and _LEADING_ZERO.match(node.value)
+        ):
+            plain = node.value.replace("0", "", 1).lstrip("0") or "0"
+            raise MissionError(
+                f"the integer {node.value} has a leading zero, which YAML 1.1 reads as octal; "
+                f"expected a decimal integer such as {plain}",
+                source=source,
+                where=_mark(node),
+            )
+        stack.extend(_children(node))
 
 
 def _children(node: yaml.Node) -> list[yaml.Node]:
