@@ -21,7 +21,8 @@ from stlplan.outputs.summary import summary_dict
 from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
 from stlplan.pipeline import plan
 from stlplan.planner import stops
-from stlplan.planner.session import Overrides
+from stlplan.planner.session import Overrides, PlanOptions
+from stlplan.planner.size import check_size
 from stlplan.result import MonitorReport, PlanResult
 
 __all__ = [
@@ -37,8 +38,11 @@ __all__ = [
 
 
 def validate(mission: str | Path) -> Problem:
-    """Load and check a mission file; raise on the first mistake."""
-    return load_problem(mission)
+    """Load and check a mission file, and that its model fits this machine and the mission's
+    time limit (:func:`stlplan.planner.size.check_size`); raise on the first mistake."""
+    problem = load_problem(mission)
+    check_size(problem, problem.mission.solver.time_limit)
+    return problem
 
 
 def check(
@@ -94,6 +98,7 @@ def solve(
 ) -> PlanResult:
     """Plan, verify and (with ``out``) write the plan directory; returns the verified result."""
     problem = load_problem(mission)  # a bad mission leaves no output folder behind
+    check_size(problem, PlanOptions.from_mission(problem.mission, overrides).time_limit)
     created = out is not None and not Path(out).exists()
     if out is not None:
         prepare_directory(Path(out))

@@ -21,6 +21,7 @@ from stlplan.planner import stops
 from stlplan.planner.diagnose import cheap_reasons, diagnose
 from stlplan.planner.figures import reported
 from stlplan.planner.session import Overrides, PlanOptions
+from stlplan.planner.size import check_size
 from stlplan.result import Diagnosis, PlanResult, PlanStatus
 
 
@@ -75,6 +76,7 @@ def plan(
     problem = problem.with_inter_sample(overrides.inter_sample)
     options = PlanOptions.from_mission(problem.mission, overrides)
     deadline = time.perf_counter() + options.time_limit
+    check_size(problem, options.time_limit)
     reasons = cheap_reasons(problem)
     if reasons:
         diagnosis = Diagnosis(reasons, tuple(dict.fromkeys(r.split("'")[1] for r in reasons)))
