@@ -18,11 +18,11 @@ from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.planner import stops
-from stlplan.planner.diagnose import cheap_reasons, diagnose
+from stlplan.planner.diagnose import cheap_diagnosis, cheap_reasons, diagnose
 from stlplan.planner.figures import reported
 from stlplan.planner.session import Overrides, PlanOptions
 from stlplan.planner.size import check_size
-from stlplan.result import Diagnosis, PlanResult, PlanStatus
+from stlplan.result import PlanResult, PlanStatus
 
 
 def _verified(problem: Problem, result: PlanResult, gap: float) -> PlanResult:
@@ -79,8 +79,8 @@ def plan(
     check_size(problem, options.time_limit)
     reasons = cheap_reasons(problem)
     if reasons:
-        diagnosis = Diagnosis(reasons, tuple(dict.fromkeys(r.split("'")[1] for r in reasons)))
-        message = f"infeasible before solving: {len(reasons)} requirement(s) cannot be met in time"
+        diagnosis = cheap_diagnosis(reasons)
+        message = f"infeasible before solving: {len(reasons)} requirement(s) cannot be met"
         return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis)
     with stops.stop_on_signals(), _quiet_pyomo():
         result = solve_plan(problem, options, progress=progress, deadline=deadline)
