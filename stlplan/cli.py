@@ -175,9 +175,11 @@ def _gap(value: float | None) -> float | None:
 
 
 SOLVE_EPILOG = (
-    "Exit codes: 0 a plan (optimal, or feasible at the time limit), 3 bad input, 4 infeasible "
+    "Exit codes: 0 a plan (optimal, or feasible at the time limit), 2 usage error, 3 bad input "
+    "(or a model too large for this machine or the time limit), 4 infeasible "
     "(with a diagnosis in summary.json), 5 no plan within the time limit, 6 solver error or a "
-    "plan the monitor rejects, 130 / 143 stopped by Ctrl-C / SIGTERM (the best plan so far is "
+    "plan the monitor rejects, 70 internal error (a bug), 130 / 143 stopped by Ctrl-C / SIGTERM "
+    "(the best plan so far is "
     "written when there is one; Ctrl-C twice writes nothing)."
 )
 

@@ -79,7 +79,7 @@ def plan(
     check_size(problem, options.time_limit)
     reasons = cheap_reasons(problem)
     if reasons:
-        diagnosis = cheap_diagnosis(reasons)
+        diagnosis = cheap_diagnosis(problem, reasons)
         message = f"infeasible before solving: {len(reasons)} requirement(s) cannot be met"
         return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis)
     with stops.stop_on_signals(), _quiet_pyomo():

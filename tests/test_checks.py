@@ -186,6 +186,18 @@ CATALOGUE: dict[str, tuple[type[StlplanError], tuple[str, ...]]] = {
         MissionError,
         ("line 8,", "dynamics.di.state_bounds[0][1]", "between -1e6 and 1e6", "6000000000"),
     ),
+    "swapped_in_args": (
+        FormulaError,
+        ("line 18,", "tasks.meet.formula", "in(Goal, p) has its arguments swapped", "in(p, Goal)"),
+    ),
+    "roles_pinned_same_agent": (
+        MissionError,
+        ("line 20,", "tasks.meet.roles.q", "both pinned to agent 'a1'"),
+    ),
+    "homoglyph_region": (
+        FormulaError,
+        ("line 18,", "tasks.meet.formula", "U+043E CYRILLIC SMALL LETTER O", "in ASCII"),
+    ),
     "formula_huge_coefficient": (
         FormulaError,
         ("line 23,", "constraints.avoid.formula", "magnitude above 1e6"),
@@ -270,3 +282,14 @@ def test_mutations_of_the_base_never_raise_a_bare_exception(tmp_path: Path) -> N
             assert str(error).startswith(str(target))
             assert not any(noise in str(error) for noise in NOISE), str(error)
     assert failures > 0
+
+
+def test_a_look_alike_name_is_shown_by_code_point_not_suggested() -> None:
+    from stlplan.errors import did_you_mean
+
+    zero_width = did_you_mean("Goal", ["Goal\u200b", "Obs"])
+    assert "U+200B ZERO WIDTH SPACE at position 5" in zero_width
+    assert "did you mean" not in zero_width
+    cyrillic = did_you_mean("Goal", ["G\u043eal"])
+    assert "U+043E CYRILLIC SMALL LETTER O at position 2" in cyrillic
+    assert did_you_mean("Gaol", ["Goal"]) == " (did you mean 'Goal'?)"

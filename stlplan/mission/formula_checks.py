@@ -19,6 +19,7 @@ from stlplan.formula.tree import (
     Atom,
     Distance,
     Formula,
+    InRegion,
     Linear,
     Predicate,
     atoms,
@@ -127,11 +128,33 @@ def _numbers(atom: Atom) -> tuple[float, ...]:
     return ()
 
 
+def _check_argument_order(
+    mission: Mission, formula: Formula, declared: list[str], where: str, source: str | None
+) -> None:
+    """``in(Goal, p)`` names a region where the role goes: say the arguments are swapped."""
+    for atom in atoms(formula):
+        if (
+            isinstance(atom, InRegion)
+            and atom.role not in declared
+            and atom.role in mission.regions
+            and atom.region not in mission.regions
+        ):
+            raise FormulaError(
+                f"in({atom.role}, {atom.region}) has its arguments swapped: '{atom.role}' is a "
+                f"region and '{atom.region}' is not; expected in(ROLE, REGION), here "
+                f"in({atom.region}, {atom.role})",
+                source=source,
+                where=where,
+            )
+
+
 def check_task(mission: Mission, name: str, formula: Formula, source: str | None) -> None:
     """Roles declared and used, capabilities and agents known, formula within the horizon."""
     task = mission.tasks[name]
     where = f"tasks.{name}"
     used, declared = roles(formula), list(task.roles)
+    _check_argument_order(mission, formula, declared, f"{where}.formula", source)
+    _check_pins(task, where, source)
     for role in declared:
         _check_role_name(role, f"{where}.roles.{role}", source)
     for role in used:
@@ -163,6 +186,22 @@ def check_task(mission: Mission, name: str, formula: Formula, source: str | None
             f"{where}.synchronous.within",
             source,
         )
+
+
+def _check_pins(task: Task, where: str, source: str | None) -> None:
+    """Two roles pinned to one agent admit no element: distinct roles are distinct agents."""
+    pinned: dict[str, str] = {}
+    for role, rule in task.roles.items():
+        if isinstance(rule, PinnedRole):
+            if rule.agent in pinned:
+                fail(
+                    f"roles '{pinned[rule.agent]}' and '{role}' are both pinned to agent "
+                    f"'{rule.agent}', but within an element distinct roles are distinct agents; "
+                    "expected one role per pinned agent",
+                    f"{where}.roles.{role}",
+                    source,
+                )
+            pinned[rule.agent] = role
 
 
 def _check_role_name(role: str, where: str, source: str | None) -> None:
@@ -294,6 +333,8 @@ def check_constraint(mission: Mission, name: str, formula: Formula, source: str 
         fail(
             "'agents' needs 'for_each' (the role that ranges over them)", f"{where}.agents", source
         )
+    bound = [*spec.roles, *([spec.for_each] if spec.for_each is not None else [])]
+    _check_argument_order(mission, formula, bound, f"{where}.formula", source)
     _constraint_roles(spec, roles(formula), where, source)
     pool = spec.agents if spec.agents is not None else names
     role_agents = {r: [a] for r, a in spec.roles.items()}

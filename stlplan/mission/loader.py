@@ -277,6 +277,17 @@ def _yaml_kind(value: Any) -> str:
     return "boolean" if isinstance(value, bool) else "number"
 
 
+def _not_a_mission(data: dict[str, Any], source: str) -> None:
+    """A JSON Schema given where a mission is expected is named as such."""
+    if "$schema" in data and "properties" in data:
+        raise MissionError(
+            "this is a JSON Schema (it has '$schema' and 'properties'), not a mission; expected "
+            "a mission file such as missions/sync-pair.yaml",
+            source=source,
+            where="line 1, column 1",
+        )
+
+
 def validate_document(data: dict[str, Any], node: yaml.Node | None, source: str) -> Mission:
     """Validate a parsed YAML document against the schema.
 
@@ -286,6 +297,7 @@ def validate_document(data: dict[str, Any], node: yaml.Node | None, source: str)
         Naming the line, column and field path of the first problem, then up to
         ``MAX_REPORTED - 1`` more, one per line.
     """
+    _not_a_mission(data, source)
     try:
         return Mission.model_validate(data)
     except ValidationError as exc:
@@ -298,8 +310,12 @@ def _schema_error(
     """One error listing the first ``MAX_REPORTED`` schema problems, located in the file."""
     issues = _drop_explained(_resolve_unions([_Issue(e, data) for e in exc.errors()]))
     places = []
+    shown: set[str] = set()
     for issue in issues[:MAX_REPORTED]:
         path, phrase = _describe(issue)
+        head, sep, allowed = phrase.partition("; allowed keys: ")
+        phrase = head if allowed in shown else phrase  # each list of allowed keys once
+        shown.add(allowed)
         key = issue.kind in ("extra_forbidden", "key_type")
         line = locate(node, path, key=key) or "line ?"
         places.append((f"{line}: {dotted(path) or '(top level)'}", phrase))

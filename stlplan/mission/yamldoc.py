@@ -18,12 +18,15 @@ from typing import Any
 import yaml
 
 from stlplan.errors import MissionError, StlplanError
+from stlplan.mission.yamlerrors import reader_error, syntax_error
 
 FieldPath = tuple[str | int, ...]
 """A field path such as ``("agents", 0, "initial_state")``."""
 
 MAX_NESTING = 32
 """Levels of nested lists and mappings a mission file may have (a mission needs about 6)."""
+MAX_SHOWN = 60
+"""Characters of a long text a message shows (never a whole file)."""
 MAX_VALUES = 200_000
 """Values a mission file may hold once YAML aliases (``*name``) are expanded."""
 
@@ -103,18 +106,15 @@ def parse_yaml(text: str, source: str) -> tuple[Any, yaml.Node | None]:
         _reject_leading_zeros(node, source)
         data = yaml.load(text, Loader=MissionLoader)
     except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else None
-        raise MissionError(
-            f"YAML syntax error: {(exc.problem or str(exc)).removeprefix('but ')}"
-            f"{_yaml_context(exc)}",
-            source=source,
-            where=where,
-        ) from None
+        raise syntax_error(exc, source) from None
+    except yaml.reader.ReaderError as exc:
+        raise reader_error(exc, text, source) from None
     except yaml.YAMLError as exc:
         raise MissionError(f"YAML error: {exc}", source=source) from None
     if not isinstance(data, dict):
         found = "an empty file" if data is None else describe_value(data)
+        if isinstance(data, str) and data.startswith("agent,k,"):
+            found += " (a trajectory CSV: the mission comes first, then the trajectory)"
         raise MissionError(
             f"expected a mapping of mission fields at the top level, found {found}",
             source=source,
@@ -207,15 +207,6 @@ def _children(node: yaml.Node) -> list[yaml.Node]:
     return list(node.value) if isinstance(node, yaml.SequenceNode) else []
 
 
-def _yaml_context(exc: yaml.MarkedYAMLError) -> str:
-    """What YAML was reading when it failed, or a hint for a formula read as a YAML tag."""
-    if "for the tag '!" in str(exc.problem):
-        return "; a value that starts with '!' (a negated formula) must be quoted: \"!...\""
-    if not exc.context or exc.context_mark is None:
-        return ""
-    return f" ({exc.context} started at line {exc.context_mark.line + 1})"
-
-
 def _reject_duplicate_keys(node: yaml.Node | None, path: FieldPath, source: str) -> None:
     """YAML silently keeps the last of two equal keys; a mission file must not have any."""
     if isinstance(node, yaml.SequenceNode):
@@ -290,4 +281,7 @@ def describe_value(value: Any) -> str:
     if isinstance(value, list):
         simple = all(isinstance(v, (int, float, str)) for v in value) and len(value) <= 6
         return str(value) if simple else f"a list of {len(value)} item(s)"
+    if isinstance(value, str) and len(value) > MAX_SHOWN:
+        first = value.splitlines()[0] if value.strip() else value
+        return f"{first[:MAX_SHOWN]!r}... (text of {len(value)} characters)"
     return repr(value) if isinstance(value, str) else str(value)

@@ -141,12 +141,21 @@ def cheap_reasons(problem: Problem) -> tuple[Reason, ...]:
     return tuple(found)
 
 
-def cheap_diagnosis(reasons: tuple[Reason, ...]) -> Diagnosis:
+def kind_of(problem: Problem, name: str) -> str:
+    """``task``, ``constraint`` or ``separation``: what ``name`` is in ``problem``."""
+    if any(t.name == name for t in problem.tasks):
+        return "task"
+    return "constraint" if any(c.name == name for c in problem.constraints) else "separation"
+
+
+def cheap_diagnosis(problem: Problem, reasons: tuple[Reason, ...]) -> Diagnosis:
     """The diagnosis the cheap reasons make: their texts, and the items they blame."""
+    conflict = tuple(dict.fromkeys(r.item for r in reasons))
     return Diagnosis(
         reasons=tuple(r.text for r in reasons),
-        conflict=tuple(dict.fromkeys(r.item for r in reasons)),
+        conflict=conflict,
         complete=True,
+        kinds=tuple(kind_of(problem, name) for name in conflict),
     )
 
 
@@ -187,6 +196,7 @@ def diagnose(problem: Problem, feasibility: Feasibility, budget: float = 120.0) 
     """Cheap reasons, then (when they name nothing) a minimal conflict by feasibility solves."""
     reasons = cheap_reasons(problem)
     if reasons:
-        return cheap_diagnosis(reasons)
+        return cheap_diagnosis(problem, reasons)
     conflict, complete = minimal_conflict(problem, feasibility, budget)
-    return Diagnosis(conflict=conflict, complete=complete)
+    kinds = tuple(kind_of(problem, name) for name in conflict)
+    return Diagnosis(conflict=conflict, complete=complete, kinds=kinds)
