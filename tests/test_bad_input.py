@@ -3,8 +3,8 @@
 Each mistake gets a non-zero exit code of its category (2 usage, including click/typer's own
 usage errors; 3 bad input; 4 infeasible, diagnosed before solving), one message that names the file (with line/column or field path where
 one applies) and says what was expected, and never a traceback. ``tests/broken/`` (72 files,
-``tests/test_checks.py``) catalogues mistakes inside a mission; this table adds 49 more, for a
-total of 121 distinct mistakes.
+``tests/test_checks.py``) catalogues mistakes inside a mission; this table adds 51 more, for a
+total of 123 distinct mistakes.
 
 ===  ===========================  ====  ==================================================
  #   mistake                      exit  the message says
@@ -60,6 +60,8 @@ total of 121 distinct mistakes.
  47  unknown_yaml_tag             3     file, line/column, the tag, no negation hint
  48  horizon_cannot_fit           3     file, horizon, the estimated memory or time
  49  apostrophe_in_diagnosis      4     the task's whole name, by kind, in the diagnosis
+ 50  duplicate_through_alias      3     file, the alias's line and column, the anchor's
+ 51  trajectory_long_cell         3     file, the line of the cell, the size limit
 ===  ===========================  ====  ==================================================
 
 The last tests check that a failed ``solve`` leaves nothing behind in the output directory (no
@@ -438,7 +440,31 @@ CASES: dict[str, tuple[Case, int, tuple[str, ...]]] = {
         4,
         ("task 'south's_goal'", "outside the state bounds"),
     ),
+    "duplicate_through_alias": (
+        lambda t: ["validate", str(_text_file(t, "alias.yaml", _duplicate_through_alias()))],
+        3,
+        ("alias.yaml", "line 4, column 5 (an alias", "line 3,", "duplicate agent name 'south'"),
+    ),
+    "trajectory_long_cell": (
+        lambda t: _trajectory(t, lambda rows: [*rows[:3], _long_cell(rows[3]), *rows[4:]]),
+        3,
+        ("trajectory.csv", "line 4:", "a cell longer than 131072 characters"),
+    ),
 }
+
+
+def _duplicate_through_alias() -> str:
+    """A mission whose second agent is an alias of the first (one name, twice)."""
+    doc = _mission_doc()
+    agent = yaml.safe_dump(doc["agents"][0], default_flow_style=True).strip()
+    rest = {k: v for k, v in doc.items() if k != "agents"}
+    return f"agents:\n  - &robot {agent}\n  - *robot\n" + yaml.safe_dump(rest, sort_keys=False)
+
+
+def _long_cell(row: str) -> str:
+    cells = row.split(",")
+    cells[2] = "1" * 200_000
+    return ",".join(cells)
 
 
 def _horizon(steps: int) -> Callable[[dict[str, Any]], None]:

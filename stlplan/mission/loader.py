@@ -232,8 +232,6 @@ def _describe(issue: _Issue) -> tuple[FieldPath, str]:
             f"the name {path[-1]} is read by YAML as a {_yaml_kind(issue.found)}; expected a "
             f"name in text: quote it ('{path[-1]}')"
         )
-    if kind == "null_value":
-        return path, "expected a value, found nothing (null); give a value or leave the key out"
     if kind in ("too_long", "too_short") and ctx.get("field_type") == "Tuple":
         expected = f"{ctx.get('max_length', ctx.get('min_length'))} values"
     elif kind == "too_short":
@@ -277,6 +275,35 @@ def _yaml_kind(value: Any) -> str:
     return "boolean" if isinstance(value, bool) else "number"
 
 
+def _first_null(data: Any, path: FieldPath = ()) -> FieldPath | None:
+    """The path of the first null value in ``data`` (None when there is none)."""
+    items = (
+        data.items()
+        if isinstance(data, dict)
+        else enumerate(data)
+        if isinstance(data, list)
+        else ()
+    )
+    for key, value in items:
+        found = (*path, key) if value is None else _first_null(value, (*path, key))
+        if found is not None:
+            return found
+    return None
+
+
+def _reject_null(data: dict[str, Any], node: yaml.Node | None, source: str) -> None:
+    """A key in a mission file is given a value or left out; null (``key:`` with nothing) is
+    refused rather than read as "the default"."""
+    path = _first_null(data)
+    if path is not None:
+        line = locate(node, path) or "line ?"
+        raise MissionError(
+            "expected a value, found nothing (null); give a value or leave the key out",
+            source=source,
+            where=f"{line}: {dotted(path)}",
+        )
+
+
 def _not_a_mission(data: dict[str, Any], source: str) -> None:
     """A JSON Schema given where a mission is expected is named as such."""
     if "$schema" in data and "properties" in data:
@@ -298,6 +325,7 @@ def validate_document(data: dict[str, Any], node: yaml.Node | None, source: str)
         ``MAX_REPORTED - 1`` more, one per line.
     """
     _not_a_mission(data, source)
+    _reject_null(data, node, source)
     try:
         return Mission.model_validate(data)
     except ValidationError as exc:

@@ -4,14 +4,14 @@ The Chebyshev centre LP ``max t  s.t.  g_i . z + ||g_i|| t <= h_i,  t <= T`` giv
 the largest disc inside the region (capped at ``T`` for an unbounded region): the largest
 spatial margin an ``in`` requirement on the region can have. A radius of 0 or less (or an
 infeasible LP) means the region is empty or flat. The LP has three variables and is solved with
-HiGHS directly (its plain solver object, which prints nothing).
+HiGHS directly (its plain solver object, which prints nothing), imported only when a polytope
+region is checked.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
-import highspy
 import numpy as np
 
 INTERIOR_TOLERANCE = 1e-9
@@ -23,6 +23,8 @@ RADIUS_CAP = 1e7
 def inscribed_radius(G: Sequence[Sequence[float]], h: Sequence[float]) -> float:
     """Radius of the largest disc inside ``{z : G z <= h}`` (-inf when the region is empty,
     ``RADIUS_CAP`` when it is unbounded, +inf when HiGHS cannot decide)."""
+    import highspy  # here, so that reading a mission (and the monitor) loads no solver
+
     rows = np.asarray(G, dtype=float).reshape(-1, 2)
     rhs = np.asarray(h, dtype=float)
     norms = np.hypot(rows[:, 0], rows[:, 1])
@@ -35,6 +37,9 @@ def inscribed_radius(G: Sequence[Sequence[float]], h: Sequence[float]) -> float:
         lp.addRow(-inf, float(b), 3, np.arange(3, dtype=np.int32), np.array([*g, norm]))
     lp.run()
     status = lp.getModelStatus()
+    # the solve started HiGHS's process-wide thread pool with its default size; stop it, so that
+    # a later solve in this process may ask for any number of threads
+    highspy.Highs.resetGlobalScheduler(True)
     if status == highspy.HighsModelStatus.kInfeasible:
         return -np.inf
     if status != highspy.HighsModelStatus.kOptimal:  # undecided: leave it to the planner

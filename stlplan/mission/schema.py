@@ -18,10 +18,8 @@ from pydantic import (
     Strict,
     StrictBool,
     StrictInt,
-    field_validator,
     model_validator,
 )
-from pydantic_core import PydanticCustomError
 
 MAX_MAGNITUDE = 1e6
 """Largest magnitude of a number in a mission file (coordinates, matrices, weights); larger
@@ -49,14 +47,6 @@ class _Strict(BaseModel):
     model_config = ConfigDict(
         extra="forbid", frozen=True, use_attribute_docstrings=True, allow_inf_nan=False
     )
-
-    @field_validator("*", mode="before")
-    @classmethod
-    def _no_null(cls, value: Any) -> Any:
-        """An explicit null is refused: a key is either given a value or left out."""
-        if value is None:
-            raise PydanticCustomError("null_value", "a value is required")
-        return value
 
 
 class Dynamics(_Strict):
@@ -249,8 +239,9 @@ class Mission(_Strict):
 def _without_null(node: Any) -> Any:
     """``node`` with every ``{"type": "null"}`` branch and ``"default": null`` removed.
 
-    Optional fields are left out of a mission, never written as null (which the models refuse), so
-    the schema offers no null branch for validators to report ("is not of type 'null'").
+    Optional fields are left out of a mission file, never written as null (which the loader
+    refuses), so the schema offers no null branch for validators to report ("is not of type
+    'null'").
     """
     if isinstance(node, list):
         return [_without_null(item) for item in node]

@@ -11,6 +11,7 @@ line and column of its value, so later stages can point at the offending text.
 
 from __future__ import annotations
 
+import copy
 import re
 from pathlib import Path
 from typing import Any
@@ -32,7 +33,20 @@ MAX_VALUES = 200_000
 
 
 class MissionLoader(yaml.SafeLoader):
-    """PyYAML's safe loader with the YAML 1.2 core schema's booleans, integers and floats."""
+    """PyYAML's safe loader with the YAML 1.2 core schema's booleans, integers and floats; an
+    alias (``*name``) becomes a node of its own that starts where the alias is written, so a
+    mistake made through an alias is located at the alias, not at its anchor."""
+
+    def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node | None:
+        """The node at the next event; a shallow copy at the alias's place for an alias."""
+        alias = self.peek_event() if self.check_event(yaml.AliasEvent) else None
+        node = super().compose_node(parent, index)  # type: ignore[misc]
+        if alias is None or node is None:
+            return node
+        placed = copy.copy(node)
+        placed.start_mark, placed.end_mark = alias.start_mark, alias.end_mark
+        placed.through_alias = True  # type: ignore[attr-defined]
+        return placed
 
 
 MissionLoader.yaml_implicit_resolvers = {
@@ -237,7 +251,7 @@ def locate(node: yaml.Node | None, path: FieldPath, *, key: bool = False) -> str
 
     With ``key=True`` the last step points at the mapping key itself (for unknown keys).
     """
-    found = node
+    found, alias = node, None
     for depth, step in enumerate(path):
         match = None
         if isinstance(found, yaml.MappingNode):
@@ -250,7 +264,12 @@ def locate(node: yaml.Node | None, path: FieldPath, *, key: bool = False) -> str
         if match is None:
             break
         found = match
-    return None if found is None else _mark(found)
+        alias = alias or (found if getattr(found, "through_alias", False) else None)
+    if found is None:
+        return None
+    if alias is not None and alias is not found:
+        return f"{_mark(alias)} (an alias; the value is written at {_mark(found)})"
+    return _mark(found)
 
 
 def dotted(path: FieldPath) -> str:

@@ -40,7 +40,7 @@ MEMORY_HORIZON = 410
 """``H_m``: horizon at which one entry needs twice the memory it needs at a short horizon."""
 BASE_BYTES = 200 * 2**20
 """``M_0``: memory of the process before any model is built."""
-MIN_REFUSED_SECONDS = 10.0
+MIN_REFUSED_SECONDS = 30.0
 """A model estimated to build faster than this is always tried (the time budget handles it)."""
 
 
