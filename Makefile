@@ -28,8 +28,8 @@ test: $(STAMP)  ## Run the test suite (without the slow solves)
 test-slow: $(STAMP)  ## Run only the slow tests (full farm solves)
 	$(BIN)/pytest -q -m slow
 
-fuzz: $(STAMP)  ## Fuzz formulas and mission files with 5000 Hypothesis examples per test
-	STLPLAN_FUZZ_EXAMPLES=5000 $(BIN)/pytest -q tests/test_fuzz.py
+fuzz: $(STAMP)  ## Fuzz formulas and mission files with 5000 fresh random Hypothesis examples per test
+	STLPLAN_HYPOTHESIS=explore STLPLAN_FUZZ_EXAMPLES=5000 $(BIN)/pytest -q tests/test_fuzz.py
 
 SMOKE_LIMIT ?= 180
 smoke: $(STAMP)  ## Solve Cases I-III once each under a time limit; fail unless every plan is accepted

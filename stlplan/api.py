@@ -23,6 +23,7 @@ from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
 from stlplan.pipeline import plan
 from stlplan.planner import stops
 from stlplan.planner.session import Overrides, PlanOptions
+from stlplan.planner.size import check_size
 from stlplan.result import MonitorReport, PlanResult
 
 DEFAULT_TOLERANCE = 1e-6
@@ -42,8 +43,11 @@ __all__ = [
 
 
 def validate(mission: str | Path) -> Problem:
-    """Load and check a mission file; raise on the first mistake."""
-    return load_problem(mission)
+    """Load and check a mission file, and that its model fits this machine and the mission's
+    time limit (:func:`stlplan.planner.size.check_size`); raise on the first mistake."""
+    problem = load_problem(mission)
+    check_size(problem, problem.mission.solver.time_limit, problem.mission.solver.tasks)
+    return problem
 
 
 def check(
@@ -120,8 +124,10 @@ def solve(
     """Plan, verify and (with ``out``) write the plan directory; returns the verified result."""
     # a bad mission leaves no output folder behind
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
-    if PlanOptions.from_mission(problem.mission, overrides).tasks == "groups":
+    options = PlanOptions.from_mission(problem.mission, overrides)
+    if options.tasks == "groups":
         check_enumerable(problem)
+    check_size(problem, options.time_limit, options.tasks)
     created = out is not None and not Path(out).exists()
     if out is not None:
         prepare_directory(Path(out))

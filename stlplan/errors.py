@@ -8,6 +8,7 @@ an undefined name with the names that are defined.
 
 from __future__ import annotations
 
+import unicodedata
 from difflib import get_close_matches
 from typing import NoReturn
 
@@ -69,10 +70,28 @@ def fail(message: str, where: str, source: str | None) -> NoReturn:
     raise MissionError(message, source=source, where=where)
 
 
+def unusual_characters(text: str) -> str:
+    """The characters of ``text`` beyond printable ASCII, by code point and name, such as
+    ``U+200B ZERO WIDTH SPACE at position 3`` (empty when there is none)."""
+    found = [
+        f"U+{ord(c):04X} {unicodedata.name(c, 'CONTROL CHARACTER')} at position {i + 1}"
+        for i, c in enumerate(text)
+        if not (c.isascii() and c.isprintable())
+    ]
+    return ", ".join(found[:3]) + (f" and {len(found) - 3} more" if len(found) > 3 else "")
+
+
 def did_you_mean(name: str, options: list[str]) -> str:
-    """`` (did you mean 'x'?)`` for the option closest to ``name``, or nothing."""
+    """`` (did you mean 'x'?)`` for the option closest to ``name``, or nothing; when either name
+    holds characters that may print like others (homoglyphs, zero-width spaces), their code
+    points are shown instead of a suggestion that may look identical."""
     close = get_close_matches(name, options, n=1)
-    return f" (did you mean '{close[0]}'?)" if close else ""
+    if not close:
+        return ""
+    odd = [f"'{n}' holds {u}" for n in (name, close[0]) if (u := unusual_characters(n))]
+    if odd:
+        return f" (the closest name is '{close[0]}'; {'; '.join(odd)})"
+    return f" (did you mean '{close[0]}'?)"
 
 
 def undefined(kind: str, name: str, options: list[str]) -> str:

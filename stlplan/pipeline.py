@@ -18,10 +18,11 @@ from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.planner import stops
-from stlplan.planner.diagnose import cheap_reasons, diagnose
+from stlplan.planner.diagnose import cheap_diagnosis, cheap_reasons, diagnose
 from stlplan.planner.figures import reported
 from stlplan.planner.session import Overrides, PlanOptions
-from stlplan.result import Diagnosis, PlanResult, PlanStatus
+from stlplan.planner.size import check_size
+from stlplan.result import PlanResult, PlanStatus
 
 
 def _verified(problem: Problem, result: PlanResult, gap: float) -> PlanResult:
@@ -77,10 +78,11 @@ def plan(
     if options.tasks == "groups":
         check_enumerable(problem)
     deadline = time.perf_counter() + options.time_limit
+    check_size(problem, options.time_limit, options.tasks)
     reasons = cheap_reasons(problem)
     if reasons:
-        diagnosis = Diagnosis(reasons, tuple(dict.fromkeys(r.split("'")[1] for r in reasons)))
-        message = f"infeasible before solving: {len(reasons)} requirement(s) cannot be met in time"
+        diagnosis = cheap_diagnosis(problem, reasons)
+        message = f"infeasible before solving: {len(reasons)} requirement(s) cannot be met"
         return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis)
     with stops.stop_on_signals(), _quiet_pyomo():
         result = solve_plan(problem, options, progress=progress, deadline=deadline)

@@ -143,6 +143,17 @@ class Diagnosis:
     """A minimal set of tasks and constraints ('separation' included) that cannot hold together."""
     complete: bool = True
     """False when some feasibility solve ran out of time, so the set may not be minimal."""
+    kinds: tuple[str, ...] = ()
+    """What each name of `conflict` is: ``task``, ``constraint`` or ``separation``."""
+
+    def named(self) -> tuple[str, ...]:
+        """The conflict by kind and name: ``task 'meet'``, ``constraint 'avoid'``, ``separation``."""
+        if len(self.kinds) != len(self.conflict):
+            return tuple(f"'{name}'" for name in self.conflict)
+        return tuple(
+            kind if kind == name else f"{kind} '{name}'"
+            for kind, name in zip(self.kinds, self.conflict, strict=True)
+        )
 
 
 @dataclass(frozen=True)

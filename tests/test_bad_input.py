@@ -1,10 +1,10 @@
 """Mistakes made on the command line and with files, through ``stlplan.cli.app``.
 
 Each mistake gets a non-zero exit code of its category (2 usage, including click/typer's own
-usage errors; 3 bad input), one message that names the file (with line/column or field path where
-one applies) and says what was expected, and never a traceback. ``tests/broken/`` (52 files,
-``tests/test_checks.py``) catalogues mistakes inside a mission; this table adds 39 more, for a
-total of 91 distinct mistakes.
+usage errors; 3 bad input; 4 infeasible, diagnosed before solving), one message that names the file (with line/column or field path where
+one applies) and says what was expected, and never a traceback. ``tests/broken/`` (72 files,
+``tests/test_checks.py``) catalogues mistakes inside a mission; this table adds 51 more, for a
+total of 123 distinct mistakes.
 
 ===  ===========================  ====  ==================================================
  #   mistake                      exit  the message says
@@ -49,6 +49,19 @@ total of 91 distinct mistakes.
  37  unknown_command              2     "No such command"
  38  missing_argument             2     "Missing argument"
  39  unknown_option               2     "No such option"
+ 40  gap_one                      2     --gap, 0 <= G < 1
+ 41  seed_too_large               2     --seed, at most 2147483647 (HiGHS's range)
+ 42  swapped_check_arguments      3     file, a trajectory CSV, the mission comes first,
+                                        the text shortened (never the whole file)
+ 43  schema_as_mission            3     file, a JSON Schema, not a mission
+ 44  control_character            3     file, line/column, the code point
+ 45  colon_in_value               3     file, line/column, put the value in quotes
+ 46  bad_indentation              3     file, line/column, the indentation
+ 47  unknown_yaml_tag             3     file, line/column, the tag, no negation hint
+ 48  horizon_cannot_fit           3     file, horizon, the estimated memory or time
+ 49  apostrophe_in_diagnosis      4     the task's whole name, by kind, in the diagnosis
+ 50  duplicate_through_alias      3     file, the alias's line and column, the anchor's
+ 51  trajectory_long_cell         3     file, the line of the cell, the size limit
 ===  ===========================  ====  ==================================================
 
 The last tests check that a failed ``solve`` leaves nothing behind in the output directory (no
@@ -72,7 +85,7 @@ from stlplan.cli import app
 from stlplan.mission.loader import load_problem
 from stlplan.outputs.trajio import write_trajectory_csv
 from stlplan.result import Trajectory
-from tests.conftest import MISSIONS
+from tests.conftest import MISSIONS, ROOT
 
 runner = CliRunner()
 MISSION = MISSIONS / "sync-pair.yaml"
@@ -135,6 +148,11 @@ def _unreadable(tmp: Path) -> list[str]:
     path = _text_file(tmp, "locked.yaml", MISSION.read_text(encoding="utf-8"))
     path.chmod(0)
     return ["validate", str(path)]
+
+
+def _solve_with(*options: str) -> Callable[[Path], list[str]]:
+    """The arguments of a solve of MISSION with ``options``."""
+    return lambda tmp: ["solve", str(MISSION), "--out", str(tmp / "o"), *options]
 
 
 def _alias_bomb() -> str:
@@ -375,7 +393,98 @@ CASES: dict[str, tuple[Case, int, tuple[str, ...]]] = {
         2,
         ("No such option", "--strict"),
     ),
+    "gap_one": (_solve_with("--gap", "1"), 2, ("--gap", "0 <= G < 1, found 1")),
+    "seed_too_large": (_solve_with("--seed", "2147483648"), 2, ("--seed", "2147483647")),
+    "swapped_check_arguments": (
+        lambda t: ["check", _trajectory(t, lambda lines: lines)[2], str(MISSION)],
+        3,
+        (
+            "trajectory.csv",
+            "line 1, column 1",
+            "a trajectory CSV",
+            "mission comes first",
+            "(text of",
+        ),
+    ),
+    "schema_as_mission": (
+        lambda t: ["validate", str(ROOT / "schemas" / "mission.schema.json")],
+        3,
+        ("mission.schema.json", "a JSON Schema", "not a mission"),
+    ),
+    "control_character": (
+        lambda t: ["validate", str(_text_file(t, "bell.yaml", "name: x\nhorizon: 3\x07\n"))],
+        3,
+        ("bell.yaml", "line 2, column 11", "U+0007", "remove it"),
+    ),
+    "colon_in_value": (
+        lambda t: [
+            "validate",
+            str(_text_file(t, "colon.yaml", "name: farm: case I\nhorizon: 3\n")),
+        ],
+        3,
+        ("colon.yaml", "line 1, column 11", "colon and space", "put the value in quotes"),
+    ),
+    "bad_indentation": (
+        lambda t: [
+            "validate",
+            str(_text_file(t, "indent.yaml", "name: x\nagents:\n  - name: a\n  dynamics: d\n")),
+        ],
+        3,
+        ("indent.yaml", "line 4, column 3", "indentation"),
+    ),
+    "unknown_yaml_tag": (
+        lambda t: ["validate", str(_text_file(t, "tag.yaml", "name: !custom x\nhorizon: 3\n"))],
+        3,
+        ("tag.yaml", "line 1, column 7", "unknown YAML tag '!custom'", "no tags"),
+    ),
+    "horizon_cannot_fit": (
+        lambda t: ["solve", str(_mission_file(t, _horizon(100_000))), "--out", str(t / "o")],
+        3,
+        ("mission.yaml", "horizon", "GiB of memory", "shorten the horizon"),
+    ),
+    "apostrophe_in_diagnosis": (
+        lambda t: ["solve", str(_mission_file(t, _goal_off_the_map)), "--out", str(t / "o")],
+        4,
+        ("task 'south's_goal'", "outside the state bounds"),
+    ),
+    "duplicate_through_alias": (
+        lambda t: ["validate", str(_text_file(t, "alias.yaml", _duplicate_through_alias()))],
+        3,
+        ("alias.yaml", "line 4, column 5 (an alias", "line 3,", "duplicate agent name 'south'"),
+    ),
+    "trajectory_long_cell": (
+        lambda t: _trajectory(t, lambda rows: [*rows[:3], _long_cell(rows[3]), *rows[4:]]),
+        3,
+        ("trajectory.csv", "line 4:", "a cell longer than 131072 characters"),
+    ),
 }
+
+
+def _duplicate_through_alias() -> str:
+    """A mission whose second agent is an alias of the first (one name, twice)."""
+    doc = _mission_doc()
+    agent = yaml.safe_dump(doc["agents"][0], default_flow_style=True).strip()
+    rest = {k: v for k, v in doc.items() if k != "agents"}
+    return f"agents:\n  - &robot {agent}\n  - *robot\n" + yaml.safe_dump(rest, sort_keys=False)
+
+
+def _long_cell(row: str) -> str:
+    cells = row.split(",")
+    cells[2] = "1" * 200_000
+    return ",".join(cells)
+
+
+def _horizon(steps: int) -> Callable[[dict[str, Any]], None]:
+    def change(doc: dict[str, Any]) -> None:
+        doc["horizon"] = steps
+
+    return change
+
+
+def _goal_off_the_map(doc: dict[str, Any]) -> None:
+    """The task, renamed with an apostrophe, needs a region beyond the state bounds."""
+    doc["tasks"] = {"south's_goal": doc["tasks"]["meet"]}
+    doc["regions"]["Goal"] = {"box": [[7, 8], [1, 3]]}
 
 
 def _many_agents(doc: dict[str, Any]) -> None:

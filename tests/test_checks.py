@@ -148,6 +148,60 @@ CATALOGUE: dict[str, tuple[type[StlplanError], tuple[str, ...]]] = {
     "unused_role": (MissionError, ("line 20,", "tasks.meet.roles.q", "not used")),
     "wrong_type": (MissionError, ("line 3,", "horizon", "expected an integer", "'eight'")),
     "yaml_syntax": (MissionError, ("line 16,", "YAML syntax error", "line 15")),
+    # refused, never reinterpreted
+    "octal_horizon": (MissionError, ("line 3,", "leading zero", "octal", "such as 10")),
+    "separation_yes": (MissionError, ("line 25,", "separation", "expected a number", "'yes'")),
+    "quoted_number": (
+        MissionError,
+        ("line 25,", "objective.beta", "expected a number", "'0.01'", "without quotes"),
+    ),
+    "null_value": (MissionError, ("line 25,", "separation", "found nothing (null)")),
+    "dist_same_role": (
+        FormulaError,
+        ("line 18,", "tasks.meet.formula", "dist(p, p)", "two different roles"),
+    ),
+    "empty_polytope_region": (
+        MissionError,
+        ("line 15,", "regions.Obs.G", "empty polytope", "-1 x + 0 y <= -3"),
+    ),
+    "gap_too_large": (MissionError, ("line 25,", "solver.gap", "< 1", "found 2")),
+    "seed_too_large": (MissionError, ("line 25,", "solver.seed", "2147483647", "4294967296")),
+    "constraint_no_agents": (
+        MissionError,
+        ("line 25,", "constraints.avoid.agents", "at least 1", "found []"),
+    ),
+    "role_rule_empty": (MissionError, ("line 20,", "tasks.meet.roles.p", "at least 1", "[]")),
+    "task_constraint_same_name": (
+        MissionError,
+        ("line 23,", "constraints.meet", "both a task and a constraint"),
+    ),
+    "task_named_separation": (MissionError, ("line 18,", "tasks.separation", "another name")),
+    "numeric_task_name": (MissionError, ("line 17,", "tasks.1", "as a number", "quote it")),
+    "boolean_region_name": (
+        MissionError,
+        ("line 15,", "regions.true", "as a boolean", "quote it"),
+    ),
+    "beta_huge": (MissionError, ("line 25,", "objective.beta", "between -1e6 and 1e6")),
+    "bounds_huge": (
+        MissionError,
+        ("line 8,", "dynamics.di.state_bounds[0][1]", "between -1e6 and 1e6", "6000000000"),
+    ),
+    "swapped_in_args": (
+        FormulaError,
+        ("line 18,", "tasks.meet.formula", "in(Goal, p) has its arguments swapped", "in(p, Goal)"),
+    ),
+    "roles_pinned_same_agent": (
+        MissionError,
+        ("line 20,", "tasks.meet.roles.q", "both pinned to agent 'a1'"),
+    ),
+    "homoglyph_region": (
+        FormulaError,
+        ("line 18,", "tasks.meet.formula", "U+043E CYRILLIC SMALL LETTER O", "in ASCII"),
+    ),
+    "formula_huge_coefficient": (
+        FormulaError,
+        ("line 23,", "constraints.avoid.formula", "magnitude above 1e6"),
+    ),
 }
 
 NOISE = ("Input should", "pydantic", "https://", "Traceback", "Value error", "For further")
@@ -228,3 +282,14 @@ def test_mutations_of_the_base_never_raise_a_bare_exception(tmp_path: Path) -> N
             assert str(error).startswith(str(target))
             assert not any(noise in str(error) for noise in NOISE), str(error)
     assert failures > 0
+
+
+def test_a_look_alike_name_is_shown_by_code_point_not_suggested() -> None:
+    from stlplan.errors import did_you_mean
+
+    zero_width = did_you_mean("Goal", ["Goal\u200b", "Obs"])
+    assert "U+200B ZERO WIDTH SPACE at position 5" in zero_width
+    assert "did you mean" not in zero_width
+    cyrillic = did_you_mean("Goal", ["G\u043eal"])
+    assert "U+043E CYRILLIC SMALL LETTER O at position 2" in cyrillic
+    assert did_you_mean("Gaol", ["Goal"]) == " (did you mean 'Goal'?)"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -157,3 +158,21 @@ def test_summary_json_is_strict(tmp_path: Path) -> None:
         "b": [None, 1.5],
         "c": [2.0, None],
     }
+
+
+def test_the_readme_lists_every_exit_code() -> None:
+    import stlplan.errors
+    from stlplan.cli import planning, shell
+    from tests.conftest import ROOT
+
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    table = readme[readme.index("Exit codes:") : readme.index("Errors name the file")]
+    listed = {int(code) for code in re.findall(r"`(\d+)`", table)}
+    errors = {
+        cls.exit_code
+        for cls in vars(stlplan.errors).values()
+        if isinstance(cls, type) and issubclass(cls, stlplan.errors.StlplanError)
+    }
+    used = errors | set(planning.STATUS_EXIT.values())
+    used |= {0, shell.EXIT_VIOLATED, shell.EXIT_INTERNAL}
+    assert used | {143} == listed

@@ -2,10 +2,20 @@
 
 from __future__ import annotations
 
+import copy
 import json
+from typing import Any
 
+import jsonschema
+import pytest
+
+from stlplan.errors import StlplanError
+from stlplan.mission.loader import validate_document
 from stlplan.mission.schema import Mission, json_schema
+from stlplan.mission.yamldoc import parse_yaml
 from tests.conftest import MISSIONS, ROOT
+
+BROKEN = ROOT / "tests" / "broken"
 
 
 def test_schema_file_is_up_to_date() -> None:
@@ -32,3 +42,73 @@ def test_unknown_keys_are_rejected_everywhere() -> None:
         if definition.get("type") == "object":
             assert definition.get("additionalProperties") is False, name
     assert Mission.model_config.get("extra") == "forbid"
+
+
+def _documents() -> list[tuple[str, Any]]:
+    """Every shipped and catalogued mission as YAML reads it, plus documents made to probe the
+    types (quoted numbers, true/false for numbers, nulls, out-of-range values)."""
+    docs: list[tuple[str, Any]] = []
+    for path in sorted([*MISSIONS.glob("*.yaml"), *BROKEN.glob("*.yaml")]):
+        try:
+            data, _ = parse_yaml(path.read_text(encoding="utf-8"), str(path))
+        except StlplanError:
+            continue  # not a YAML mapping: nothing to validate
+        if _is_json(data):
+            docs.append((path.stem, data))
+    base = docs[[name for name, _ in docs].index("_base")][1]
+    for field, value in PROBES:
+        doc = copy.deepcopy(base)
+        target = doc
+        for key in field[:-1]:
+            target = target.setdefault(key, {})
+        target[field[-1]] = value
+        docs.append((f"{'.'.join(field)}={value!r}", doc))
+    return docs
+
+
+def _is_json(data: Any) -> bool:
+    """Whether ``data`` can be written as JSON as it is: no NaN, only text keys."""
+    if isinstance(data, dict):
+        return all(isinstance(k, str) and _is_json(v) for k, v in data.items())
+    if isinstance(data, list):
+        return all(_is_json(v) for v in data)
+    return not (isinstance(data, float) and data != data)
+
+
+PROBES: list[tuple[tuple[str, ...], Any]] = [
+    (("separation",), True),
+    (("separation",), "0.1"),
+    (("separation",), None),
+    (("separation",), 0.1),
+    (("horizon",), 8.0),
+    (("horizon",), True),
+    (("objective", "beta"), "0.01"),
+    (("objective", "beta"), 1e300),
+    (("objective", "two_step"), "yes"),
+    (("objective", "two_step"), 1),
+    (("solver", "gap"), 1),
+    (("solver", "gap"), 0.5),
+    (("solver", "seed"), 2**31),
+    (("solver", "seed"), 2**31 - 1),
+    (("solver", "threads"), None),
+    (("sweep",), None),
+    (("regions", "Goal"), {"box": [[4, 5.5], [1, 3]], "G": [[1, 0]], "h": [1]}),
+    (("regions", "Goal"), {"G": [[1, 0]]}),
+    (("tasks", "meet", "roles", "p"), []),
+]
+
+
+@pytest.mark.parametrize(
+    ("name", "data"), _documents(), ids=lambda v: v if isinstance(v, str) else ""
+)
+def test_json_schema_and_stlplan_agree(name: str, data: Any) -> None:
+    """A document the JSON Schema accepts passes stlplan's schema stage, and vice versa."""
+    schema = json.loads(json_schema())
+    errors = list(jsonschema.Draft202012Validator(schema).iter_errors(data))
+    try:
+        validate_document(data, None, name)
+        accepted = True
+    except StlplanError:
+        accepted = False
+    assert accepted == (not errors), [e.message for e in errors]
+    assert not any("is not of type 'null'" in e.message for e in errors)

@@ -22,6 +22,7 @@ from stlplan.cli.shell import (
     handled,
     solver_output_to_stderr,
 )
+from stlplan.mission.schema import MAX_SEED
 from stlplan.planner import stops
 from stlplan.result import PlanResult, PlanStatus
 
@@ -36,8 +37,8 @@ STATUS_EXIT = {
 }
 
 SOLVE_EPILOG = (
-    "Exit codes: 0 a plan (optimal, or feasible at the time limit), 2 usage error, 3 bad input, "
-    "4 infeasible (with a diagnosis in summary.json), 5 no plan within the time limit, 6 solver "
+    "Exit codes: 0 a plan (optimal, or feasible at the time limit), 2 usage error, 3 bad input "
+    "(or a model too large for this machine or the time limit), 4 infeasible (with a diagnosis in summary.json), 5 no plan within the time limit, 6 solver "
     "error or a plan the monitor rejects, 70 internal error, 130 / 143 stopped by Ctrl-C / "
     "SIGTERM (the best plan so far is written when there is one; Ctrl-C twice writes nothing)."
 )
@@ -65,6 +66,13 @@ def _directory(value: str) -> str:
     """An output directory must be named: ``--out ''`` would write into the current folder."""
     if not value.strip():
         raise typer.BadParameter("expected a directory name, found an empty string")
+    return value
+
+
+def _gap(value: float | None) -> float | None:
+    """A relative gap of 1 or more would call any plan optimal."""
+    if value is not None and value >= 1:
+        raise typer.BadParameter(f"expected a relative gap 0 <= G < 1, found {value:g}")
     return value
 
 
@@ -96,9 +104,10 @@ def solve(
     gap: Annotated[
         float | None,
         typer.Option(
-            help="Relative optimality gap, at least 0 (default: the mission's).",
+            help="Relative optimality gap, 0 <= GAP < 1 (default: the mission's).",
             min=0.0,
             metavar="GAP",
+            callback=_gap,
         ),
     ] = None,
     threads: Annotated[
@@ -107,7 +116,9 @@ def solve(
             help="HiGHS threads, at least 1 (default: the mission's or HiGHS').", min=1, metavar="N"
         ),
     ] = None,
-    seed: Annotated[int | None, typer.Option(help="HiGHS random seed.", min=0, metavar="N")] = None,
+    seed: Annotated[
+        int | None, typer.Option(help="HiGHS random seed.", min=0, max=MAX_SEED, metavar="N")
+    ] = None,
     one_step: Annotated[
         bool,
         typer.Option("--one-step", help="Skip step 2 (effort minimization with decisions fixed)."),

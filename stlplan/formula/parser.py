@@ -8,7 +8,7 @@ from importlib import resources
 from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, VisitError
 
-from stlplan.errors import FormulaError
+from stlplan.errors import FormulaError, unusual_characters
 from stlplan.formula.tree import (
     Always,
     And,
@@ -150,7 +150,10 @@ def _syntax_message(text: str, exc: UnexpectedInput) -> str:
         line, column = len(lines), len(lines[-1]) + 1
         found = "end of formula"
     elif isinstance(exc, UnexpectedCharacters):
-        found = f"character {text[exc.pos_in_stream or 0]!r}"
+        char = text[exc.pos_in_stream or 0]
+        found = f"character {char!r}"
+        if odd := unusual_characters(char):
+            found += f" ({odd.removesuffix(' at position 1')}; formulas are written in ASCII)"
     else:
         found = repr(str(token))
     expected = sorted(getattr(exc, "expected", None) or getattr(exc, "allowed", None) or [])

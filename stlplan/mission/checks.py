@@ -22,6 +22,7 @@ from stlplan.mission.formula_checks import (
     check_task,
     check_window,
 )
+from stlplan.mission.polytope import has_interior
 from stlplan.mission.schema import Dynamics, Mission
 
 __all__ = [
@@ -35,6 +36,7 @@ __all__ = [
     "check_group_count",
     "check_groups",
     "check_mission",
+    "check_names",
     "check_regions",
     "check_task",
     "check_window",
@@ -155,6 +157,45 @@ def check_regions(mission: Mission, source: str | None) -> None:
                 fail("a polytope needs at least one row [g_x, g_y] in G", f"{where}.G", source)
             if any(np.hypot(*g) == 0 for g in region.G):
                 fail("a row of G is zero", f"{where}.G", source)
+            if not has_interior(region.G, region.h):
+                fail(
+                    f"empty polytope: no point z satisfies G z < h strictly (rows "
+                    f"{_rows(region.G, region.h)}); expected a region with an interior",
+                    f"{where}.G",
+                    source,
+                )
+
+
+def _rows(G: list[tuple[float, float]], h: list[float]) -> str:
+    """The inequalities of a polytope, the first few of them, as text."""
+    shown = [f"{g[0]:g} x + {g[1]:g} y <= {b:g}" for g, b in zip(G[:4], h[:4], strict=False)]
+    more = f", ... ({len(G)} rows)" if len(G) > 4 else ""
+    return ", ".join(shown) + more
+
+
+def check_names(mission: Mission, source: str | None) -> None:
+    """Tasks and constraints share one namespace with the separation requirement."""
+    for name in mission.tasks:
+        if name == "separation":
+            fail(
+                "a task may not be named 'separation' (the name of the pairwise separation "
+                "requirement in diagnoses); expected another name",
+                f"tasks.{name}",
+                source,
+            )
+        if name in mission.constraints:
+            fail(
+                f"'{name}' names both a task and a constraint; expected distinct names",
+                f"constraints.{name}",
+                source,
+            )
+    if "separation" in mission.constraints:
+        fail(
+            "a constraint may not be named 'separation' (the name of the pairwise separation "
+            "requirement in diagnoses); expected another name",
+            "constraints.separation",
+            source,
+        )
 
 
 def check_mission(mission: Mission, source: str | None) -> None:
@@ -168,6 +209,7 @@ def check_mission(mission: Mission, source: str | None) -> None:
     check_dynamics(mission, source)
     check_agents(mission, source)
     check_regions(mission, source)
+    check_names(mission, source)
     if mission.sweep is not None and mission.sweep.initial_region not in mission.regions:
         fail(
             undefined("region", mission.sweep.initial_region, list(mission.regions)),

@@ -20,6 +20,7 @@ from stlplan.formula.tree import (
     Atom,
     Distance,
     Formula,
+    InRegion,
     Linear,
     Predicate,
     atoms,
@@ -28,7 +29,15 @@ from stlplan.formula.tree import (
     roles,
 )
 from stlplan.mission.groups import Element, count_groups
-from stlplan.mission.schema import Constraint, Mission, PinnedRole, Synchronous, Task
+from stlplan.mission.schema import (
+    MAGNITUDE_TEXT,
+    MAX_MAGNITUDE,
+    Constraint,
+    Mission,
+    PinnedRole,
+    Synchronous,
+    Task,
+)
 
 MAX_ELEMENTS = 10_000
 """Elements a task's roles may admit (they are enumerated)."""
@@ -74,12 +83,7 @@ def _atoms_fit(
         if a.dynamics in mission.dynamics
     }
     for atom in atoms(formula):
-        if not all(math.isfinite(v) for v in _numbers(atom)):
-            raise FormulaError(
-                f"'{to_text(atom)}' has a number that is not finite (too large)",
-                source=source,
-                where=where,
-            )
+        _atom_is_sane(atom, where, source)
         if isinstance(atom, Linear):
             for term in atom.terms:
                 for agent in role_agents.get(term.role, []):
@@ -92,6 +96,31 @@ def _atoms_fit(
                         )
 
 
+def _atom_is_sane(atom: Atom, where: str, source: str | None) -> None:
+    """Finite numbers of magnitude at most ``MAX_MAGNITUDE``; ``dist`` between two roles."""
+    numbers = _numbers(atom)
+    if not all(math.isfinite(v) for v in numbers):
+        raise FormulaError(
+            f"'{to_text(atom)}' has a number that is not finite (too large)",
+            source=source,
+            where=where,
+        )
+    if any(abs(v) > MAX_MAGNITUDE for v in numbers):
+        raise FormulaError(
+            f"'{to_text(atom)}' has a number of magnitude above {MAGNITUDE_TEXT}; expected "
+            f"numbers between -{MAGNITUDE_TEXT} and {MAGNITUDE_TEXT} (rescale the units)",
+            source=source,
+            where=where,
+        )
+    if isinstance(atom, Distance) and atom.left == atom.right:
+        raise FormulaError(
+            f"'{to_text(atom)}' measures role '{atom.left}' against itself (always 0); expected "
+            "two different roles, such as dist(p, q)",
+            source=source,
+            where=where,
+        )
+
+
 def _numbers(atom: Atom) -> tuple[float, ...]:
     """The numbers written in ``atom`` (coefficients, bound, radius)."""
     if isinstance(atom, Distance):
@@ -101,11 +130,33 @@ def _numbers(atom: Atom) -> tuple[float, ...]:
     return ()
 
 
+def _check_argument_order(
+    mission: Mission, formula: Formula, declared: list[str], where: str, source: str | None
+) -> None:
+    """``in(Goal, p)`` names a region where the role goes: say the arguments are swapped."""
+    for atom in atoms(formula):
+        if (
+            isinstance(atom, InRegion)
+            and atom.role not in declared
+            and atom.role in mission.regions
+            and atom.region not in mission.regions
+        ):
+            raise FormulaError(
+                f"in({atom.role}, {atom.region}) has its arguments swapped: '{atom.role}' is a "
+                f"region and '{atom.region}' is not; expected in(ROLE, REGION), here "
+                f"in({atom.region}, {atom.role})",
+                source=source,
+                where=where,
+            )
+
+
 def check_task(mission: Mission, name: str, formula: Formula, source: str | None) -> None:
     """Roles declared and used, capabilities and agents known, formula within the horizon."""
     task = mission.tasks[name]
     where = f"tasks.{name}"
     used, declared = roles(formula), list(task.roles)
+    _check_argument_order(mission, formula, declared, f"{where}.formula", source)
+    _check_pins(task, where, source)
     for role in declared:
         _check_role_name(role, f"{where}.roles.{role}", source)
     for role in used:
@@ -137,6 +188,22 @@ def check_task(mission: Mission, name: str, formula: Formula, source: str | None
             f"{where}.synchronous.within",
             source,
         )
+
+
+def _check_pins(task: Task, where: str, source: str | None) -> None:
+    """Two roles pinned to one agent admit no element: distinct roles are distinct agents."""
+    pinned: dict[str, str] = {}
+    for role, rule in task.roles.items():
+        if isinstance(rule, PinnedRole):
+            if rule.agent in pinned:
+                fail(
+                    f"roles '{pinned[rule.agent]}' and '{role}' are both pinned to agent "
+                    f"'{rule.agent}', but within an element distinct roles are distinct agents; "
+                    "expected one role per pinned agent",
+                    f"{where}.roles.{role}",
+                    source,
+                )
+            pinned[rule.agent] = role
 
 
 def _check_role_name(role: str, where: str, source: str | None) -> None:
@@ -274,6 +341,8 @@ def check_constraint(mission: Mission, name: str, formula: Formula, source: str 
         fail(
             "'agents' needs 'for_each' (the role that ranges over them)", f"{where}.agents", source
         )
+    bound = [*spec.roles, *([spec.for_each] if spec.for_each is not None else [])]
+    _check_argument_order(mission, formula, bound, f"{where}.formula", source)
     _constraint_roles(spec, roles(formula), where, source)
     pool = spec.agents if spec.agents is not None else names
     role_agents = {r: [a] for r, a in spec.roles.items()}

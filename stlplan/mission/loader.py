@@ -140,6 +140,10 @@ class _Issue:
         current = data
         loc = tuple(error["loc"])
         for i, key in enumerate(loc):
+            if key == "[key]":  # a mapping key of the wrong type, such as a number
+                self.kind, self.found = "key_type", list(self.path)[-1]
+                self.path = (*self.path[:-1], describe_value(self.found))
+                continue
             missing = self.kind == "missing" and i == len(loc) - 1
             if (
                 isinstance(key, str)
@@ -149,6 +153,8 @@ class _Issue:
                 if self.tag is None:  # a union branch such as 'str' or 'PinnedRole'
                     self.tag, self.root = key, self.path
                 continue
+            if isinstance(current, dict):  # the key as YAML read it (True, not 1)
+                key = next((k for k in current if k == key), key)
             self.path = (*self.path, key)
             current = _child(current, key)
 
@@ -222,6 +228,11 @@ def _describe(issue: _Issue) -> tuple[FieldPath, str]:
         return path[:-1], f"missing required field '{path[-1]}'"
     if kind == "value_error":
         return path, str(ctx.get("error", issue.msg))
+    if kind == "key_type":
+        return path, (
+            f"the name {path[-1]} is read by YAML as a {_yaml_kind(issue.found)}; expected a "
+            f"name in text: quote it ('{path[-1]}')"
+        )
     if kind in ("too_long", "too_short") and ctx.get("field_type") == "Tuple":
         expected = f"{ctx.get('max_length', ctx.get('min_length'))} values"
     elif kind == "too_short":
@@ -231,13 +242,78 @@ def _describe(issue: _Issue) -> tuple[FieldPath, str]:
     elif kind in _BOUNDS:
         limit = next(iter(v for k, v in ctx.items() if k in ("ge", "gt", "le", "lt")), "?")
         expected = f"a value {_BOUNDS[kind]} {limit}"
+        if limit in (schema.MAX_MAGNITUDE, -schema.MAX_MAGNITUDE):
+            expected = (
+                f"a number between -{schema.MAGNITUDE_TEXT} and {schema.MAGNITUDE_TEXT} "
+                "(larger magnitudes break the solver's tolerances; rescale the units)"
+            )
     elif kind == "string_pattern_mismatch":
         expected = _PATTERNS.get(ctx.get("pattern"), f"text matching {ctx.get('pattern')}")
     elif kind in ("literal_error", "union"):
         expected = str(ctx.get("expected"))
     else:
         expected = _EXPECTED.get(kind, issue.msg)
-    return path, f"expected {expected}, found {describe_value(issue.found)}"
+    return path, f"expected {expected}, found {describe_value(issue.found)}{_hint(issue)}"
+
+
+def _hint(issue: _Issue) -> str:
+    """Why a value of the wrong type was probably written so, and how to fix it."""
+    found = issue.found
+    if issue.kind in ("float_type", "int_type") and isinstance(found, str):
+        try:
+            float(found)
+        except ValueError:
+            return ""
+        return " (text, because it is quoted; write the number without quotes)"
+    if issue.kind == "string_type" and isinstance(found, (bool, int, float)):
+        value = describe_value(found)
+        return f" (YAML reads it as a {_yaml_kind(found)}; quote it: '{value}')"
+    return ""
+
+
+def _yaml_kind(value: Any) -> str:
+    """What YAML read a plain value as: a boolean or a number."""
+    return "boolean" if isinstance(value, bool) else "number"
+
+
+def _first_null(data: Any, path: FieldPath = ()) -> FieldPath | None:
+    """The path of the first null value in ``data`` (None when there is none)."""
+    items = (
+        data.items()
+        if isinstance(data, dict)
+        else enumerate(data)
+        if isinstance(data, list)
+        else ()
+    )
+    for key, value in items:
+        found = (*path, key) if value is None else _first_null(value, (*path, key))
+        if found is not None:
+            return found
+    return None
+
+
+def _reject_null(data: dict[str, Any], node: yaml.Node | None, source: str) -> None:
+    """A key in a mission file is given a value or left out; null (``key:`` with nothing) is
+    refused rather than read as "the default"."""
+    path = _first_null(data)
+    if path is not None:
+        line = locate(node, path) or "line ?"
+        raise MissionError(
+            "expected a value, found nothing (null); give a value or leave the key out",
+            source=source,
+            where=f"{line}: {dotted(path)}",
+        )
+
+
+def _not_a_mission(data: dict[str, Any], source: str) -> None:
+    """A JSON Schema given where a mission is expected is named as such."""
+    if "$schema" in data and "properties" in data:
+        raise MissionError(
+            "this is a JSON Schema (it has '$schema' and 'properties'), not a mission; expected "
+            "a mission file such as missions/sync-pair.yaml",
+            source=source,
+            where="line 1, column 1",
+        )
 
 
 def validate_document(data: dict[str, Any], node: yaml.Node | None, source: str) -> Mission:
@@ -249,6 +325,8 @@ def validate_document(data: dict[str, Any], node: yaml.Node | None, source: str)
         Naming the line, column and field path of the first problem, then up to
         ``MAX_REPORTED - 1`` more, one per line.
     """
+    _not_a_mission(data, source)
+    _reject_null(data, node, source)
     try:
         return Mission.model_validate(data)
     except ValidationError as exc:
@@ -261,9 +339,14 @@ def _schema_error(
     """One error listing the first ``MAX_REPORTED`` schema problems, located in the file."""
     issues = _drop_explained(_resolve_unions([_Issue(e, data) for e in exc.errors()]))
     places = []
+    shown: set[str] = set()
     for issue in issues[:MAX_REPORTED]:
         path, phrase = _describe(issue)
-        line = locate(node, path, key=issue.kind == "extra_forbidden") or "line ?"
+        head, sep, allowed = phrase.partition("; allowed keys: ")
+        phrase = head if allowed in shown else phrase  # each list of allowed keys once
+        shown.add(allowed)
+        key = issue.kind in ("extra_forbidden", "key_type")
+        line = locate(node, path, key=key) or "line ?"
         places.append((f"{line}: {dotted(path) or '(top level)'}", phrase))
     (where, message), rest = places[0], places[1:]
     message += "".join(f"\n  {more}: {phrase}" for more, phrase in rest)

@@ -8,11 +8,39 @@ checked in :mod:`stlplan.mission.checks`, after these models accept the document
 from __future__ import annotations
 
 import json
-from typing import Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, StrictInt, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    Strict,
+    StrictBool,
+    StrictInt,
+    model_validator,
+)
 
-Bounds = tuple[float, float]
+MAX_MAGNITUDE = 1e6
+"""Largest magnitude of a number in a mission file (coordinates, matrices, weights); larger
+numbers would make the solver's big-M constants meaningless."""
+MAGNITUDE_TEXT = "1e6"
+"""``MAX_MAGNITUDE`` as messages write it."""
+MAX_SEED = 2**31 - 1
+"""Largest random seed HiGHS takes."""
+
+
+def _integral(value: Any) -> Any:
+    """A float with no fractional part (``8.0``) is the integer it equals, as in JSON Schema."""
+    return int(value) if isinstance(value, float) and value.is_integer() else value
+
+
+Integer = Annotated[StrictInt, BeforeValidator(_integral)]
+"""An integer; ``8.0`` counts as 8 (JSON Schema's integers), ``true`` and ``"8"`` do not."""
+Number = Annotated[float, Strict(), Field(ge=-MAX_MAGNITUDE, le=MAX_MAGNITUDE)]
+"""A number written as a number (not text, not true/false), of magnitude at most 1e6."""
+Bounds = tuple[Number, Number]
+NonEmptyNames = Annotated[list[str], Field(min_length=1)]
 
 
 class _Strict(BaseModel):
@@ -24,11 +52,11 @@ class _Strict(BaseModel):
 class Dynamics(_Strict):
     """Discrete-time linear dynamics ``x(k+1) = A x(k) + B u(k)`` with box bounds."""
 
-    A: list[list[float]]
+    A: list[list[Number]]
     """State matrix, n x n."""
-    B: list[list[float]]
+    B: list[list[Number]]
     """Input matrix, n x m."""
-    position: tuple[StrictInt, StrictInt] = (0, 1)
+    position: tuple[Integer, Integer] = (0, 1)
     """The two state components that are the planar position z (0-based)."""
     state_bounds: list[Bounds]
     """[low, high] for each of the n state components."""
@@ -45,18 +73,22 @@ class Agent(_Strict):
     """Name of an entry of `dynamics`."""
     capabilities: list[str] = []
     """Capabilities the agent has, such as sensors (e.g. [UV])."""
-    initial_state: list[float]
+    initial_state: list[Number]
     """Initial state x(0), one value per state component."""
 
 
 class Region(_Strict):
     """A convex region of the plane: a box, or a polytope ``{z : G z <= h}``."""
 
+    model_config = ConfigDict(
+        json_schema_extra={"oneOf": [{"required": ["box"]}, {"required": ["G", "h"]}]}
+    )
+
     box: tuple[Bounds, Bounds] | None = None
     """[[x_lo, x_hi], [y_lo, y_hi]]."""
-    G: list[tuple[float, float]] | None = None
+    G: list[tuple[Number, Number]] | None = None
     """Polytope rows: each row [g_x, g_y] of G in G z <= h."""
-    h: list[float] | None = None
+    h: list[Number] | None = None
     """Polytope right-hand sides, one per row of G."""
 
     @model_validator(mode="after")
@@ -75,17 +107,17 @@ class PinnedRole(_Strict):
     """Name of the agent that fills the role."""
 
 
-RoleRule = str | list[str] | PinnedRole
+RoleRule = str | NonEmptyNames | PinnedRole
 
 
 class Synchronous(_Strict):
     """Makes a task synchronous: ``F[a,b] <G[0,d] phi, count, Pattern>``."""
 
-    within: tuple[StrictInt, StrictInt]
+    within: tuple[Integer, Integer]
     """[a, b]: the steps at which the synchronized run may start."""
-    hold: StrictInt = Field(default=0, ge=0)
+    hold: Integer = Field(default=0, ge=0)
     """d: every element must satisfy phi for d+1 consecutive steps together."""
-    gamma: float | None = Field(default=None, ge=0)
+    gamma: Number | None = Field(default=None, ge=0)
     """Upper bound on this task's synchronous robustness (default: objective.gamma)."""
 
 
@@ -94,11 +126,11 @@ class Task(_Strict):
 
     formula: str
     """Inner logic phi over the roles (see the formula language in the README)."""
-    count: StrictInt = Field(default=1, ge=1)
+    count: Integer = Field(default=1, ge=1)
     """c: how many elements must satisfy phi."""
     roles: dict[str, RoleRule]
     """Pattern: each role's capability, list of capabilities (all required), or {agent: name}."""
-    reuse_agents: bool = False
+    reuse_agents: StrictBool = False
     """Allow one agent in several elements of a group (the paper forbids it by default)."""
     synchronous: Synchronous | None = None
     """Synchronization window and hold; absent for an ordinary task."""
@@ -111,7 +143,7 @@ class Constraint(_Strict):
     """STL formula over the roles below."""
     for_each: str | None = None
     """A role that ranges over agents: the formula must hold for each of them."""
-    agents: list[str] | None = None
+    agents: NonEmptyNames | None = None
     """Agents `for_each` ranges over (default: every agent)."""
     roles: dict[str, str] = {}
     """Roles pinned to named agents."""
@@ -120,24 +152,24 @@ class Constraint(_Strict):
 class Margin(_Strict):
     """Spatial robustness: the margin by which every enforced predicate holds."""
 
-    minimum: float = Field(default=0.0, ge=0)
+    minimum: Number = Field(default=0.0, ge=0)
     """Required margin (0 enforces predicates exactly, as the paper does)."""
-    maximize: bool = False
+    maximize: StrictBool = False
     """Maximize the margin (weighted by `weight`) instead of only requiring `minimum`."""
-    weight: float = Field(default=1.0, ge=0)
+    weight: Number = Field(default=1.0, ge=0)
     """Weight of the margin in the objective when maximized."""
 
 
 class Objective(_Strict):
     """Problem (step1): maximize rho_s(Phi) - beta * effort subject to every task."""
 
-    beta: float = Field(default=0.05, ge=0)
+    beta: Number = Field(default=0.05, ge=0)
     """Weight of the control effort."""
-    gamma: float = Field(default=8.0, ge=0)
+    gamma: Number = Field(default=8.0, ge=0)
     """Default upper bound on each synchronous task's robustness."""
     effort: Literal["l1", "l2", "linf"] = "l2"
     """Norm of the effort minimized in step 2 (step 1 always uses l1)."""
-    two_step: bool = True
+    two_step: StrictBool = True
     """Run step 2: fix step 1's decisions and minimize the effort norm."""
     margin: Margin = Margin()
     """Spatial robustness requirement or goal."""
@@ -146,14 +178,14 @@ class Objective(_Strict):
 class SolverOptions(_Strict):
     """HiGHS options."""
 
-    time_limit: float = Field(default=300.0, gt=0)
+    time_limit: Number = Field(default=300.0, gt=0)
     """Wall-clock limit of the whole run (building, solving, step 2, diagnosis), seconds."""
-    gap: float = Field(default=1e-4, ge=0)
-    """Relative optimality gap at which HiGHS stops."""
-    threads: StrictInt | None = Field(default=None, ge=1)
+    gap: Number = Field(default=1e-4, ge=0, lt=1)
+    """Relative optimality gap at which HiGHS stops (0 <= gap < 1)."""
+    threads: Integer | None = Field(default=None, ge=1)
     """Threads HiGHS may use (default: HiGHS decides)."""
-    seed: StrictInt = Field(default=0, ge=0)
-    """HiGHS random seed."""
+    seed: Integer = Field(default=0, ge=0, le=MAX_SEED)
+    """HiGHS random seed (0 .. 2147483647)."""
     encoding: Literal["log", "standard"] = "log"
     """Disjunctions as a logarithmic SOS1 or one binary per disjunct."""
     tasks: Literal["selection", "groups"] = "selection"
@@ -163,7 +195,7 @@ class SolverOptions(_Strict):
 class Safety(_Strict):
     """How safety requirements (avoid a region, keep separated) are judged."""
 
-    inter_sample: bool = True
+    inter_sample: StrictBool = True
     """Judge them on the straight segment between consecutive steps, the path a robot tracking
     the waypoints follows; false keeps the paper's semantics (the sampled steps only)."""
 
@@ -182,7 +214,7 @@ class Mission(_Strict):
     """Short name of the mission."""
     description: str = ""
     """Free text."""
-    horizon: StrictInt = Field(ge=1)
+    horizon: Integer = Field(ge=1)
     """H: states x(0..H), inputs u(0..H-1)."""
     dynamics: dict[str, Dynamics]
     """Named dynamics models agents refer to."""
@@ -194,7 +226,7 @@ class Mission(_Strict):
     """Global tasks <phi, c, Pattern>, some synchronous."""
     constraints: dict[str, Constraint] = {}
     """Bottom-up STL constraints on named agents or every agent (e.g. obstacle avoidance)."""
-    separation: float | None = Field(default=None, ge=0)
+    separation: Number | None = Field(default=None, ge=0)
     """Minimum pairwise distance between agents' positions (infinity norm), at every step."""
     objective: Objective = Objective()
     """What the plan optimizes."""
@@ -206,9 +238,30 @@ class Mission(_Strict):
     """Settings for `stlplan sweep`."""
 
 
+def _without_null(node: Any) -> Any:
+    """``node`` with every ``{"type": "null"}`` branch and ``"default": null`` removed.
+
+    Optional fields are left out of a mission file, never written as null (which the loader
+    refuses), so the schema offers no null branch for validators to report ("is not of type
+    'null'").
+    """
+    if isinstance(node, list):
+        return [_without_null(item) for item in node]
+    if not isinstance(node, dict):
+        return node
+    out = {k: _without_null(v) for k, v in node.items() if not (k == "default" and v is None)}
+    branches = [b for b in out.get("anyOf", []) if b != {"type": "null"}]
+    if "anyOf" in out and len(branches) == 1:
+        del out["anyOf"]
+        out = {**branches[0], **out}
+    elif "anyOf" in out:
+        out["anyOf"] = branches
+    return out
+
+
 def json_schema() -> str:
     """The JSON Schema of mission files, as text (stable key order, trailing newline)."""
-    schema = Mission.model_json_schema()
+    schema = _without_null(Mission.model_json_schema())
     schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
     schema["$id"] = "https://stlplan.dev/schemas/mission.schema.json"
     return json.dumps(schema, indent=2, sort_keys=True) + "\n"

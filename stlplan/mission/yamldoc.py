@@ -1,6 +1,8 @@
 """Reading a mission file as a YAML document, guarded, with every value's line and column.
 
-The file is read as UTF-8 text and parsed with PyYAML's safe loader, after guards that reject
+The file is read as UTF-8 text and parsed with PyYAML's safe loader, with YAML 1.2's plain
+scalars (only ``true``/``false`` are booleans, ``1e-3`` is a number, ``yes`` and ``No`` are text,
+and an integer with a leading zero is refused rather than read as octal), after guards that reject
 lists and mappings nested too deep, aliases (``*name``) that form cycles or expand the document
 too far, and duplicate keys. Syntax errors are rendered as one short phrase with their line and
 column; :func:`locate` maps a field path such as ``("agents", 0, "initial_state")`` back to the
@@ -9,20 +11,63 @@ line and column of its value, so later stages can point at the offending text.
 
 from __future__ import annotations
 
+import copy
+import re
 from pathlib import Path
 from typing import Any
 
 import yaml
 
 from stlplan.errors import MissionError, StlplanError
+from stlplan.mission.yamlerrors import reader_error, syntax_error
 
 FieldPath = tuple[str | int, ...]
 """A field path such as ``("agents", 0, "initial_state")``."""
 
 MAX_NESTING = 32
 """Levels of nested lists and mappings a mission file may have (a mission needs about 6)."""
+MAX_SHOWN = 60
+"""Characters of a long text a message shows (never a whole file)."""
 MAX_VALUES = 200_000
 """Values a mission file may hold once YAML aliases (``*name``) are expanded."""
+
+
+class MissionLoader(yaml.SafeLoader):
+    """PyYAML's safe loader with the YAML 1.2 core schema's booleans, integers and floats; an
+    alias (``*name``) becomes a node of its own that starts where the alias is written, so a
+    mistake made through an alias is located at the alias, not at its anchor."""
+
+    def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node | None:
+        """The node at the next event; a shallow copy at the alias's place for an alias."""
+        alias = self.peek_event() if self.check_event(yaml.AliasEvent) else None
+        node = super().compose_node(parent, index)  # type: ignore[misc]
+        if alias is None or node is None:
+            return node
+        placed = copy.copy(node)
+        placed.start_mark, placed.end_mark = alias.start_mark, alias.end_mark
+        placed.through_alias = True  # type: ignore[attr-defined]
+        return placed
+
+
+MissionLoader.yaml_implicit_resolvers = {
+    first: [(tag, rx) for tag, rx in resolvers if tag.rsplit(":", 1)[-1] in ("null", "merge")]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+for _tag, _pattern, _first in (
+    ("bool", r"^(?:true|True|TRUE|false|False|FALSE)$", "tTfF"),
+    ("int", r"^[-+]?[0-9]+$", "-+0123456789"),
+    (
+        "float",
+        r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+        r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$",
+        "-+.0123456789",
+    ),
+):
+    MissionLoader.add_implicit_resolver(
+        f"tag:yaml.org,2002:{_tag}", re.compile(_pattern), list(_first)
+    )
+
+_LEADING_ZERO = re.compile(r"^[-+]?0[0-9]+$")
 
 
 def read_text(path: Path) -> str:
@@ -70,22 +115,20 @@ def parse_yaml(text: str, source: str) -> tuple[Any, yaml.Node | None]:
     """
     try:
         _check_nesting(text, source)
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
+        node = yaml.compose(text, Loader=MissionLoader)
         _check_expansion(node, source)
-        data = yaml.safe_load(text)
+        _reject_leading_zeros(node, source)
+        data = yaml.load(text, Loader=MissionLoader)
     except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else None
-        raise MissionError(
-            f"YAML syntax error: {(exc.problem or str(exc)).removeprefix('but ')}"
-            f"{_yaml_context(exc)}",
-            source=source,
-            where=where,
-        ) from None
+        raise syntax_error(exc, source) from None
+    except yaml.reader.ReaderError as exc:
+        raise reader_error(exc, text, source) from None
     except yaml.YAMLError as exc:
         raise MissionError(f"YAML error: {exc}", source=source) from None
     if not isinstance(data, dict):
         found = "an empty file" if data is None else describe_value(data)
+        if isinstance(data, str) and data.startswith("agent,k,"):
+            found += " (a trajectory CSV: the mission comes first, then the trajectory)"
         raise MissionError(
             f"expected a mapping of mission fields at the top level, found {found}",
             source=source,
@@ -146,20 +189,36 @@ def _check_expansion(root: yaml.Node | None, source: str) -> None:
             stack.extend((k, False) for k in kids)
 
 
+def _reject_leading_zeros(root: yaml.Node | None, source: str) -> None:
+    """An integer written with a leading zero (``010``) is refused: YAML 1.1 reads it as octal
+    (8), YAML 1.2 as decimal (10), and a mission must not depend on which."""
+    stack = [] if root is None else [root]
+    seen: set[int] = set()
+    while stack:
+        node = stack.pop()
+        if id(node) in seen:
+            continue
+        seen.add(id(node))
+        if (
+            isinstance(node, yaml.ScalarNode)
+            and node.tag.endswith(":int")
+            and _LEADING_ZERO.match(node.value)
+        ):
+            plain = node.value.replace("0", "", 1).lstrip("0") or "0"
+            raise MissionError(
+                f"the integer {node.value} has a leading zero, which YAML 1.1 reads as octal; "
+                f"expected a decimal integer such as {plain}",
+                source=source,
+                where=_mark(node),
+            )
+        stack.extend(_children(node))
+
+
 def _children(node: yaml.Node) -> list[yaml.Node]:
     """The nodes directly inside ``node``: keys and values of a mapping, items of a list."""
     if isinstance(node, yaml.MappingNode):
         return [part for pair in node.value for part in pair]
     return list(node.value) if isinstance(node, yaml.SequenceNode) else []
-
-
-def _yaml_context(exc: yaml.MarkedYAMLError) -> str:
-    """What YAML was reading when it failed, or a hint for a formula read as a YAML tag."""
-    if "for the tag '!" in str(exc.problem):
-        return "; a value that starts with '!' (a negated formula) must be quoted: \"!...\""
-    if not exc.context or exc.context_mark is None:
-        return ""
-    return f" ({exc.context} started at line {exc.context_mark.line + 1})"
 
 
 def _reject_duplicate_keys(node: yaml.Node | None, path: FieldPath, source: str) -> None:
@@ -192,7 +251,7 @@ def locate(node: yaml.Node | None, path: FieldPath, *, key: bool = False) -> str
 
     With ``key=True`` the last step points at the mapping key itself (for unknown keys).
     """
-    found = node
+    found, alias = node, None
     for depth, step in enumerate(path):
         match = None
         if isinstance(found, yaml.MappingNode):
@@ -205,7 +264,12 @@ def locate(node: yaml.Node | None, path: FieldPath, *, key: bool = False) -> str
         if match is None:
             break
         found = match
-    return None if found is None else _mark(found)
+        alias = alias or (found if getattr(found, "through_alias", False) else None)
+    if found is None:
+        return None
+    if alias is not None and alias is not found:
+        return f"{_mark(alias)} (an alias; the value is written at {_mark(found)})"
+    return _mark(found)
 
 
 def dotted(path: FieldPath) -> str:
@@ -236,4 +300,7 @@ def describe_value(value: Any) -> str:
     if isinstance(value, list):
         simple = all(isinstance(v, (int, float, str)) for v in value) and len(value) <= 6
         return str(value) if simple else f"a list of {len(value)} item(s)"
+    if isinstance(value, str) and len(value) > MAX_SHOWN:
+        first = value.splitlines()[0] if value.strip() else value
+        return f"{first[:MAX_SHOWN]!r}... (text of {len(value)} characters)"
     return repr(value) if isinstance(value, str) else str(value)

@@ -170,5 +170,5 @@ def print_diagnosis(console: Console, diagnosis: Diagnosis) -> None:
     if diagnosis.conflict:
         note = "" if diagnosis.complete else " (some checks timed out: may not be minimal)"
         console.print(
-            f"[bold]conflict[/]   these cannot hold together: {', '.join(diagnosis.conflict)}{note}"
+            f"[bold]conflict[/]   these cannot hold together: {', '.join(diagnosis.named())}{note}"
         )

@@ -332,5 +332,20 @@ def read_trajectory_csv(problem: Problem, path: str | Path) -> Trajectory:
         for row in table:
             reader.row(table.line_num, row)
     except csv.Error as exc:
+        if "field larger than field limit" in str(exc):
+            raise _long_cell(reader, text, table.line_num) from None
         raise reader.fail(table.line_num, f"not a readable CSV file: {exc}") from None
     return reader.finish(table.line_num)
+
+
+def _long_cell(reader: _Reader, text: str, after: int) -> TrajectoryError:
+    """The error for a cell longer than the csv module reads, at the line that holds it (the
+    reader's count stops at the line before)."""
+    limit = csv.field_size_limit()
+    lines = text.splitlines()
+    line = next((i for i, t in enumerate(lines[after:], after + 1) if len(t) > limit), after + 1)
+    return reader.fail(
+        line,
+        f"a cell longer than {limit} characters; expected one number per cell "
+        "(agent, k, then the state and input components)",
+    )

@@ -2,10 +2,12 @@
 
 Two kinds of evidence:
 
-* **cheap reasons**, found without solving: a region that a task's formula requires a role to
-  reach by some step, when too few of the agents that may fill the role can get there in time
-  given their dynamics and bounds (interval reachability, an over-approximation, so a claim
-  "cannot reach" is sound);
+* **cheap reasons**, found without solving: the conflicts at step 0 of
+  :mod:`stlplan.planner.initial` (an initial state that breaks a requirement, two agents that
+  start too close, a margin no region allows), then a region that a task's formula requires a
+  role to reach by some step, when too few of the agents that may fill the role can get there in
+  time given their dynamics and bounds (interval reachability, an over-approximation, so a claim
+  "cannot reach" is sound; a region outside every such agent's state bounds is said to be);
 * **a minimal conflict**, found by a deletion filter over the tasks, constraints and separation:
   drop one item at a time and keep it dropped when the rest is still infeasible. What remains
   cannot be met together, and dropping any one of its items makes it feasible (when every
@@ -22,6 +24,7 @@ import numpy as np
 
 from stlplan.formula.tree import Always, And, Eventually, Formula, InRegion, Until
 from stlplan.mission.problem import Problem, TaskModel
+from stlplan.planner.initial import Reason, initial_reasons
 from stlplan.result import Diagnosis, PlanStatus
 
 Need = tuple[str, str, int]
@@ -51,58 +54,109 @@ def needs(formula: Formula, shift: int = 0) -> Iterator[Need]:
         yield from needs(formula.right, shift + formula.interval.hi)
 
 
+def _meets(problem: Problem, region: str, box_lo: np.ndarray, box_hi: np.ndarray) -> bool:
+    """Whether the box ``[box_lo, box_hi]`` of positions meets the region's half-spaces."""
+    rows, rhs = problem.regions[region]
+    # min over the box of g . z, per row; the region is missed when some row exceeds h
+    lowest = [float(np.sum(np.where(np.array(g) > 0, box_lo, box_hi) * np.array(g))) for g in rows]
+    return all(m <= h + 1e-9 for m, h in zip(lowest, rhs, strict=False))
+
+
 def _can_reach(problem: Problem, boxes: dict, agent: str, region: str, deadline: int) -> bool:
     """Whether the agent's reachable box meets the region's half-spaces at some step <= deadline."""
-    model = problem.agent(agent)
     lo, hi = boxes[agent]
-    rows, rhs = problem.regions[region]
-    ix, iy = model.position
-    for k in range(min(deadline, problem.horizon) + 1):
-        box_lo, box_hi = np.array([lo[k, ix], lo[k, iy]]), np.array([hi[k, ix], hi[k, iy]])
-        # min over the box of g . z, per row; the region is missed when some row exceeds h
-        lowest = [
-            float(np.sum(np.where(np.array(g) > 0, box_lo, box_hi) * np.array(g))) for g in rows
-        ]
-        if all(m <= h + 1e-9 for m, h in zip(lowest, rhs, strict=False)):
-            return True
-    return False
+    ix, iy = problem.agent(agent).position
+    return any(
+        _meets(problem, region, np.array([lo[k, ix], lo[k, iy]]), np.array([hi[k, ix], hi[k, iy]]))
+        for k in range(min(deadline, problem.horizon) + 1)
+    )
 
 
-def _task_reasons(problem: Problem, task: TaskModel, boxes: dict) -> Iterator[str]:
+def _outside(problem: Problem, agents: list[str], region: str) -> str | None:
+    """``"x in [0, 6], y in [0, 4]"``-style bounds when ``region`` lies outside the position
+    bounds of every one of ``agents`` (None when some agent's bounds meet it)."""
+    boxes = []
+    for name in agents:
+        agent = problem.agent(name)
+        ix, iy = agent.position
+        lo, hi = agent.state_lo[[ix, iy]], agent.state_hi[[ix, iy]]
+        if _meets(problem, region, lo, hi):
+            return None
+        boxes.append(f"{name}: x in [{lo[0]:g}, {hi[0]:g}], y in [{lo[1]:g}, {hi[1]:g}]")
+    return "; ".join(dict.fromkeys(boxes))
+
+
+def _task_reasons(problem: Problem, task: TaskModel, boxes: dict) -> Iterator[Reason]:
     offset = 0 if task.sync is None else task.sync.b
     for role, region, deadline in dict.fromkeys(needs(task.formula, offset)):
         pool = sorted({e[task.roles.index(role)] for e in task.elements})
         able = [a for a in pool if _can_reach(problem, boxes, a, region, deadline)]
         wanted = 1 if task.reuse_agents else task.count
-        if len(able) < wanted:
+        outside = None if able else _outside(problem, pool, region)
+        if outside is not None:
+            yield Reason(
+                task.name,
+                f"task '{task.name}': role '{role}' must reach region '{region}', which lies "
+                f"outside the state bounds of every agent that may fill the role ({outside})",
+            )
+        elif len(able) < wanted:
             which = f"only {', '.join(able)}" if able else "none"
-            yield (
+            yield Reason(
+                task.name,
                 f"task '{task.name}': role '{role}' must reach region '{region}' by step "
                 f"{deadline} in {wanted} element(s), but {which} of {', '.join(pool)} can, "
-                f"given the dynamics and bounds"
+                f"given the dynamics and bounds",
             )
 
 
-def _constraint_reasons(problem: Problem, boxes: dict) -> Iterator[str]:
+def _constraint_reasons(problem: Problem, boxes: dict) -> Iterator[Reason]:
     for constraint in problem.constraints:
         for binding in constraint.bindings:
             for role, region, deadline in dict.fromkeys(needs(constraint.formula)):
                 agent = binding[role]
-                if not _can_reach(problem, boxes, agent, region, deadline):
-                    yield (
-                        f"constraint '{constraint.name}': agent '{agent}' cannot reach region "
-                        f"'{region}' by step {deadline}, given its dynamics and bounds"
-                    )
+                if _can_reach(problem, boxes, agent, region, deadline):
+                    continue
+                outside = _outside(problem, [agent], region)
+                why = (
+                    f"which lies outside its state bounds ({outside})"
+                    if outside is not None
+                    else "given its dynamics and bounds"
+                )
+                yield Reason(
+                    constraint.name,
+                    f"constraint '{constraint.name}': agent '{agent}' cannot reach region "
+                    f"'{region}' by step {deadline}, {why}",
+                )
 
 
-def cheap_reasons(problem: Problem) -> tuple[str, ...]:
-    """Reasons the mission is infeasible that need no solve (empty when none is found)."""
+def cheap_reasons(problem: Problem) -> tuple[Reason, ...]:
+    """Reasons the mission is infeasible that need no solve (empty when none is found): the
+    conflicts at step 0 first, then the regions no capable agent reaches in time."""
     from stlplan.planner.encoding.model import reachable_boxes
 
+    found = list(initial_reasons(problem))
     boxes = reachable_boxes(problem)
-    found = [r for task in problem.tasks for r in _task_reasons(problem, task, boxes)]
+    found += [r for task in problem.tasks for r in _task_reasons(problem, task, boxes)]
     found += list(_constraint_reasons(problem, boxes))
     return tuple(found)
+
+
+def kind_of(problem: Problem, name: str) -> str:
+    """``task``, ``constraint`` or ``separation``: what ``name`` is in ``problem``."""
+    if any(t.name == name for t in problem.tasks):
+        return "task"
+    return "constraint" if any(c.name == name for c in problem.constraints) else "separation"
+
+
+def cheap_diagnosis(problem: Problem, reasons: tuple[Reason, ...]) -> Diagnosis:
+    """The diagnosis the cheap reasons make: their texts, and the items they blame."""
+    conflict = tuple(dict.fromkeys(r.item for r in reasons))
+    return Diagnosis(
+        reasons=tuple(r.text for r in reasons),
+        conflict=conflict,
+        complete=True,
+        kinds=tuple(kind_of(problem, name) for name in conflict),
+    )
 
 
 def _subset(problem: Problem, items: list[str]) -> Problem:
@@ -142,7 +196,7 @@ def diagnose(problem: Problem, feasibility: Feasibility, budget: float = 120.0) 
     """Cheap reasons, then (when they name nothing) a minimal conflict by feasibility solves."""
     reasons = cheap_reasons(problem)
     if reasons:
-        named = tuple(dict.fromkeys(r.split("'")[1] for r in reasons))
-        return Diagnosis(reasons=reasons, conflict=named, complete=True)
+        return cheap_diagnosis(problem, reasons)
     conflict, complete = minimal_conflict(problem, feasibility, budget)
-    return Diagnosis(conflict=conflict, complete=complete)
+    kinds = tuple(kind_of(problem, name) for name in conflict)
+    return Diagnosis(conflict=conflict, complete=complete, kinds=kinds)
