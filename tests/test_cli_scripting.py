@@ -17,7 +17,7 @@ from stlplan.cli import app
 from tests.conftest import MISSIONS, ROOT
 
 PAIR = MISSIONS / "sync-pair.yaml"
-COMMANDS = ["validate", "check", "schema", "solve", "sweep"]
+COMMANDS = ["validate", "check", "schema", "example", "solve", "sweep"]
 
 
 def _invoke(*args: str) -> tuple[int, str, str]:
@@ -95,7 +95,7 @@ def test_a_bad_mission_with_json_is_one_json_error_on_stderr(tmp_path: Path) -> 
     code, stdout, stderr = _invoke("validate", str(bad), "--json")
     assert code == 3 and stdout == ""
     error = json.loads(stderr)
-    assert error["exit_code"] == 3 and error["error"] == "MissionError"
+    assert error["exit_code"] == 3 and error["error"] == "mission"
     assert error["file"] == str(bad)
     assert error["location"].startswith("line ")
     assert "expected" in error["message"] or "YAML" in error["message"]

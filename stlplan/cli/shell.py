@@ -40,7 +40,7 @@ JsonOption = Annotated[
     typer.Option(
         "--json",
         help="Print one JSON document on stdout and nothing else there; an error is one JSON "
-        "object on stderr (exit_code, error, message, file, location).",
+        "object on stderr (exit_code, error: its kind, message, file, location).",
     ),
 ]
 QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="Print one line: the result.")]
@@ -134,6 +134,11 @@ def _report(as_json: bool, code: int, kind: str, exc: BaseException | str) -> No
     console(stderr=True).print(shown, soft_wrap=True)
 
 
+def error_kind(exc: StlplanError) -> str:
+    """``mission``, ``formula``, ``trajectory``, ``usage``, ``infeasible`` or ``solver``."""
+    return type(exc).__name__.removesuffix("Error").lower()
+
+
 def _os_error(exc: OSError) -> UsageError:
     where = str(exc.filename) if exc.filename else None
     return UsageError(exc.strerror or str(exc), source=where)
@@ -150,7 +155,7 @@ def handled(command: Callable[..., None]) -> Callable[..., None]:
         except typer.Exit:
             raise
         except StlplanError as exc:
-            _report(as_json, exc.exit_code, type(exc).__name__, exc)
+            _report(as_json, exc.exit_code, error_kind(exc), exc)
             raise typer.Exit(exc.exit_code) from None
         except KeyboardInterrupt as exc:  # a signal outside a solve, or a second one
             code = exc.exit_code if isinstance(exc, stops.Interrupted) else EXIT_INTERRUPTED
@@ -158,7 +163,7 @@ def handled(command: Callable[..., None]) -> Callable[..., None]:
             raise typer.Exit(code) from None
         except OSError as exc:  # a file the operating system refused (disk full, permissions)
             error = _os_error(exc)
-            _report(as_json, EXIT_USAGE, "UsageError", error)
+            _report(as_json, EXIT_USAGE, "usage", error)
             raise typer.Exit(EXIT_USAGE) from None
         except Exception as exc:  # noqa: BLE001 - the edge of the program
             if os.environ.get("STLPLAN_DEBUG"):
