@@ -74,41 +74,46 @@ def _exit_code(result: PlanResult) -> int:
     return code
 
 
+TimeLimitOption = Annotated[
+    float | None,
+    typer.Option(
+        help="Seconds for the whole run, at least 0.001 (default: the mission's).",
+        min=0.001,
+        metavar="SECONDS",
+    ),
+]
+GapOption = Annotated[
+    float | None,
+    typer.Option(
+        help="Relative optimality gap, at least 0 (default: the mission's).", min=0.0, metavar="GAP"
+    ),
+]
+ThreadsOption = Annotated[
+    int | None,
+    typer.Option(
+        help="HiGHS threads, at least 1 (default: the mission's or HiGHS').", min=1, metavar="N"
+    ),
+]
+SeedOption = Annotated[int | None, typer.Option(help="HiGHS random seed.", min=0, metavar="N")]
+OneStepOption = Annotated[
+    bool, typer.Option("--one-step", help="Skip step 2 (effort minimization with decisions fixed).")
+]
+EncodingOption = Annotated[
+    Encoding | None,
+    typer.Option(help="Disjunction encoding (default: the mission's).", metavar="log|standard"),
+]
+
+
 @handled
 def solve(
     mission: MissionArg,
     out: OutOption = "out",
-    time_limit: Annotated[
-        float | None,
-        typer.Option(
-            help="Seconds for the whole run, at least 0.001 (default: the mission's).",
-            min=0.001,
-            metavar="SECONDS",
-        ),
-    ] = None,
-    gap: Annotated[
-        float | None,
-        typer.Option(
-            help="Relative optimality gap, at least 0 (default: the mission's).",
-            min=0.0,
-            metavar="GAP",
-        ),
-    ] = None,
-    threads: Annotated[
-        int | None,
-        typer.Option(
-            help="HiGHS threads, at least 1 (default: the mission's or HiGHS').", min=1, metavar="N"
-        ),
-    ] = None,
-    seed: Annotated[int | None, typer.Option(help="HiGHS random seed.", min=0, metavar="N")] = None,
-    one_step: Annotated[
-        bool,
-        typer.Option("--one-step", help="Skip step 2 (effort minimization with decisions fixed)."),
-    ] = False,
-    encoding: Annotated[
-        Encoding | None,
-        typer.Option(help="Disjunction encoding (default: the mission's).", metavar="log|standard"),
-    ] = None,
+    time_limit: TimeLimitOption = None,
+    gap: GapOption = None,
+    threads: ThreadsOption = None,
+    seed: SeedOption = None,
+    one_step: OneStepOption = False,
+    encoding: EncodingOption = None,
     inter_sample: InterSampleOption = None,
     as_json: JsonOption = False,
     quiet: QuietOption = False,
@@ -144,37 +149,42 @@ def solve(
     raise typer.Exit(code)
 
 
+MissionsArg = Annotated[
+    list[Path], typer.Argument(help="Mission files (YAML).", metavar="MISSION", show_default=False)
+]
+RunsOption = Annotated[
+    int, typer.Option(help="Random initial states per mission.", min=1, metavar="N")
+]
+SweepSeedOption = Annotated[
+    int, typer.Option(help="Seed: run i of seed S always gets the same state.", min=0, metavar="S")
+]
+WorkersOption = Annotated[
+    int | None,
+    typer.Option(help="Local worker processes (default: one per core).", min=1, metavar="W"),
+]
+SchedulerOption = Annotated[
+    str | None,
+    typer.Option(help="Dask scheduler address, e.g. tcp://host:8786.", metavar="ADDRESS"),
+]
+SolveTimeOption = Annotated[
+    float | None,
+    typer.Option(help="Seconds per solve (default: the mission's).", min=0.001, metavar="SECONDS"),
+]
+ResumeOption = Annotated[
+    bool, typer.Option("--resume", help="Skip runs already in OUT/runs.jsonl.")
+]
+
+
 @handled
 def sweep(
-    missions: Annotated[
-        list[Path],
-        typer.Argument(help="Mission files (YAML).", metavar="MISSION", show_default=False),
-    ],
-    runs: Annotated[
-        int, typer.Option(help="Random initial states per mission.", min=1, metavar="N")
-    ] = 30,
-    seed: Annotated[
-        int,
-        typer.Option(help="Seed: run i of seed S always gets the same state.", min=0, metavar="S"),
-    ] = 0,
-    workers: Annotated[
-        int | None,
-        typer.Option(help="Local worker processes (default: one per core).", min=1, metavar="W"),
-    ] = None,
-    scheduler: Annotated[
-        str | None,
-        typer.Option(help="Dask scheduler address, e.g. tcp://host:8786.", metavar="ADDRESS"),
-    ] = None,
+    missions: MissionsArg,
+    runs: RunsOption = 30,
+    seed: SweepSeedOption = 0,
+    workers: WorkersOption = None,
+    scheduler: SchedulerOption = None,
     out: OutOption = "out/sweep",
-    time_limit: Annotated[
-        float | None,
-        typer.Option(
-            help="Seconds per solve (default: the mission's).", min=0.001, metavar="SECONDS"
-        ),
-    ] = None,
-    resume: Annotated[
-        bool, typer.Option("--resume", help="Skip runs already in OUT/runs.jsonl.")
-    ] = False,
+    time_limit: SolveTimeOption = None,
+    resume: ResumeOption = False,
     as_json: JsonOption = False,
     quiet: QuietOption = False,
 ) -> None:

@@ -79,10 +79,11 @@ class Output:
         sys.stdout.write(dumps(data) + "\n")
         sys.stdout.flush()
 
-    def line(self, text: str, error: bool = False) -> None:
-        """One line (rich markup allowed) on stdout, or stderr for a failure; none with --json."""
+    def line(self, text: str, error: bool = False, markup: bool = False) -> None:
+        """One line on stdout, or stderr for a failure; none with --json. ``markup``: ``text``
+        holds rich markup (what it quotes is escaped)."""
         if not self.as_json:
-            (self.err if error else self.out).print(text)
+            (self.err if error else self.out).print(text, markup=markup)
 
 
 def _flush_native() -> None:
