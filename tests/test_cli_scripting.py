@@ -43,6 +43,7 @@ def solved(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, ob
     out = tmp_path_factory.mktemp("solved") / "plan"
     done = _process("solve", str(PAIR), "--out", str(out), "--threads", "1", "--json")
     assert done.returncode == 0, done.stderr
+    assert done.stderr == ""  # stderr holds errors only, not even the solver's banner
     return out, json.loads(done.stdout)
 
 
@@ -145,6 +146,12 @@ def test_quiet_prints_exactly_one_line(solved: tuple[Path, dict[str, object]]) -
     assert checked.stderr == ""
     valid = _process("validate", str(PAIR), "-q")
     assert valid.stdout.count("\n") == 1 and valid.stderr == ""
+    solved = _process(
+        "solve", str(PAIR), "--out", str(out.parent / "quiet"), "--threads", "1", "-q"
+    )
+    assert solved.returncode == 0
+    assert solved.stdout.startswith("satisfied: ") and solved.stdout.count("\n") == 1
+    assert solved.stderr == ""  # not even the solver's banner
 
 
 def test_version() -> None:

@@ -20,7 +20,7 @@ from stlplan.cli.shell import (
     Output,
     QuietOption,
     handled,
-    solver_output_to_stderr,
+    solver_output,
 )
 from stlplan.planner import stops
 from stlplan.result import PlanResult, PlanStatus
@@ -136,7 +136,10 @@ def solve(
         inter_sample=inter_sample,
     )
     problem = api.validate(mission)
-    with solver_output_to_stderr(), ProgressLine(output.err, enabled=output.full) as line:
+    with (
+        solver_output(discard=not output.full),
+        ProgressLine(output.err, enabled=output.full) as line,
+    ):
         result = api.solve(problem, out=out, overrides=overrides, progress=line.update)
     code = _exit_code(result)
     if as_json:
@@ -201,7 +204,10 @@ def sweep(
         where = f"in {workers} local processes" if workers else "in one local process per core"
     if output.full:
         output.err.print(f"sweep runs {where}")
-    with solver_output_to_stderr(), SweepProgress(output.err, enabled=output.full) as bar:
+    with (
+        solver_output(discard=not output.full),
+        SweepProgress(output.err, enabled=output.full) as bar,
+    ):
         rows = api.sweep(
             list(missions),
             runs,

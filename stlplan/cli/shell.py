@@ -93,23 +93,26 @@ def _flush_native() -> None:
 
 
 @contextlib.contextmanager
-def solver_output_to_stderr() -> Iterator[None]:
-    """Point file descriptor 1 at stderr while the solver runs, so what native code prints
-    (HiGHS's banner) never mixes with stlplan's own output on stdout."""
+def solver_output(discard: bool) -> Iterator[None]:
+    """Point file descriptor 1 at stderr (or, with ``discard``, nowhere) while the solver runs,
+    so what native code prints (HiGHS's banner) never mixes with stlplan's own output on stdout;
+    ``--json`` and ``--quiet`` runs discard it."""
     sys.stdout.flush()
     try:
         saved = os.dup(1)
+        target = os.open(os.devnull, os.O_WRONLY) if discard else os.dup(2)
     except OSError:  # no file descriptor 1: nothing can reach stdout
         yield
         return
     try:
-        os.dup2(2, 1)
+        os.dup2(target, 1)
         yield
     finally:
         sys.stdout.flush()
         _flush_native()
         os.dup2(saved, 1)
         os.close(saved)
+        os.close(target)
 
 
 def print_json_error(
