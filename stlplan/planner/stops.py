@@ -54,6 +54,10 @@ class StopState:
         Nested :func:`finishing` blocks: solves that turn the best plan so far into an output.
     enabled
         False in processes whose parent handles signals (:func:`leave_signals_alone`).
+    holding
+        Nested :func:`held` sections; a signal that arrives in one waits in ``pending``.
+    pending
+        A signal held back until the outermost :func:`held` section ends.
     """
 
     signum: int | None = None
@@ -62,6 +66,8 @@ class StopState:
     depth: int = 0
     finishing: int = 0
     enabled: bool = True
+    holding: int = 0
+    pending: int | None = None
 
 
 STATE = StopState()
@@ -109,6 +115,9 @@ def solving() -> Iterator[None]:
 
 
 def _on_signal(signum: int, frame: FrameType | None) -> None:
+    if STATE.holding:  # delivered to another thread (HiGHS's workers) during a held section
+        STATE.pending = STATE.pending or signum
+        return
     if STATE.solving == 0:
         STATE.signum = STATE.signum or signum
         raise Interrupted(signum)
@@ -120,15 +129,23 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
 
 @contextmanager
 def held() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM back during a short critical section; they arrive after it."""
-    if not hasattr(signal, "pthread_sigmask"):
-        yield
-        return
-    before = signal.pthread_sigmask(signal.SIG_BLOCK, CAUGHT)
+    """Hold SIGINT and SIGTERM back during a short critical section; they arrive after it.
+
+    The main thread blocks them; one the kernel delivers to another thread (a solver's worker)
+    still runs the handler in the main thread, which then only records it until the section ends.
+    """
+    masked = hasattr(signal, "pthread_sigmask")
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, CAUGHT) if masked else None
+    STATE.holding += 1
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+        if before is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, before)
+        STATE.holding -= 1
+        if not STATE.holding and STATE.pending is not None:
+            signum, STATE.pending = STATE.pending, None
+            _on_signal(signum, None)
 
 
 def leave_signals_alone() -> None:
