@@ -6,7 +6,7 @@ STAMP  := $(VENV)/.installed
 OUT    ?= out/farm
 
 .DEFAULT_GOAL := help
-.PHONY: help install farm test test-slow fuzz smoke bench bench-quick lint format schema clean
+.PHONY: help install farm test test-slow fuzz smoke bench bench-quick bench-scale lint format schema clean
 
 help:  ## List the targets
 	@grep -E '^[a-zA-Z_-]+:.*?## ' $(MAKEFILE_LIST) | awk 'BEGIN {FS = ":.*?## "}; {printf "  %-12s %s\n", $$1, $$2}'
@@ -39,6 +39,9 @@ smoke: $(STAMP)  ## Solve Cases I-III once each under a time limit; fail unless 
 
 bench: $(STAMP)  ## Benchmark Cases I-III: 30 random states each, straightforward formulation on 2 (~1.5 h)
 	$(BIN)/python -m stlplan.bench --runs 30 --formulations default sampled --compare-runs 2 --compare-time-limit 600
+
+bench-scale: $(STAMP)  ## Scaled farms (16, 24, 32 agents), 3 states each: selection against groups (~2 h)
+	$(BIN)/python -m stlplan.bench --cases scale/farm-x2 scale/farm-x3 scale/farm-x4 --runs 3 --formulations default groups --compare-runs 0 --time-limit 600 --name bench-scale
 
 bench-quick: $(STAMP)  ## Benchmark Cases I-III on 2 states each, straightforward on 1 of Case I (~6 min)
 	$(BIN)/python -m stlplan.bench --runs 2 --formulations default sampled --compare-runs 1 --compare-cases farm --compare-time-limit 300 --name bench-quick

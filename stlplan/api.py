@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from stlplan.errors import UsageError
-from stlplan.mission.loader import load_problem
+from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.outputs.directory import prepare_directory, write_all, write_json
@@ -22,7 +22,7 @@ from stlplan.outputs.summary import summary_dict
 from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
 from stlplan.pipeline import plan
 from stlplan.planner import stops
-from stlplan.planner.session import Overrides
+from stlplan.planner.session import Overrides, PlanOptions
 from stlplan.result import MonitorReport, PlanResult
 
 DEFAULT_TOLERANCE = 1e-6
@@ -120,6 +120,8 @@ def solve(
     """Plan, verify and (with ``out``) write the plan directory; returns the verified result."""
     # a bad mission leaves no output folder behind
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
+    if PlanOptions.from_mission(problem.mission, overrides).tasks == "groups":
+        check_enumerable(problem)
     created = out is not None and not Path(out).exists()
     if out is not None:
         prepare_directory(Path(out))

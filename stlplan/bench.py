@@ -33,6 +33,8 @@ from stlplan.errors import StlplanError
 from stlplan.examples import missions_dir
 
 CASES = ("farm", "farm-case2", "farm-case3")
+SCALE_CASES = ("scale/farm-x2", "scale/farm-x3", "scale/farm-x4")
+"""Case I's map and tasks with the team replicated 2, 3 and 4 times (16, 24, 32 agents)."""
 
 FORMULATIONS: dict[str, tuple[tuple[str, Any], ...]] = {
     "default": (),
@@ -45,6 +47,7 @@ FORMULATIONS: dict[str, tuple[tuple[str, Any], ...]] = {
     "window1": (("lazy_window", 1),),
     "near-0.1": (("lazy_margin", 0.1),),
     "log": (("encoding", "log"),),
+    "groups": (("tasks", "groups"),),
     "heuristics-0.01": (("highs_options", (("mip_heuristic_effort", 0.01),)),),
     "heuristics-0.2": (("highs_options", (("mip_heuristic_effort", 0.2),)),),
 }
@@ -255,7 +258,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     """Command-line options (see ``python -m stlplan.bench --help``)."""
     parser = argparse.ArgumentParser(prog="python -m stlplan.bench", description=__doc__.split(
         "\n\n")[0])  # fmt: skip
-    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=CASES)
+    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=CASES + SCALE_CASES)
     parser.add_argument("--runs", type=int, default=30, help="initial states per case")
     parser.add_argument("--first-run", type=int, default=0, help="index of the first state")
     parser.add_argument("--seed", type=int, default=0, help="seed of the initial states")
@@ -264,7 +267,9 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--compare", nargs="*", default=["straightforward"], choices=FORMULATIONS,
                         help="formulations also solved on the first --compare-runs states")  # fmt: skip
     parser.add_argument("--compare-runs", type=int, default=3)
-    parser.add_argument("--compare-cases", nargs="*", default=list(CASES), choices=CASES)
+    parser.add_argument(
+        "--compare-cases", nargs="*", default=list(CASES), choices=CASES + SCALE_CASES
+    )
     parser.add_argument("--compare-time-limit", type=float, default=900.0)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("bench-results"))

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from stlplan.errors import SolverError
-from stlplan.mission.loader import load_problem
+from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.planner import stops
@@ -74,6 +74,8 @@ def plan(
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
     problem = problem.with_inter_sample(overrides.inter_sample)
     options = PlanOptions.from_mission(problem.mission, overrides)
+    if options.tasks == "groups":
+        check_enumerable(problem)
     deadline = time.perf_counter() + options.time_limit
     reasons = cheap_reasons(problem)
     if reasons:

@@ -6,9 +6,10 @@ from typing import Any
 
 import pytest
 
+from stlplan.planner.clock import Clock
 from stlplan.planner.components import Part, _tighten, agent_parts, solve_parts, sub_problem
 from stlplan.planner.lazy import Step1
-from stlplan.planner.session import Clock, PlanOptions
+from stlplan.planner.session import PlanOptions
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
 from tests.test_lazy import accepted, mission, swap_problem

@@ -12,7 +12,6 @@ import pytest
 from stlplan import api
 from stlplan.api import Overrides
 from stlplan.planner.confirm import attempts, has_plan, option, solve_confirmed, verdict
-from stlplan.planner.session import use_threads
 from tests.conftest import MISSIONS
 
 DATA = Path(__file__).parent / "data"
@@ -21,9 +20,8 @@ EXACT = Overrides(threads=1, gap=1e-9)
 
 
 def _highs(path: Path) -> highspy.Highs:
-    use_threads(
-        1
-    )  # HiGHS's process-wide scheduler may be sized by an earlier solve in this process
+    # earlier solves in this process may have sized HiGHS's thread pool for more threads
+    highspy.Highs.resetGlobalScheduler(True)
     highs = highspy.Highs()
     highs.setOptionValue("output_flag", False)
     highs.setOptionValue("threads", 1)

@@ -11,10 +11,12 @@ from hypothesis import strategies as st
 from stlplan.mission.groups import (
     Element,
     RoleRule,
+    best_group,
     candidates,
     count_groups,
     elements,
     iter_groups,
+    pack,
 )
 
 Team = Mapping[str, frozenset[str]]
@@ -157,3 +159,46 @@ def test_groups_are_unordered_sets_matching_brute_force(
     assert all(list(g) == sorted(set(g)) for g in groups)
     assert set(as_sets) == _brute_force(elems, count, reuse)
     assert count_groups(elems, count, reuse) == len(groups)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    uv=st.integers(1, 4),
+    ir=st.integers(1, 3),
+    count=st.integers(1, 3),
+    reuse=st.booleans(),
+    two_roles=st.booleans(),
+    data=st.data(),
+)
+def test_best_group_matches_enumerating_every_group(
+    uv: int, ir: int, count: int, reuse: bool, two_roles: bool, data: st.DataObject
+) -> None:
+    team = _team(UV=uv, IR=ir)
+    roles = ("p", "q") if two_roles else ("p",)
+    rules = {"p": _caps("UV"), "q": _caps("IR")}
+    elems = elements(roles, rules, team)
+    scores = data.draw(
+        st.lists(
+            st.sampled_from([-2.0, -0.5, 0.0, 0.5, 1.0, 3.0]),
+            min_size=len(elems),
+            max_size=len(elems),
+        )
+    )
+    groups = list(iter_groups(elems, count, reuse))
+    value, group = best_group(elems, scores, count, reuse)
+    if not groups:
+        assert group is None and value == float("-inf")
+        return
+    assert value == max(min(scores[i] for i in g) for g in groups)
+    assert group is not None and tuple(sorted(group)) in groups
+    assert min(scores[i] for i in group) == value
+
+
+def test_pack_finds_a_group_only_where_one_exists() -> None:
+    team = _team(UV=2, IR=2)
+    rules = {"p": _caps("UV"), "q": _caps("IR")}
+    elems = elements(("p", "q"), rules, team)  # (uv1,ir1) (uv1,ir2) (uv2,ir1) (uv2,ir2)
+    assert pack(elems, [0, 1], 2) is None  # both use uv1
+    assert pack(elems, [0, 1, 3], 2) == (0, 3)
+    assert pack(elems, [0, 1, 2, 3], 3) is None  # two UV agents at most
+    assert pack(elems, [0, 1], 2, reuse_agents=True) == (0, 1)

@@ -12,9 +12,11 @@ from stlplan.formula.tree import step_parts
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
 from stlplan.monitor.verdicts import check
+from stlplan.planner.clock import Progress
 from stlplan.planner.encoding.deferred import SEPARATION, defer, neighbours, violated
 from stlplan.planner.encoding.model import build_model, reachable_boxes
-from stlplan.planner.solve import PlanOptions, Progress, plan
+from stlplan.planner.session import PlanOptions
+from stlplan.planner.solve import plan
 from stlplan.result import PlanResult, PlanStatus
 
 SINGLE_INTEGRATOR = {

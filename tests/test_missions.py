@@ -9,11 +9,13 @@ import numpy as np
 import pytest
 
 from stlplan.formula.tree import horizon
+from stlplan.mission.groups import pack
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from tests.conftest import MISSIONS
 
 SHIPPED = sorted(MISSIONS.glob("*.yaml"))
+SCALED = sorted((MISSIONS / "scale").glob("farm-x*.yaml"))
 FARMS = {"farm": (3, 2, 3), "farm-case2": (3, 2, 4), "farm-case3": (4, 2, 3)}
 GRID = [(x, y) for y in (4.8, 4.5, 4.2) for x in (0.2, 0.5, 0.8)]
 
@@ -31,13 +33,13 @@ def test_the_shipped_missions_are_there() -> None:
     assert {"farm", "farm-case2", "farm-case3", "reach-avoid", "sync-pair"} <= names
 
 
-@pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", SHIPPED + SCALED, ids=lambda p: p.stem)
 def test_mission_loads(path: Path) -> None:
     problem = load_problem(path)
     assert problem.agents
     assert problem.mission.name == path.stem
     for task in problem.tasks:
-        assert task.groups, task.name
+        assert pack(task.elements, range(len(task.elements)), task.count), task.name
     for constraint in problem.constraints:
         assert constraint.bindings, constraint.name
         assert horizon(constraint.formula) <= problem.horizon
@@ -75,6 +77,28 @@ def test_farm_case_three_groups() -> None:
     assert len(problem.agents) == 9
     # crop_A1/A2: C(4,2) = 6; crop_B: C(4,2) UV pairs times 2 ways to pair them with the 2 IR
     assert _groups(problem) == {"crop_A1": 6, "crop_A2": 6, "crop_B": 12, "crop_C": 3}
+
+
+@pytest.mark.parametrize("k", [2, 3, 4])
+def test_scaled_farms_replicate_case_one(k: int) -> None:
+    base, scaled = _load("farm"), load_problem(MISSIONS / "scale" / f"farm-x{k}.yaml")
+    caps = [next(iter(a.capabilities)) for a in scaled.agents]
+    assert caps == ["UV"] * 3 * k + ["IR"] * 2 * k + ["Vis"] * 3 * k
+    counts = {t.name: t.count for t in scaled.tasks}
+    assert counts == {t.name: t.count * (k if t.name in ("crop_B", "crop_C") else 1)
+                      for t in base.tasks}  # fmt: skip
+    assert scaled.mission.dynamics == base.mission.dynamics
+    assert scaled.mission.objective == base.mission.objective
+    assert scaled.separation == base.separation
+    assert {n: r for n, r in scaled.mission.regions.items() if n != "Init"} == {
+        n: r for n, r in base.mission.regions.items() if n != "Init"
+    }
+    (init_lo_x, init_hi_x), (init_lo_y, init_hi_y) = scaled.mission.regions["Init"].box or ()
+    for agent in scaled.agents:
+        x, y = agent.initial_state[:2]
+        assert init_lo_x <= x <= init_hi_x and init_lo_y <= y <= init_hi_y
+    for a, b in itertools.combinations(scaled.agents, 2):
+        assert np.max(np.abs(a.initial_state[:2] - b.initial_state[:2])) >= scaled.separation
 
 
 def test_farm_cases_differ_from_case_one_only_where_the_paper_says() -> None:

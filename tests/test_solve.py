@@ -13,8 +13,9 @@ import pytest
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
-from stlplan.planner.session import Overrides
-from stlplan.planner.solve import PlanOptions, Progress, plan
+from stlplan.planner.clock import Progress
+from stlplan.planner.session import Overrides, PlanOptions
+from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
 
 ENCODINGS = ["log", "standard"]
@@ -256,13 +257,15 @@ def test_plans_pass_the_monitor(encoding: str, effort: str, two_step: bool) -> N
 
 def test_fixed_decisions_enforce_exactly_the_chosen_disjunct() -> None:
     # reach at k=2 is the optimal decision: the Goal's half-planes at k=2 are the ones enforced
+    from stlplan.planner.clock import Clock
     from stlplan.planner.encoding.model import build_model
-    from stlplan.planner.solve import _Clock, _solve, enforced_predicates, fix_decisions
+    from stlplan.planner.session import solve_once
+    from stlplan.planner.solve import enforced_predicates, fix_decisions
 
     pm = build_model(reach_problem(), "log")
     options = PlanOptions(time_limit=30)
-    clock = _Clock(0.0, None)
-    _solve(pm.model, options, clock, "step1")
+    clock = Clock(0.0, None)
+    solve_once(pm.model, options, clock, "step1")
     fix_decisions(pm)
     enforced, _, _ = enforced_predicates(pm, options, clock, "step2")
     assert enforced is not None

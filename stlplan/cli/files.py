@@ -12,7 +12,8 @@ from rich.markup import escape
 from stlplan import api
 from stlplan.cli.shell import EXIT_VIOLATED, EXITS_COMMON, JsonOption, Output, QuietOption, handled
 from stlplan.errors import UsageError
-from stlplan.mission.problem import Problem
+from stlplan.mission.groups import count_groups
+from stlplan.mission.problem import Problem, TaskModel
 
 MissionArg = Annotated[
     Path, typer.Argument(help="Mission file (YAML).", metavar="MISSION", show_default=False)
@@ -37,8 +38,25 @@ CHECK_EPILOG = (
 SCHEMA_EPILOG = "Exit codes: 0 written, 2 the file cannot be written."
 
 
+GROUPS_SHOWN = 10**6
+"""`validate` counts each task's groups up to this many (the selection encoding needs none)."""
+
+
+def group_count(task: TaskModel) -> int | None:
+    """The task's number of groups, or None when there are more than :data:`GROUPS_SHOWN`."""
+    n = count_groups(task.elements, task.count, task.reuse_agents, limit=GROUPS_SHOWN + 1)
+    return None if n > GROUPS_SHOWN else n
+
+
+def _groups_text(task: TaskModel) -> str:
+    n = group_count(task)
+    shown = f"more than {GROUPS_SHOWN}" if n is None else str(n)
+    return f"{task.name}: {len(task.elements)} elements, {shown} groups"
+
+
 def problem_counts(problem: Problem, mission: Path) -> dict[str, object]:
-    """What ``validate --json`` prints: the mission's size and each task's number of groups."""
+    """What ``validate --json`` prints: the mission's size and each task's number of elements
+    and groups (null: more than :data:`GROUPS_SHOWN`)."""
     return {
         "valid": True,
         "file": str(mission),
@@ -49,7 +67,7 @@ def problem_counts(problem: Problem, mission: Path) -> dict[str, object]:
         "tasks": len(problem.tasks),
         "synchronous_tasks": sum(1 for t in problem.tasks if t.sync is not None),
         "constraints": len(problem.constraints),
-        "groups": {t.name: len(t.groups) for t in problem.tasks},
+        "groups": {t.name: group_count(t) for t in problem.tasks},
         "elements": {t.name: len(t.elements) for t in problem.tasks},
     }
 
@@ -62,11 +80,11 @@ def validate(mission: MissionArg, as_json: JsonOption = False, quiet: QuietOptio
     if as_json:
         output.document(problem_counts(problem, mission))
         return
-    groups = ", ".join(f"{t.name}: {len(t.groups)}" for t in problem.tasks)
+    groups = "; ".join(_groups_text(t) for t in problem.tasks)
     output.line(
         f"[green]valid[/]: {escape(str(mission))} ({len(problem.agents)} agents, "
         f"{len(problem.tasks)} tasks, {len(problem.constraints)} constraints; "
-        f"groups {groups or 'none'})",
+        f"{groups or 'no tasks'})",
         markup=True,
     )
 

@@ -54,6 +54,13 @@ class Encoding(str, Enum):
     standard = "standard"
 
 
+class TaskForm(str, Enum):
+    """Task encodings."""
+
+    selection = "selection"
+    groups = "groups"
+
+
 def _directory(value: str) -> str:
     """An output directory must be named: ``--out ''`` would write into the current folder."""
     if not value.strip():
@@ -102,6 +109,14 @@ EncodingOption = Annotated[
     Encoding | None,
     typer.Option(help="Disjunction encoding (default: the mission's).", metavar="log|standard"),
 ]
+TasksOption = Annotated[
+    TaskForm | None,
+    typer.Option(
+        help="Task encoding: select elements, or enumerate groups as the paper does "
+        "(default: the mission's, selection).",
+        metavar="selection|groups",
+    ),
+]
 
 
 @handled
@@ -114,6 +129,7 @@ def solve(
     seed: SeedOption = None,
     one_step: OneStepOption = False,
     encoding: EncodingOption = None,
+    tasks: TasksOption = None,
     inter_sample: InterSampleOption = None,
     as_json: JsonOption = False,
     quiet: QuietOption = False,
@@ -132,6 +148,7 @@ def solve(
         threads=threads,
         seed=seed,
         encoding=None if encoding is None else encoding.value,
+        tasks=None if tasks is None else tasks.value,
         two_step=False if one_step else None,
         inter_sample=inter_sample,
     )

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Sequence
 
 from stlplan.errors import FormulaError, did_you_mean, fail, undefined
 from stlplan.formula.parser import to_text
@@ -26,6 +27,7 @@ from stlplan.formula.tree import (
     regions,
     roles,
 )
+from stlplan.mission.groups import Element, count_groups
 from stlplan.mission.schema import Constraint, Mission, PinnedRole, Synchronous, Task
 
 MAX_ELEMENTS = 10_000
@@ -146,8 +148,8 @@ def _check_role_name(role: str, where: str, source: str | None) -> None:
 def _check_pattern_size(
     task: Task, role_agents: dict[str, list[str]], where: str, source: str | None
 ) -> None:
-    """Bound what :mod:`stlplan.mission.groups` enumerates: elements <= product of the role pools,
-    (partial) groups <= sum_{k <= count} C(elements, k)."""
+    """Bound the elements a Pattern admits (at most the product of the role pools); groups are
+    bounded only where they are enumerated (:func:`check_group_count`)."""
     n_elements = math.prod(len(agents) for agents in role_agents.values())
     if n_elements > MAX_ELEMENTS:
         fail(
@@ -156,16 +158,6 @@ def _check_pattern_size(
             f"{where}.roles",
             source,
         )
-    partial = 0
-    for k in range(min(task.count, n_elements) + 1):
-        partial += math.comb(n_elements, k)
-        if partial > MAX_GROUPS:
-            fail(
-                f"count {task.count} over up to {n_elements} elements allows more than "
-                f"{MAX_GROUPS} groups; expected fewer (lower count or narrow the roles)",
-                f"{where}.count",
-                source,
-            )
 
 
 def check_window(
@@ -213,12 +205,28 @@ def _role_agents(
     return fit
 
 
+def check_group_count(
+    mission: Mission, name: str, elems: Sequence[Element], source: str | None
+) -> None:
+    """The paper's group enumeration of task ``name`` must stay below :data:`MAX_GROUPS`."""
+    task = mission.tasks[name]
+    n_groups = count_groups(elems, task.count, task.reuse_agents, limit=MAX_GROUPS + 1)
+    if n_groups > MAX_GROUPS:
+        fail(
+            f"count {task.count} over {len(elems)} elements allows more than {MAX_GROUPS} "
+            "groups to enumerate; expected fewer (use the selection encoding, "
+            "`--tasks selection`, which enumerates no group, or lower count)",
+            f"tasks.{name}.count",
+            source,
+        )
+
+
 def check_groups(
-    mission: Mission, name: str, n_elements: int, n_groups: int, source: str | None
+    mission: Mission, name: str, n_elements: int, has_group: bool, source: str | None
 ) -> None:
     """A Pattern must admit at least one group of ``count`` elements."""
     task = mission.tasks[name]
-    if n_groups > 0:
+    if has_group:
         return
     c = task.count
     reuse = "" if task.reuse_agents else " that share no agent"

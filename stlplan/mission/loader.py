@@ -20,6 +20,7 @@ from pydantic import BaseModel, ValidationError
 
 from stlplan.errors import MissionError, StlplanError
 from stlplan.mission import schema
+from stlplan.mission.formula_checks import check_group_count
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
 from stlplan.mission.yamldoc import (
@@ -292,7 +293,24 @@ def problem_from_text(text: str, source: str) -> Problem:
     try:
         return build_problem(mission, source=source)
     except StlplanError as exc:
-        if exc.where and not exc.where.startswith("line"):
-            line = locate(node, split_path(exc.where))
-            exc.where = f"{line}: {exc.where}" if line else exc.where
+        _add_line(exc, node)
         raise
+
+
+def _add_line(exc: StlplanError, node: yaml.Node | None) -> None:
+    """Prefix the error's field path with its line and column in the mission file."""
+    if exc.where and not exc.where.startswith("line"):
+        line = locate(node, split_path(exc.where))
+        exc.where = f"{line}: {exc.where}" if line else exc.where
+
+
+def check_enumerable(problem: Problem) -> None:
+    """Every task's groups can be enumerated (the group encoding's size guard), with the line of
+    the offending ``count`` when the mission came from a file."""
+    for task in problem.tasks:
+        try:
+            check_group_count(problem.mission, task.name, task.elements, problem.source)
+        except StlplanError as exc:
+            if problem.source is not None and Path(problem.source).is_file():
+                _add_line(exc, parse_yaml(read_text(Path(problem.source)), problem.source)[1])
+            raise

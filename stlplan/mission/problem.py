@@ -1,7 +1,7 @@
 """A checked mission in the form the encoder and the monitor read.
 
 :func:`build_problem` parses every formula, runs the semantic checks of :mod:`stlplan.mission.checks`, and
-enumerates each task's elements and groups. Agents carry numpy matrices; formulas stay surface
+enumerates each task's elements (groups only on demand). Agents carry numpy matrices; formulas stay surface
 trees and are lowered per role binding with :meth:`Problem.lowered`.
 """
 
@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -16,7 +17,7 @@ from stlplan.formula.normal import HalfSpaces, lower
 from stlplan.formula.parser import parse
 from stlplan.formula.tree import Formula, roles
 from stlplan.mission import checks
-from stlplan.mission.groups import Element, RoleRule, elements, iter_groups
+from stlplan.mission.groups import Element, RoleRule, elements, iter_groups, pack
 from stlplan.mission.schema import Mission, PinnedRole, Region
 
 
@@ -58,7 +59,7 @@ class SyncWindow:
 
 @dataclass(frozen=True, eq=False)
 class TaskModel:
-    """A task ``<phi, c, Pattern>`` with its elements and groups enumerated."""
+    """A task ``<phi, c, Pattern>`` with its elements enumerated; its groups only on demand."""
 
     name: str
     formula: Formula
@@ -67,8 +68,13 @@ class TaskModel:
     rules: Mapping[str, RoleRule]
     reuse_agents: bool
     elements: tuple[Element, ...]
-    groups: tuple[tuple[int, ...], ...]
     sync: SyncWindow | None = None
+
+    @cached_property
+    def groups(self) -> tuple[tuple[int, ...], ...]:
+        """Every group, as increasing element indices (the paper's enumeration; it can be huge:
+        see :func:`stlplan.mission.groups.count_groups` before asking)."""
+        return tuple(iter_groups(self.elements, self.count, self.reuse_agents))
 
     def binding(self, element: Element) -> dict[str, str]:
         """Role to agent name for one element."""
@@ -165,16 +171,14 @@ def _task_model(mission: Mission, name: str, source: str | None) -> TaskModel:
     rules = {r: _rule(spec.roles[r]) for r in order}
     team = {a.name: frozenset(a.capabilities) for a in mission.agents}
     elems = elements(order, rules, team)
-    groups = tuple(iter_groups(elems, spec.count, spec.reuse_agents))
-    checks.check_groups(mission, name, len(elems), len(groups), source)
+    found = pack(elems, range(len(elems)), spec.count, spec.reuse_agents)
+    checks.check_groups(mission, name, len(elems), found is not None, source)
     sync = None
     if spec.synchronous is not None:
         s = spec.synchronous
         gamma = mission.objective.gamma if s.gamma is None else s.gamma
         sync = SyncWindow(s.within[0], s.within[1], s.hold, gamma)
-    return TaskModel(
-        name, formula, spec.count, order, rules, spec.reuse_agents, elems, groups, sync
-    )
+    return TaskModel(name, formula, spec.count, order, rules, spec.reuse_agents, elems, sync)
 
 
 def _constraint_model(mission: Mission, name: str, source: str | None) -> ConstraintModel:

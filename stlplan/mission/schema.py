@@ -156,6 +156,8 @@ class SolverOptions(_Strict):
     """HiGHS random seed."""
     encoding: Literal["log", "standard"] = "log"
     """Disjunctions as a logarithmic SOS1 or one binary per disjunct."""
+    tasks: Literal["selection", "groups"] = "selection"
+    """Tasks by selecting elements (no group enumerated) or by enumerating groups (the paper)."""
 
 
 class Safety(_Strict):

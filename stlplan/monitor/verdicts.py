@@ -8,11 +8,13 @@ Semantics (DESIGN.md section 2; ``tol`` is the tolerance on every ``>= 0`` test)
 
 * element ``e`` of task ``T``: ``rho_e(k)`` is the robustness of ``phi`` with ``e``'s agents bound
   to the roles; a group's robustness is ``min_{e in group} rho_e(0)``, the task's is the max over
-  groups, and ``T`` holds iff that is ``>= -tol``;
+  groups, and ``T`` holds iff that is ``>= -tol``. Groups are never enumerated: the best group is
+  found by bisection over the elements' values (:func:`stlplan.mission.groups.best_group`);
 * synchronous task ``F[a,b] <G[0,d] phi, c, Pattern>``: ``s_j(k) = 1`` iff ``rho_e(k) >= -tol`` for
   every element of group ``j``; ``run_j(k')`` counts the consecutive steps ``k', k'+1, ...`` with
   ``s_j = 1`` (stopping where ``phi`` can no longer be evaluated); ``rho_s = max_j max_{k' in [a,b]}
-  run_j(k') - 1 - d`` and the task holds iff ``rho_s >= 0``;
+  run_j(k') - 1 - d`` and the task holds iff ``rho_s >= 0`` (a group's run is the least of its
+  elements' runs, so the best group from each ``k'`` is again a bisection over elements);
 * constraints hold at step 0 under every binding; separation is
   ``min_{p<q, k} ||z_p(k) - z_q(k)||_inf - d_col >= -tol``;
 * with inter-sample safety (``problem.inter_sample``, the default) avoidance parts of constraints
@@ -24,12 +26,14 @@ Semantics (DESIGN.md section 2; ``tol`` is the tolerance on every ``>= 0`` test)
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from stlplan.errors import TrajectoryError
 from stlplan.formula.tree import Formula, Linear, atoms
+from stlplan.mission.groups import best_group
 from stlplan.mission.problem import ConstraintModel, Problem, TaskModel
 from stlplan.monitor.crossings import separation_segments, worst_segment
 from stlplan.monitor.dynamics import dynamics_verdict
@@ -126,20 +130,18 @@ def _task_verdict(problem: Problem, trajectory: Trajectory, task: TaskModel, tol
     rho = element_robustness(problem, trajectory, task)
     if task.sync is not None:
         return _synchronous_verdict(task, rho, tol)
-    # rho(T) = max_j min_{e in group j} rho_e(0)
-    groups = np.array(task.groups, dtype=int)
-    group_rho = np.min(rho[:, 0][groups], axis=1)
-    best = int(np.nanargmax(group_rho)) if not np.all(np.isnan(group_rho)) else 0
-    value = float(group_rho[best])
+    # rho(T) = max over groups of min_{e in group} rho_e(0), without enumerating groups
+    value, group = best_group(task.elements, rho[:, 0], task.count, task.reuse_agents)
+    chosen = () if group is None else group
     satisfied = bool(value >= -tol)
-    text = _group_text(task, task.groups[best])
+    text = _group_text(task, chosen)
     detail = (
         f"group {text} holds with margin {value:.3g}"
         if satisfied
         else f"no group satisfies: best {text} reaches {value:.3g}"
     )
     return Verdict(
-        task.name, "task", satisfied, value, _group_elements(task, task.groups[best]), detail=detail
+        task.name, "task", satisfied, value, _group_elements(task, chosen), detail=detail
     )
 
 
@@ -154,53 +156,75 @@ def run_lengths(holds: np.ndarray) -> np.ndarray:
     return run[:, :-1]
 
 
+@dataclass(frozen=True)
+class Start:
+    """The best group from one start ``k'``: its run length and spatial robustness."""
+
+    start: int
+    length: int
+    spatial: float
+    group: tuple[int, ...]
+
+
+def _best_from(task: TaskModel, rho: np.ndarray, run: np.ndarray, start: int) -> Start:
+    """The longest common run of a group from ``start``, and among the groups with that run the
+    best spatial robustness of ``G[0,d] AND_e phi_e`` (``-inf`` where the window leaves the
+    signal)."""
+    assert task.sync is not None
+    d, elems, c = task.sync.d, task.elements, task.count
+    steps = rho.shape[1]
+    runs = run[:, start] if start < steps else np.zeros(len(elems), dtype=int)
+    length, group = best_group(elems, runs.astype(float), c, task.reuse_agents)
+    if start + d < steps:
+        window = np.min(rho[:, start : start + d + 1], axis=1)
+    else:
+        window = np.full(len(elems), -np.inf)
+    keep = np.where(runs >= length, window, -np.inf)
+    spatial, best = best_group(elems, keep, c, task.reuse_agents)
+    return Start(start, int(length), spatial, best or group or ())
+
+
 def _synchronous_verdict(task: TaskModel, rho: np.ndarray, tol: float) -> Verdict:
+    """``rho_s = max_{k' in [a,b]} (longest common run of a group from k') - 1 - d``: for each
+    start, the longest run any group keeps is found by :func:`best_group` over the elements'
+    own runs (a group's common run is the least of its elements' runs)."""
     assert task.sync is not None
     a, b, d = task.sync.a, task.sync.b, task.sync.d
-    groups = np.array(task.groups, dtype=int)
-    per_group = rho[groups]  # (groups, c, K)
-    steps = per_group.shape[2]
-    starts = np.arange(a, b + 1)
-    # s_j(k) = 1 iff every element of group j satisfies phi at k
-    run = run_lengths(np.all(per_group >= -tol, axis=1))
-    run = np.hstack([run, np.zeros((len(groups), b + 1), dtype=int)])[:, starts]
-    # spatial robustness of G[0,d] AND_e phi_e from k': min_e min_{k in [k', k'+d]} rho_e(k)
-    spatial = np.full((len(groups), len(starts)), -np.inf)
-    for i, start in enumerate(starts):
-        if start + d < steps:
-            spatial[:, i] = np.min(per_group[:, :, start : start + d + 1], axis=(1, 2))
-    j, i = _best_start(run, spatial, starts)
-    rho_s = int(run[j, i]) - 1 - d
-    spatial_rho = float(np.max(np.nan_to_num(spatial, nan=-np.inf)))
+    run = run_lengths(np.nan_to_num(rho, nan=-np.inf) >= -tol)
+    starts = [_best_from(task, rho, run, k) for k in range(a, b + 1)]
+    # the longest run, then the earliest start, then the best spatial robustness
+    best = max(starts, key=lambda s: (s.length, -s.start, s.spatial))
+    rho_s = best.length - 1 - d
+    spatial_rho = max(_spatial_anywhere(task, rho, k) for k in range(a, b + 1))
     return Verdict(
         task.name,
         "synchronous",
         rho_s >= 0,
         spatial_rho,
-        _group_elements(task, task.groups[j]),
+        _group_elements(task, best.group),
         rho_s=float(rho_s),
-        run_start=int(starts[i]),
-        run_length=int(run[j, i]),
-        detail=_synchronous_detail(task, j, int(starts[i]), int(run[j, i]), rho_s),
+        run_start=best.start,
+        run_length=best.length,
+        detail=_synchronous_detail(task, best.group, best.start, best.length, rho_s),
     )
 
 
-def _best_start(run: np.ndarray, spatial: np.ndarray, starts: np.ndarray) -> tuple[int, int]:
-    """Group ``j`` and start index ``i`` with the longest run, then earliest start, then best
-    spatial robustness (then the first group)."""
-    flat_run = run.ravel()
-    flat_start = np.broadcast_to(starts[None, :], run.shape).ravel()
-    flat_spatial = np.nan_to_num(spatial, nan=-np.inf).ravel()
-    # np.lexsort sorts by the last key first; index 0 is the best candidate
-    best = int(np.lexsort((-flat_spatial, flat_start, -flat_run))[0])
-    j, i = np.unravel_index(best, run.shape)
-    return int(j), int(i)
+def _spatial_anywhere(task: TaskModel, rho: np.ndarray, start: int) -> float:
+    """Best spatial robustness of ``G[0,d] AND_e phi_e`` from ``start`` over every group."""
+    assert task.sync is not None
+    d = task.sync.d
+    if start + d >= rho.shape[1]:
+        return float("-inf")
+    window = np.min(np.nan_to_num(rho[:, start : start + d + 1], nan=-np.inf), axis=1)
+    return best_group(task.elements, window, task.count, task.reuse_agents)[0]
 
 
-def _synchronous_detail(task: TaskModel, j: int, start: int, length: int, rho_s: int) -> str:
+def _synchronous_detail(
+    task: TaskModel, group: Sequence[int], start: int, length: int, rho_s: int
+) -> str:
     assert task.sync is not None
     need = task.sync.d + 1
-    text = _group_text(task, task.groups[j])
+    text = _group_text(task, group)
     if rho_s >= 0:
         return (
             f"group {text} holds phi together for {length} steps from step {start} "

@@ -33,16 +33,11 @@ from typing import Any
 
 from stlplan.mission.problem import Problem
 from stlplan.planner import stops
+from stlplan.planner.clock import FLOORS_SHARE, Clock
 from stlplan.planner.encoding.deferred import Requirement, violated
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
 from stlplan.planner.lazy import VIOLATION_TOL, LazySolver, Step1, relative_gap, trajectory_states
-from stlplan.planner.session import (
-    FLOORS_SHARE,
-    MIN_SOLVE_SECONDS,
-    Clock,
-    HighsSession,
-    PlanOptions,
-)
+from stlplan.planner.session import MIN_SOLVE_SECONDS, HighsSession, PlanOptions
 from stlplan.result import PlanStatus
 
 HOLD = 1e-4
@@ -140,6 +135,7 @@ def _part(
             lazy=True,
             floors=options.floors,
             floors_deadline=clock.share(FLOORS_SHARE),
+            task_encoding=options.tasks,
         )
     assert pm.deferral is not None
     add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
@@ -290,7 +286,9 @@ def solve_parts(
     tick = time.perf_counter()
     deadline = min(tick + options.time_limit, clock.deadline)
     with clock.building():
-        full = build_model(problem, options.encoding, lazy=True, floors=False)
+        full = build_model(
+            problem, options.encoding, lazy=True, floors=False, task_encoding=options.tasks
+        )
     parts = [_part(problem, agents, options, clock) for agents in names]
     while True:
         for part in parts:

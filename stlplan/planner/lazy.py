@@ -31,12 +31,12 @@ from typing import Any
 import numpy as np
 from pyomo.environ import Var, value
 
+from stlplan.planner.clock import Clock
 from stlplan.planner.encoding.deferred import best_side, neighbours, violated
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
 from stlplan.planner.session import (
     MIN_SOLVE_SECONDS,
     TC,
-    Clock,
     HighsSession,
     PlanOptions,
     Solved,

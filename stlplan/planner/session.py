@@ -1,6 +1,6 @@
 """HiGHS through Pyomo: planning options and a model kept loaded across solves.
 
-The run's clock and progress reports are in :mod:`stlplan.planner.clock` (re-exported here); every
+The run's clock and progress reports are in :mod:`stlplan.planner.clock`; every
 infeasible verdict a solve returns is first confirmed (:mod:`stlplan.planner.confirm`).
 
 A :class:`HighsSession` loads a Pyomo model into one ``highspy.Highs`` object once; later solves
@@ -30,32 +30,12 @@ from pyomo.environ import ConcreteModel
 from stlplan.mission.schema import Mission
 from stlplan.planner import confirm, stops
 from stlplan.planner.clock import (
-    FLOORS_SHARE,
     Clock,
     Phase,
-    Progress,
-    ProgressCallback,
 )
+from stlplan.planner.encoding.selection import TaskForm
 from stlplan.planner.encoding.sos1 import Encoding
 from stlplan.result import PlanStatus
-
-__all__ = [
-    "FLOORS_SHARE",
-    "MIN_SOLVE_SECONDS",
-    "TC",
-    "Clock",
-    "HighsSession",
-    "Phase",
-    "PlanOptions",
-    "Progress",
-    "ProgressCallback",
-    "Solved",
-    "forget_threads",
-    "has_solution",
-    "plan_status",
-    "solve_once",
-    "use_threads",
-]
 
 
 @dataclass(frozen=True)
@@ -75,6 +55,9 @@ class PlanOptions:
         HiGHS random seed.
     encoding
         Disjunctions as a logarithmic SOS1 (``log``) or one binary per entry (``standard``).
+    tasks
+        Tasks by selecting elements (``selection``, no group enumerated) or by the paper's
+        group enumeration (``groups``).
     two_step
         Run step 2 (fix step 1's decisions, minimize the mission's effort norm).
     lazy
@@ -100,6 +83,7 @@ class PlanOptions:
     threads: int | None = None
     seed: int = 0
     encoding: Encoding = "log"
+    tasks: TaskForm = "selection"
     two_step: bool = True
     lazy: bool = True
     lazy_window: int | None = 0
@@ -117,6 +101,7 @@ class PlanOptions:
             threads=mission.solver.threads,
             seed=mission.solver.seed,
             encoding=mission.solver.encoding,
+            tasks=mission.solver.tasks,
             two_step=mission.objective.two_step,
         )
         return base if overrides is None else overrides.applied(base)
@@ -129,7 +114,7 @@ class Overrides:
 
     Attributes
     ----------
-    time_limit, gap, threads, seed, encoding, two_step
+    time_limit, gap, threads, seed, encoding, tasks, two_step
         As in :class:`PlanOptions`.
     inter_sample
         Judge safety on the segments between steps (the mission's ``safety.inter_sample``).
@@ -143,6 +128,7 @@ class Overrides:
     threads: int | None = None
     seed: int | None = None
     encoding: Encoding | None = None
+    tasks: TaskForm | None = None
     two_step: bool | None = None
     inter_sample: bool | None = None
     tuning: tuple[tuple[str, Any], ...] = ()

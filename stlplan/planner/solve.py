@@ -24,6 +24,7 @@ from pyomo.environ import ConcreteModel, Constraint, Objective, Reals, Var, mini
 
 from stlplan.mission.problem import Problem
 from stlplan.planner import stops
+from stlplan.planner.clock import FLOORS_SHARE, Clock, Phase, ProgressCallback
 from stlplan.planner.components import solve_parts
 from stlplan.planner.encoding.continuous import continuous_model, copy_plan
 from stlplan.planner.encoding.deferred import best_option
@@ -31,35 +32,10 @@ from stlplan.planner.encoding.model import PlanModel, build_model
 from stlplan.planner.encoding.readout import plan_result
 from stlplan.planner.encoding.stl import Enforced
 from stlplan.planner.lazy import Step1, solve_step1, trajectory_states
-from stlplan.planner.session import (
-    FLOORS_SHARE,
-    TC,
-    Clock,
-    Phase,
-    PlanOptions,
-    Progress,
-    ProgressCallback,
-    has_solution,
-    plan_status,
-    solve_once,
-)
+from stlplan.planner.session import TC, PlanOptions, solve_once
 from stlplan.result import Fallback, ModelSize, PlanResult, PlanStatus
 
-__all__ = [
-    "Phase",
-    "PlanOptions",
-    "Progress",
-    "ProgressCallback",
-    "enforced_predicates",
-    "fix_decisions",
-    "has_solution",
-    "model_size",
-    "plan",
-    "plan_status",
-]
-
-_Clock = Clock  # the names earlier callers used
-_solve = solve_once
+__all__ = ["enforced_predicates", "fix_decisions", "model_size", "plan"]
 
 
 def model_size(model: ConcreteModel) -> ModelSize:
@@ -155,6 +131,7 @@ def _step1(problem: Problem, options: PlanOptions, clock: Clock) -> tuple[PlanMo
             lazy=options.lazy,
             floors=options.floors,
             floors_deadline=clock.share(FLOORS_SHARE),
+            task_encoding=options.tasks,
         )
     return pm, solve_step1(pm, options, clock)
 

@@ -54,10 +54,6 @@ class StopState:
         Nested :func:`finishing` blocks: solves that turn the best plan so far into an output.
     enabled
         False in processes whose parent handles signals (:func:`leave_signals_alone`).
-    holding
-        Nested :func:`held` sections; a signal that arrives in one waits in ``pending``.
-    pending
-        A signal held back until the outermost :func:`held` section ends.
     """
 
     signum: int | None = None
@@ -66,8 +62,6 @@ class StopState:
     depth: int = 0
     finishing: int = 0
     enabled: bool = True
-    holding: int = 0
-    pending: int | None = None
 
 
 STATE = StopState()
@@ -115,9 +109,6 @@ def solving() -> Iterator[None]:
 
 
 def _on_signal(signum: int, frame: FrameType | None) -> None:
-    if STATE.holding:  # delivered to another thread (HiGHS's workers) during a held section
-        STATE.pending = STATE.pending or signum
-        return
     if STATE.solving == 0:
         STATE.signum = STATE.signum or signum
         raise Interrupted(signum)
@@ -131,21 +122,42 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
 def held() -> Iterator[None]:
     """Hold SIGINT and SIGTERM back during a short critical section; they arrive after it.
 
-    The main thread blocks them; one the kernel delivers to another thread (a solver's worker)
-    still runs the handler in the main thread, which then only records it until the section ends.
+    The signals are blocked for the calling thread and, in the main thread, their handlers are
+    replaced by one that only records them: a signal the kernel hands to another thread (HiGHS's
+    workers, say) still runs its Python handler in the main thread, where blocking does not
+    reach. A recorded signal is raised again, with the earlier handlers back, on leaving.
     """
-    masked = hasattr(signal, "pthread_sigmask")
-    before = signal.pthread_sigmask(signal.SIG_BLOCK, CAUGHT) if masked else None
-    STATE.holding += 1
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    arrived: list[int] = []
+
+    def record(signum: int, frame: FrameType | None) -> None:
+        arrived.append(signum)
+
+    before = _block()
+    saved = {s: signal.signal(s, record) for s in CAUGHT}
     try:
         yield
     finally:
-        if before is not None:
-            signal.pthread_sigmask(signal.SIG_SETMASK, before)
-        STATE.holding -= 1
-        if not STATE.holding and STATE.pending is not None:
-            signum, STATE.pending = STATE.pending, None
-            _on_signal(signum, None)
+        for s, handler in saved.items():
+            if signal.getsignal(s) is record:  # a handler set inside the section stays
+                signal.signal(s, handler)
+        _unblock(before)
+        for signum in dict.fromkeys(arrived):
+            signal.raise_signal(signum)
+
+
+def _block() -> Any:
+    """Block the caught signals for this thread; returns the earlier mask (None if unsupported)."""
+    if not hasattr(signal, "pthread_sigmask"):
+        return None
+    return signal.pthread_sigmask(signal.SIG_BLOCK, CAUGHT)
+
+
+def _unblock(before: Any) -> None:
+    if before is not None:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
 def leave_signals_alone() -> None:
@@ -168,14 +180,12 @@ def stop_on_signals() -> Iterator[None]:
     ):
         yield
         return
-    previous: dict[int, Any] = {}
+    defaults = (signal.default_int_handler, signal.SIG_DFL)
+    previous = {c: h for c in CAUGHT if (h := signal.getsignal(c)) in defaults}
     with held():  # installed together with the state, or not at all
         STATE.signum, STATE.hard, STATE.solving, STATE.finishing = None, False, 0, 0
-        for caught in CAUGHT:
-            handler = signal.getsignal(caught)
-            if handler in (signal.default_int_handler, signal.SIG_DFL):
-                previous[caught] = handler
-                signal.signal(caught, _on_signal)
+        for caught in previous:
+            signal.signal(caught, _on_signal)
         STATE.depth += 1
     try:
         yield

@@ -36,6 +36,13 @@ from pyomo.environ import (
 from stlplan.mission.problem import AgentModel, Problem
 from stlplan.planner.encoding.deferred import Deferral, defer, segment_requirements
 from stlplan.planner.encoding.floors import add_effort_floors
+from stlplan.planner.encoding.selection import (
+    Selection,
+    SyncSelection,
+    TaskForm,
+    select_synchronous,
+    select_task,
+)
 from stlplan.planner.encoding.sos1 import Encoding, gray_code, sos1_block
 from stlplan.planner.encoding.stl import Ledger, StlContext, margin_ceiling, require
 from stlplan.planner.encoding.tasks import (
@@ -47,6 +54,11 @@ from stlplan.planner.encoding.tasks import (
     encode_synchronous,
     encode_task,
 )
+
+TaskChoice = TaskEncoding | Selection
+"""A task's choice: group indicators, or element selections."""
+SyncChoice = SyncEncoding | SyncSelection
+"""A synchronous task's choice and ``rho_s``: counted runs per group, or a selected window."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,8 +90,8 @@ class PlanModel:
 
     model: ConcreteModel
     problem: Problem
-    tasks: tuple[TaskEncoding, ...]
-    synchronous: tuple[SyncEncoding, ...]
+    tasks: tuple[TaskChoice, ...]
+    synchronous: tuple[SyncChoice, ...]
     t: Any
     margin: Any
     encoding: Encoding
@@ -199,7 +211,7 @@ def _spec_block(model: ConcreteModel) -> Block:
 
 
 def add_objective(
-    model: ConcreteModel, problem: Problem, synchronous: tuple[SyncEncoding, ...], margin: Any
+    model: ConcreteModel, problem: Problem, synchronous: tuple[SyncChoice, ...], margin: Any
 ) -> Any:
     """``maximize t - beta sum(s) (+ w r)`` with ``t <= rho_s^l``; returns ``t`` (or None)."""
     objective = problem.mission.objective
@@ -218,12 +230,26 @@ def add_objective(
     return t
 
 
+def encode_tasks(
+    ctx: StlContext, problem: Problem, task_encoding: TaskForm
+) -> tuple[tuple[TaskChoice, ...], tuple[SyncChoice, ...]]:
+    """Every task and synchronous task, by groups or by selection."""
+    if task_encoding == "selection":
+        plain = tuple(select_task(ctx, problem, t) for t in problem.tasks if t.sync is None)
+        sync = tuple(select_synchronous(ctx, problem, t) for t in problem.tasks if t.sync)
+        return plain, sync
+    plain_g = tuple(encode_task(ctx, problem, t) for t in problem.tasks if t.sync is None)
+    sync_g = tuple(encode_synchronous(ctx, problem, t) for t in problem.tasks if t.sync)
+    return plain_g, sync_g
+
+
 def build_model(
     problem: Problem,
     encoding: Encoding = "log",
     lazy: bool = False,
     floors: bool = False,
     floors_deadline: float = math.inf,
+    task_encoding: TaskForm = "groups",
 ) -> PlanModel:
     """Encode ``problem`` as the MILP of step 1.
 
@@ -241,6 +267,9 @@ def build_model(
         Add the effort floors of :mod:`stlplan.planner.encoding.floors` (valid cuts; with ``beta > 0``).
     floors_deadline
         ``time.perf_counter()`` time after which no more floors are computed.
+    task_encoding
+        Tasks by enumerating groups (``"groups"``, the paper's) or by selecting elements
+        (``"selection"``, :mod:`stlplan.planner.encoding.selection`).
     """
     model = ConcreteModel(name=problem.mission.name)
     boxes = reachable_boxes(problem)
@@ -257,8 +286,7 @@ def build_model(
         margin_ceiling=ceiling,
         encoding=encoding,
     )
-    tasks = tuple(encode_task(ctx, problem, t) for t in problem.tasks if t.sync is None)
-    synchronous = tuple(encode_synchronous(ctx, problem, t) for t in problem.tasks if t.sync)
+    tasks, synchronous = encode_tasks(ctx, problem, task_encoding)
     deferral = None
     if lazy:
         deferral = defer(problem, boxes, ceiling)

@@ -8,7 +8,8 @@ from typing import Any
 import numpy as np
 from pyomo.environ import value
 
-from stlplan.planner.encoding.model import PlanModel
+from stlplan.planner.encoding.model import PlanModel, SyncChoice, TaskChoice
+from stlplan.planner.encoding.selection import Selection, SyncSelection
 from stlplan.planner.encoding.tasks import best_run, chosen_group
 from stlplan.result import Assignment, ModelSize, PlanResult, PlanStatus, Trajectory
 
@@ -40,20 +41,34 @@ def effort(inputs: Mapping[str, np.ndarray], norm: str) -> float:
     return sum(per_agent(u) for u in inputs.values())
 
 
+def chosen(enc: TaskChoice) -> tuple[int, ...]:
+    """Element indices of the group a task chose in the loaded solution."""
+    if isinstance(enc, Selection):
+        return enc.elements()
+    return enc.task.groups[chosen_group(enc)]
+
+
+def chosen_run(enc: SyncChoice) -> tuple[tuple[int, ...], int, int]:
+    """``(element indices, start, length)`` of a synchronous task's run in the loaded solution."""
+    if isinstance(enc, SyncSelection):
+        return (enc.elements(), *enc.run())
+    j, start, length = best_run(enc)
+    return enc.task.groups[j], start, length
+
+
 def assignments(pm: PlanModel) -> tuple[tuple[Assignment, ...], dict[str, float]]:
     """The chosen group of every task (with the run of synchronous ones) and ``rho_s`` per task."""
     out, rho_s = [], {}
     for enc in pm.tasks:
         task = enc.task
-        group = tuple(task.elements[i] for i in task.groups[chosen_group(enc)])
-        out.append(Assignment(task.name, group))
+        out.append(Assignment(task.name, tuple(task.elements[i] for i in chosen(enc))))
     for sync in pm.synchronous:
         task = sync.task
         assert task.sync is not None
-        j, start, length = best_run(sync)
+        members, start, length = chosen_run(sync)
         rho = float(length - 1 - task.sync.d)
         rho_s[task.name] = rho
-        group = tuple(task.elements[i] for i in task.groups[j])
+        group = tuple(task.elements[i] for i in members)
         out.append(Assignment(task.name, group, rho, start, length))
     order = {t.name: n for n, t in enumerate(pm.problem.tasks)}
     return tuple(sorted(out, key=lambda a: order[a.task])), rho_s

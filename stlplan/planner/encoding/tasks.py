@@ -21,6 +21,7 @@ from typing import Any
 from pyomo.environ import value
 
 from stlplan.formula.tree import Distance, Formula, horizon
+from stlplan.mission.checks import check_group_count
 from stlplan.mission.problem import Problem, TaskModel
 from stlplan.planner.encoding.sos1 import sos1
 from stlplan.planner.encoding.stl import StlContext, encode, indicator, require
@@ -78,6 +79,7 @@ def encode_task(ctx: StlContext, problem: Problem, task: TaskModel) -> TaskEncod
     ``h_T = 1``, ``{1 - h_T, h_1..h_N}`` SOS1 and ``h_j <= h[element, phi, 0]`` for each element
     of group ``j``. A single group needs no choice: its elements' ``phi`` are required outright.
     """
+    check_group_count(problem.mission, task.name, task.elements, problem.source)
     formulas = element_formulas(problem, task)
     if len(task.groups) == 1:
         for i in task.groups[0]:
@@ -144,6 +146,7 @@ def encode_synchronous(ctx: StlContext, problem: Problem, task: TaskModel) -> Sy
     assert task.sync is not None
     a, b, d, gamma = task.sync.a, task.sync.b, task.sync.d, task.sync.gamma
     last = problem.horizon - horizon(task.formula)
+    check_group_count(problem.mission, task.name, task.elements, problem.source)
     formulas = element_formulas(problem, task)
     used = sorted({i for group in task.groups for i in group})
     h = {
