@@ -17,7 +17,7 @@ from stlplan.cli import app
 from tests.conftest import MISSIONS, ROOT
 
 PAIR = MISSIONS / "sync-pair.yaml"
-COMMANDS = ["validate", "check", "schema", "solve", "sweep"]
+COMMANDS = ["validate", "check", "schema", "example", "solve", "sweep"]
 
 
 def _invoke(*args: str) -> tuple[int, str, str]:
@@ -43,6 +43,7 @@ def solved(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, ob
     out = tmp_path_factory.mktemp("solved") / "plan"
     done = _process("solve", str(PAIR), "--out", str(out), "--threads", "1", "--json")
     assert done.returncode == 0, done.stderr
+    assert done.stderr == ""  # stderr holds errors only, not even the solver's banner
     return out, json.loads(done.stdout)
 
 
@@ -95,7 +96,7 @@ def test_a_bad_mission_with_json_is_one_json_error_on_stderr(tmp_path: Path) -> 
     code, stdout, stderr = _invoke("validate", str(bad), "--json")
     assert code == 3 and stdout == ""
     error = json.loads(stderr)
-    assert error["exit_code"] == 3 and error["error"] == "MissionError"
+    assert error["exit_code"] == 3 and error["error"] == "mission"
     assert error["file"] == str(bad)
     assert error["location"].startswith("line ")
     assert "expected" in error["message"] or "YAML" in error["message"]
@@ -145,6 +146,12 @@ def test_quiet_prints_exactly_one_line(solved: tuple[Path, dict[str, object]]) -
     assert checked.stderr == ""
     valid = _process("validate", str(PAIR), "-q")
     assert valid.stdout.count("\n") == 1 and valid.stderr == ""
+    solved = _process(
+        "solve", str(PAIR), "--out", str(out.parent / "quiet"), "--threads", "1", "-q"
+    )
+    assert solved.returncode == 0
+    assert solved.stdout.startswith("satisfied: ") and solved.stdout.count("\n") == 1
+    assert solved.stderr == ""  # not even the solver's banner
 
 
 def test_version() -> None:

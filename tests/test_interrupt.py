@@ -10,6 +10,7 @@ import json
 import os
 import signal
 import threading
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -183,4 +184,24 @@ def test_held_signal_arrives_after_the_critical_section() -> None:
             signal.pthread_kill(threading.get_ident(), signal.SIGINT)
             done.append("inside")  # not interrupted while held
         done.append("after")  # the signal lands on leaving the section
+    assert done == ["inside"]
+
+
+def test_held_signal_waits_when_another_thread_receives_it() -> None:
+    """A solver's worker thread does not block the signal, so the kernel delivers it there; the
+    handler still runs in the main thread and must wait for the end of the section."""
+    release = threading.Event()
+    worker = threading.Thread(target=release.wait)  # started before the mask: receives signals
+    worker.start()
+    done = []
+    try:
+        with stops.stop_on_signals(), pytest.raises(stops.Interrupted):
+            with stops.held():
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(0.2)  # the handler runs in the main thread during this sleep
+                done.append("inside")
+            done.append("after")
+    finally:
+        release.set()
+        worker.join()
     assert done == ["inside"]

@@ -24,8 +24,8 @@ from stlplan.planner import stops
 EPILOG = (
     "Exit codes: 0 satisfied or valid, 1 a checked trajectory violates the mission, 2 usage "
     "error, 3 bad input, 4 infeasible, 5 no plan within the time limit, 6 solver error or a plan "
-    "the monitor rejects, 70 internal error, 130 / 143 stopped by Ctrl-C / SIGTERM. Every "
-    "command takes --json (one JSON document on stdout) and --quiet (one line)."
+    "the monitor rejects, 70 internal error, 130 / 143 stopped by Ctrl-C / SIGTERM. The "
+    "commands take --json (one JSON document on stdout; schema: --out -) and --quiet (one line)."
 )
 
 app = typer.Typer(
@@ -57,12 +57,16 @@ def _root(
     """Plan coordinated trajectories for a heterogeneous team from global STL tasks."""
 
 
-app.command(cls=Command, epilog=files.VALIDATE_EPILOG)(files.validate)
-app.command(cls=Command, epilog=files.CHECK_EPILOG)(files.check)
-app.command(cls=Command, epilog=files.SCHEMA_EPILOG)(files.schema)
-app.command(cls=Command, epilog=planning.SOLVE_EPILOG)(planning.solve)
-app.command(cls=Command, epilog=planning.SWEEP_EPILOG)(planning.sweep)
-app.command(cls=Command, epilog=files.EXAMPLE_EPILOG)(files.example)
+COMMANDS = (
+    (files.validate, files.VALIDATE_EPILOG, "Check a mission file."),
+    (files.check, files.CHECK_EPILOG, "Judge a trajectory from any tool with the monitor."),
+    (files.schema, files.SCHEMA_EPILOG, "Write the mission file JSON Schema."),
+    (files.example, files.EXAMPLE_EPILOG, "List the shipped missions, or write one."),
+    (planning.solve, planning.SOLVE_EPILOG, "Plan a mission, verify it, write the plan."),
+    (planning.sweep, planning.SWEEP_EPILOG, "Solve missions from random initial states."),
+)
+for command, epilog, short_help in COMMANDS:
+    app.command(cls=Command, epilog=epilog, short_help=short_help)(command)
 
 
 def main() -> None:

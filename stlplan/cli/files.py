@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 
 from stlplan import api
 from stlplan.cli.shell import EXIT_VIOLATED, EXITS_COMMON, JsonOption, Output, QuietOption, handled
@@ -81,41 +82,46 @@ def validate(mission: MissionArg, as_json: JsonOption = False, quiet: QuietOptio
         return
     groups = "; ".join(_groups_text(t) for t in problem.tasks)
     output.line(
-        f"[green]valid[/]: {mission} ({len(problem.agents)} agents, "
+        f"[green]valid[/]: {escape(str(mission))} ({len(problem.agents)} agents, "
         f"{len(problem.tasks)} tasks, {len(problem.constraints)} constraints; "
-        f"{groups or 'no tasks'})"
+        f"{groups or 'no tasks'})",
+        markup=True,
     )
+
+
+TrajectoryArg = Annotated[
+    Path,
+    typer.Argument(
+        help="Trajectory CSV: agent, k (or t, step), x0.., u0.. (optional).",
+        metavar="TRAJECTORY",
+        show_default=False,
+    ),
+]
+PlotOption = Annotated[
+    Path | None,
+    typer.Option(
+        help="Also draw the map of the trajectory to this PNG (crossings in red).", metavar="PNG"
+    ),
+]
+ToleranceOption = Annotated[
+    float,
+    typer.Option(
+        help="How far each number of the trajectory may be off: T max(1, |v|) in the dynamics "
+        "and bounds, and a requirement holds at robustness >= -T (1e-3 accepts a CSV rounded to "
+        "3 decimals).",
+        min=0.0,
+        metavar="T",
+    ),
+]
 
 
 @handled
 def check(
     mission: MissionArg,
-    trajectory: Annotated[
-        Path,
-        typer.Argument(
-            help="Trajectory CSV: agent, k (or t, step), x0.., u0.. (optional).",
-            metavar="TRAJECTORY",
-            show_default=False,
-        ),
-    ],
+    trajectory: TrajectoryArg,
     inter_sample: InterSampleOption = None,
-    plot: Annotated[
-        Path | None,
-        typer.Option(
-            help="Also draw the map of the trajectory to this PNG (crossings in red).",
-            metavar="PNG",
-        ),
-    ] = None,
-    tolerance: Annotated[
-        float,
-        typer.Option(
-            help="How far each number of the trajectory may be off: T max(1, |v|) in the "
-            "dynamics and bounds, and a requirement holds at robustness >= -T (1e-3 accepts a "
-            "CSV rounded to 3 decimals).",
-            min=0.0,
-            metavar="T",
-        ),
-    ] = api.DEFAULT_TOLERANCE,
+    plot: PlotOption = None,
+    tolerance: ToleranceOption = api.DEFAULT_TOLERANCE,
     as_json: JsonOption = False,
     quiet: QuietOption = False,
 ) -> None:
@@ -138,7 +144,7 @@ def check(
         doc |= {"trajectory": str(trajectory), "inter_sample": problem.inter_sample}
         output.document(doc | report_dict(report))
     elif quiet:
-        output.line(report_line(report))
+        output.line(report_line(report), markup=True)
     else:
         print_report(output.out, report)
         if plot is not None:
@@ -204,7 +210,7 @@ def example(
             output.line(" ".join(e.name for e in shipped))
         else:
             for item in shipped:
-                output.line(f"[bold]{item.name:<12}[/] {item.description}")
+                output.line(f"[bold]{item.name:<12}[/] {escape(item.description)}", markup=True)
         return
     if out == "-":
         sys.stdout.write(examples.example_text(name))

@@ -20,7 +20,7 @@ from stlplan.cli.shell import (
     Output,
     QuietOption,
     handled,
-    solver_output_to_stderr,
+    solver_output,
 )
 from stlplan.mission.schema import MAX_SEED
 from stlplan.planner import stops
@@ -89,52 +89,60 @@ def _exit_code(result: PlanResult) -> int:
     return code
 
 
+TimeLimitOption = Annotated[
+    float | None,
+    typer.Option(
+        help="Seconds for the whole run, at least 0.001 (default: the mission's).",
+        min=0.001,
+        metavar="SECONDS",
+    ),
+]
+GapOption = Annotated[
+    float | None,
+    typer.Option(
+        help="Relative optimality gap, 0 <= GAP < 1 (default: the mission's).",
+        min=0.0,
+        metavar="GAP",
+        callback=_gap,
+    ),
+]
+ThreadsOption = Annotated[
+    int | None,
+    typer.Option(
+        help="HiGHS threads, at least 1 (default: the mission's or HiGHS').", min=1, metavar="N"
+    ),
+]
+SeedOption = Annotated[
+    int | None, typer.Option(help="HiGHS random seed.", min=0, max=MAX_SEED, metavar="N")
+]
+OneStepOption = Annotated[
+    bool, typer.Option("--one-step", help="Skip step 2 (effort minimization with decisions fixed).")
+]
+EncodingOption = Annotated[
+    Encoding | None,
+    typer.Option(help="Disjunction encoding (default: the mission's).", metavar="log|standard"),
+]
+TasksOption = Annotated[
+    TaskForm | None,
+    typer.Option(
+        help="Task encoding: select elements, or enumerate groups as the paper does "
+        "(default: the mission's, selection).",
+        metavar="selection|groups",
+    ),
+]
+
+
 @handled
 def solve(
     mission: MissionArg,
     out: OutOption = "out",
-    time_limit: Annotated[
-        float | None,
-        typer.Option(
-            help="Seconds for the whole run, at least 0.001 (default: the mission's).",
-            min=0.001,
-            metavar="SECONDS",
-        ),
-    ] = None,
-    gap: Annotated[
-        float | None,
-        typer.Option(
-            help="Relative optimality gap, 0 <= GAP < 1 (default: the mission's).",
-            min=0.0,
-            metavar="GAP",
-            callback=_gap,
-        ),
-    ] = None,
-    threads: Annotated[
-        int | None,
-        typer.Option(
-            help="HiGHS threads, at least 1 (default: the mission's or HiGHS').", min=1, metavar="N"
-        ),
-    ] = None,
-    seed: Annotated[
-        int | None, typer.Option(help="HiGHS random seed.", min=0, max=MAX_SEED, metavar="N")
-    ] = None,
-    one_step: Annotated[
-        bool,
-        typer.Option("--one-step", help="Skip step 2 (effort minimization with decisions fixed)."),
-    ] = False,
-    encoding: Annotated[
-        Encoding | None,
-        typer.Option(help="Disjunction encoding (default: the mission's).", metavar="log|standard"),
-    ] = None,
-    tasks: Annotated[
-        TaskForm | None,
-        typer.Option(
-            help="Task encoding: select elements, or enumerate groups as the paper does "
-            "(default: the mission's, selection).",
-            metavar="selection|groups",
-        ),
-    ] = None,
+    time_limit: TimeLimitOption = None,
+    gap: GapOption = None,
+    threads: ThreadsOption = None,
+    seed: SeedOption = None,
+    one_step: OneStepOption = False,
+    encoding: EncodingOption = None,
+    tasks: TasksOption = None,
     inter_sample: InterSampleOption = None,
     as_json: JsonOption = False,
     quiet: QuietOption = False,
@@ -158,7 +166,10 @@ def solve(
         inter_sample=inter_sample,
     )
     problem = api.validate(mission)
-    with solver_output_to_stderr(), ProgressLine(output.err, enabled=output.full) as line:
+    with (
+        solver_output(discard=not output.full),
+        ProgressLine(output.err, enabled=output.full) as line,
+    ):
         result = api.solve(problem, out=out, overrides=overrides, progress=line.update)
     code = _exit_code(result)
     if as_json:
@@ -171,37 +182,42 @@ def solve(
     raise typer.Exit(code)
 
 
+MissionsArg = Annotated[
+    list[Path], typer.Argument(help="Mission files (YAML).", metavar="MISSION", show_default=False)
+]
+RunsOption = Annotated[
+    int, typer.Option(help="Random initial states per mission.", min=1, metavar="N")
+]
+SweepSeedOption = Annotated[
+    int, typer.Option(help="Seed: run i of seed S always gets the same state.", min=0, metavar="S")
+]
+WorkersOption = Annotated[
+    int | None,
+    typer.Option(help="Local worker processes (default: one per core).", min=1, metavar="W"),
+]
+SchedulerOption = Annotated[
+    str | None,
+    typer.Option(help="Dask scheduler address, e.g. tcp://host:8786.", metavar="ADDRESS"),
+]
+SolveTimeOption = Annotated[
+    float | None,
+    typer.Option(help="Seconds per solve (default: the mission's).", min=0.001, metavar="SECONDS"),
+]
+ResumeOption = Annotated[
+    bool, typer.Option("--resume", help="Skip runs already in OUT/runs.jsonl.")
+]
+
+
 @handled
 def sweep(
-    missions: Annotated[
-        list[Path],
-        typer.Argument(help="Mission files (YAML).", metavar="MISSION", show_default=False),
-    ],
-    runs: Annotated[
-        int, typer.Option(help="Random initial states per mission.", min=1, metavar="N")
-    ] = 30,
-    seed: Annotated[
-        int,
-        typer.Option(help="Seed: run i of seed S always gets the same state.", min=0, metavar="S"),
-    ] = 0,
-    workers: Annotated[
-        int | None,
-        typer.Option(help="Local worker processes (default: one per core).", min=1, metavar="W"),
-    ] = None,
-    scheduler: Annotated[
-        str | None,
-        typer.Option(help="Dask scheduler address, e.g. tcp://host:8786.", metavar="ADDRESS"),
-    ] = None,
+    missions: MissionsArg,
+    runs: RunsOption = 30,
+    seed: SweepSeedOption = 0,
+    workers: WorkersOption = None,
+    scheduler: SchedulerOption = None,
     out: OutOption = "out/sweep",
-    time_limit: Annotated[
-        float | None,
-        typer.Option(
-            help="Seconds per solve (default: the mission's).", min=0.001, metavar="SECONDS"
-        ),
-    ] = None,
-    resume: Annotated[
-        bool, typer.Option("--resume", help="Skip runs already in OUT/runs.jsonl.")
-    ] = False,
+    time_limit: SolveTimeOption = None,
+    resume: ResumeOption = False,
     as_json: JsonOption = False,
     quiet: QuietOption = False,
 ) -> None:
@@ -218,7 +234,10 @@ def sweep(
         where = f"in {workers} local processes" if workers else "in one local process per core"
     if output.full:
         output.err.print(f"sweep runs {where}")
-    with solver_output_to_stderr(), SweepProgress(output.err, enabled=output.full) as bar:
+    with (
+        solver_output(discard=not output.full),
+        SweepProgress(output.err, enabled=output.full) as bar,
+    ):
         rows = api.sweep(
             list(missions),
             runs,

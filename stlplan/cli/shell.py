@@ -40,7 +40,7 @@ JsonOption = Annotated[
     typer.Option(
         "--json",
         help="Print one JSON document on stdout and nothing else there; an error is one JSON "
-        "object on stderr (exit_code, error, message, file, location).",
+        "object on stderr (exit_code, error: its kind, message, file, location).",
     ),
 ]
 QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="Print one line: the result.")]
@@ -79,10 +79,11 @@ class Output:
         sys.stdout.write(dumps(data) + "\n")
         sys.stdout.flush()
 
-    def line(self, text: str, error: bool = False) -> None:
-        """One line (rich markup allowed) on stdout, or stderr for a failure; none with --json."""
+    def line(self, text: str, error: bool = False, markup: bool = False) -> None:
+        """One line on stdout, or stderr for a failure; none with --json. ``markup``: ``text``
+        holds rich markup (what it quotes is escaped)."""
         if not self.as_json:
-            (self.err if error else self.out).print(text)
+            (self.err if error else self.out).print(text, markup=markup)
 
 
 def _flush_native() -> None:
@@ -92,23 +93,26 @@ def _flush_native() -> None:
 
 
 @contextlib.contextmanager
-def solver_output_to_stderr() -> Iterator[None]:
-    """Point file descriptor 1 at stderr while the solver runs, so what native code prints
-    (HiGHS's banner) never mixes with stlplan's own output on stdout."""
+def solver_output(discard: bool) -> Iterator[None]:
+    """Point file descriptor 1 at stderr (or, with ``discard``, nowhere) while the solver runs,
+    so what native code prints (HiGHS's banner) never mixes with stlplan's own output on stdout;
+    ``--json`` and ``--quiet`` runs discard it."""
     sys.stdout.flush()
     try:
         saved = os.dup(1)
+        target = os.open(os.devnull, os.O_WRONLY) if discard else os.dup(2)
     except OSError:  # no file descriptor 1: nothing can reach stdout
         yield
         return
     try:
-        os.dup2(2, 1)
+        os.dup2(target, 1)
         yield
     finally:
         sys.stdout.flush()
         _flush_native()
         os.dup2(saved, 1)
         os.close(saved)
+        os.close(target)
 
 
 def print_json_error(
@@ -134,6 +138,11 @@ def _report(as_json: bool, code: int, kind: str, exc: BaseException | str) -> No
     console(stderr=True).print(shown, soft_wrap=True)
 
 
+def error_kind(exc: StlplanError) -> str:
+    """``mission``, ``formula``, ``trajectory``, ``usage``, ``infeasible`` or ``solver``."""
+    return type(exc).__name__.removesuffix("Error").lower()
+
+
 def _os_error(exc: OSError) -> UsageError:
     where = str(exc.filename) if exc.filename else None
     return UsageError(exc.strerror or str(exc), source=where)
@@ -150,7 +159,7 @@ def handled(command: Callable[..., None]) -> Callable[..., None]:
         except typer.Exit:
             raise
         except StlplanError as exc:
-            _report(as_json, exc.exit_code, type(exc).__name__, exc)
+            _report(as_json, exc.exit_code, error_kind(exc), exc)
             raise typer.Exit(exc.exit_code) from None
         except KeyboardInterrupt as exc:  # a signal outside a solve, or a second one
             code = exc.exit_code if isinstance(exc, stops.Interrupted) else EXIT_INTERRUPTED
@@ -158,7 +167,7 @@ def handled(command: Callable[..., None]) -> Callable[..., None]:
             raise typer.Exit(code) from None
         except OSError as exc:  # a file the operating system refused (disk full, permissions)
             error = _os_error(exc)
-            _report(as_json, EXIT_USAGE, "UsageError", error)
+            _report(as_json, EXIT_USAGE, "usage", error)
             raise typer.Exit(EXIT_USAGE) from None
         except Exception as exc:  # noqa: BLE001 - the edge of the program
             if os.environ.get("STLPLAN_DEBUG"):
