@@ -14,6 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stlplan.errors import TrajectoryError
+from stlplan.formula.boundary import HOLDS_AT
 from stlplan.formula.parser import to_text
 from stlplan.formula.tree import (
     Always,
@@ -453,4 +454,4 @@ def test_monitor_matches_brute_force(formula: Formula, data: st.DataObject) -> N
     verdict = check(problem, walk({"a": path})).verdict("phi")
     expected = brute(formula, np.array(path), 0)
     assert verdict.robustness == pytest.approx(expected, abs=1e-9)
-    assert verdict.satisfied is bool(expected >= -1e-6)
+    assert verdict.satisfied is bool(expected >= HOLDS_AT)

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from stlplan.formula.boundary import EPSILON
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
@@ -56,7 +57,7 @@ def reach_problem(effort: str = "l1", goal_x: tuple[float, float] = (1, 2)) -> P
 
 
 def sync_problem(gamma: float = 8) -> Problem:
-    # Vis agents reach C (x >= 2) at the earliest at k = 2 (v1), 3 (v2), 5 (v3)
+    # Vis agents reach C (x >= 1.5 + EPSILON) at the earliest at k = 2 (v1), 3 (v2), 5 (v3)
     starts = {"v1": [0, 0], "v2": [-1, 0.5], "v3": [-3, 1]}
     return mission(
         horizon=6,
@@ -65,7 +66,7 @@ def sync_problem(gamma: float = 8) -> Problem:
             {"name": n, "dynamics": "si", "capabilities": ["Vis"], "initial_state": s}
             for n, s in starts.items()
         ],
-        regions={"C": {"box": [[2, 3], [-1, 2]]}},
+        regions={"C": {"box": [[1.5, 3], [-1, 2]]}},
         tasks={
             "watch": {
                 "formula": "in(p, C)",
@@ -126,22 +127,22 @@ def test_maximized_margin(encoding: str) -> None:
 @pytest.mark.parametrize("encoding", ENCODINGS)
 def test_synchronous_robustness_by_hand(encoding: str) -> None:
     # best pair (v1, v2): both in C on steps 3..6, run 4, rho_s = 4 - 1 - d = 2;
-    # effort: v1 moves 2, v2 moves 3 -> objective 2 - 0.05 * 5
+    # effort: v1 moves 1.5 + e, v2 moves 2.5 + e -> objective 2 - 0.05 * (4 + 2e)
     result = plan(sync_problem(), PlanOptions(encoding=encoding, time_limit=60))
     assert result.status is PlanStatus.OPTIMAL
-    assert result.objective == pytest.approx(2 - 0.05 * 5, abs=1e-6)
+    assert result.objective == pytest.approx(2 - 0.05 * (4 + 2 * EPSILON), abs=5e-8)
     assert result.rho_s == {"watch": pytest.approx(2.0)}
     (assignment,) = result.assignments
     assert assignment.group == (("v1",), ("v2",))
     assert (assignment.run_start, assignment.run_length) == (3, 4)
-    assert result.effort == pytest.approx(5.0, abs=1e-6)
+    assert result.effort == pytest.approx(4 + 2 * EPSILON, abs=5e-7)
 
 
 def test_gamma_caps_synchronous_robustness() -> None:
-    # rho_s <= gamma = 1 needs a run of 3 (v1, v2 from step 3): effort still 5
+    # rho_s <= gamma = 1 needs a run of 3 (v1, v2 from step 3): effort still 4 + 2e
     result = plan(sync_problem(gamma=1), PlanOptions(time_limit=60))
     assert result.status is PlanStatus.OPTIMAL
-    assert result.objective == pytest.approx(1 - 0.05 * 5, abs=1e-6)
+    assert result.objective == pytest.approx(1 - 0.05 * (4 + 2 * EPSILON), abs=5e-8)
 
 
 def test_solver_robustness_equals_monitor() -> None:

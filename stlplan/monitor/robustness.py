@@ -4,7 +4,8 @@ The monitor's arithmetic core. It reads a formula after :func:`stlplan.formula.n
 (only :class:`Predicate`, :class:`And`, :class:`Or`, :class:`Always`, :class:`Eventually`,
 :class:`Until`) and the states of the agents bound to its roles, and returns the robustness
 ``rho(k)`` at every step ``k`` where the formula can be decided inside the horizon, i.e.
-``k + horizon(formula) <= H``. The formula holds at ``k`` iff ``rho(k) >= 0``.
+``k + horizon(formula) <= H``. The formula holds at ``k`` iff ``rho(k) >= HOLDS_AT``
+(:func:`stlplan.formula.boundary.holds`: a region's boundary is neither inside nor outside).
 
 Each node type has one small evaluator in :data:`EVALUATORS`; an evaluator returns an array whose
 index is ``k`` and whose length is ``H + 1 - horizon(node)``.

@@ -4,17 +4,20 @@
 agent's dynamics from the mission's formula trees and the trajectory alone, with numpy. It never
 imports the encoder, the solver or Pyomo, so a plan is checked by code that did not produce it.
 
-Semantics (DESIGN.md section 2; ``tol`` is the tolerance on every ``>= 0`` test):
+Semantics (DESIGN.md section 2). A robustness value holds iff it is at least ``HOLDS_AT``
+(``EPSILON / 2``, :mod:`stlplan.formula.boundary`): a region's boundary is neither inside nor
+outside, and the planner enforces every predicate with a margin of at least ``EPSILON``.
 
 * element ``e`` of task ``T``: ``rho_e(k)`` is the robustness of ``phi`` with ``e``'s agents bound
   to the roles; a group's robustness is ``min_{e in group} rho_e(0)``, the task's is the max over
-  groups, and ``T`` holds iff that is ``>= -tol``;
-* synchronous task ``F[a,b] <G[0,d] phi, c, Pattern>``: ``s_j(k) = 1`` iff ``rho_e(k) >= -tol`` for
+  groups, and ``T`` holds iff that holds;
+* synchronous task ``F[a,b] <G[0,d] phi, c, Pattern>``: ``s_j(k) = 1`` iff ``rho_e(k)`` holds for
   every element of group ``j``; ``run_j(k')`` counts the consecutive steps ``k', k'+1, ...`` with
   ``s_j = 1`` (stopping where ``phi`` can no longer be evaluated); ``rho_s = max_j max_{k' in [a,b]}
   run_j(k') - 1 - d`` and the task holds iff ``rho_s >= 0``;
 * constraints hold at step 0 under every binding; separation is
-  ``min_{p<q, k} ||z_p(k) - z_q(k)||_inf - d_col >= -tol``;
+  ``min_{p<q, k} ||z_p(k) - z_q(k)||_inf - d_col``, which must hold;
+* dynamics and bounds hold within the tolerance ``tol`` (relative to the terms' scale);
 * with inter-sample safety (``problem.inter_sample``, the default) avoidance parts of constraints
   and separation are also judged on the straight segments between steps
   (:mod:`stlplan.monitor.crossings`): a constraint's or the separation's robustness is the minimum over
@@ -29,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from stlplan.errors import TrajectoryError
+from stlplan.formula.boundary import holds
 from stlplan.mission.problem import AgentModel, ConstraintModel, Problem, TaskModel
 from stlplan.monitor.crossings import separation_segments, worst_segment
 from stlplan.monitor.robustness import robustness
@@ -45,7 +49,7 @@ def check(problem: Problem, trajectory: Trajectory, tol: float = 1e-6) -> Monito
     trajectory
         States ``x_p(0..H)`` and inputs ``u_p(0..H-1)`` of every agent of the mission.
     tol
-        Tolerance of the monitor: a robustness ``>= -tol`` counts as satisfied.
+        Tolerance of the dynamics and bounds checks (robustness verdicts use ``HOLDS_AT``).
 
     Raises
     ------
@@ -55,11 +59,11 @@ def check(problem: Problem, trajectory: Trajectory, tol: float = 1e-6) -> Monito
     _check_shapes(problem, trajectory)
     verdicts: list[Verdict] = []
     for task in problem.tasks:
-        verdicts.append(_task_verdict(problem, trajectory, task, tol))
+        verdicts.append(_task_verdict(problem, trajectory, task))
     for constraint in problem.constraints:
-        verdicts.append(_constraint_verdict(problem, trajectory, constraint, tol))
+        verdicts.append(_constraint_verdict(problem, trajectory, constraint))
     if problem.separation is not None:
-        verdicts.append(_separation_verdict(problem, trajectory, problem.separation, tol))
+        verdicts.append(_separation_verdict(problem, trajectory, problem.separation))
     for agent in problem.agents:
         verdicts.append(_dynamics_verdict(agent, trajectory, tol))
     return MonitorReport(tuple(verdicts))
@@ -100,16 +104,16 @@ def _group_elements(task: TaskModel, group: Sequence[int]) -> tuple[Element, ...
     return tuple(task.elements[i] for i in group)
 
 
-def _task_verdict(problem: Problem, trajectory: Trajectory, task: TaskModel, tol: float) -> Verdict:
+def _task_verdict(problem: Problem, trajectory: Trajectory, task: TaskModel) -> Verdict:
     rho = element_robustness(problem, trajectory, task)
     if task.sync is not None:
-        return _synchronous_verdict(task, rho, tol)
+        return _synchronous_verdict(task, rho)
     # rho(T) = max_j min_{e in group j} rho_e(0)
     groups = np.array(task.groups, dtype=int)
     group_rho = np.min(rho[:, 0][groups], axis=1)
     best = int(np.nanargmax(group_rho)) if not np.all(np.isnan(group_rho)) else 0
     value = float(group_rho[best])
-    satisfied = bool(value >= -tol)
+    satisfied = holds(value)
     text = _group_text(task, task.groups[best])
     detail = (
         f"group {text} holds with margin {value:.3g}"
@@ -132,7 +136,7 @@ def run_lengths(holds: np.ndarray) -> np.ndarray:
     return run[:, :-1]
 
 
-def _synchronous_verdict(task: TaskModel, rho: np.ndarray, tol: float) -> Verdict:
+def _synchronous_verdict(task: TaskModel, rho: np.ndarray) -> Verdict:
     assert task.sync is not None
     a, b, d = task.sync.a, task.sync.b, task.sync.d
     groups = np.array(task.groups, dtype=int)
@@ -140,7 +144,7 @@ def _synchronous_verdict(task: TaskModel, rho: np.ndarray, tol: float) -> Verdic
     steps = per_group.shape[2]
     starts = np.arange(a, b + 1)
     # s_j(k) = 1 iff every element of group j satisfies phi at k
-    run = run_lengths(np.all(per_group >= -tol, axis=1))
+    run = run_lengths(np.all(holds(per_group), axis=1))
     run = np.hstack([run, np.zeros((len(groups), b + 1), dtype=int)])[:, starts]
     # spatial robustness of G[0,d] AND_e phi_e from k': min_e min_{k in [k', k'+d]} rho_e(k)
     spatial = np.full((len(groups), len(starts)), -np.inf)
@@ -213,7 +217,7 @@ def _binding_value(
 
 
 def _constraint_verdict(
-    problem: Problem, trajectory: Trajectory, constraint: ConstraintModel, tol: float
+    problem: Problem, trajectory: Trajectory, constraint: ConstraintModel
 ) -> Verdict:
     # rho(constraint) = min over bindings of rho(phi, 0) (and of rho_seg on the segments)
     values, segments = [], []
@@ -225,7 +229,7 @@ def _constraint_verdict(
         return Verdict(constraint.name, "constraint", True, float("inf"), detail="no binding")
     worst = int(np.argmin(np.where(np.isnan(values), -np.inf, values)))
     value = values[worst]
-    failing = sum(1 for v in values if not v >= -tol)
+    failing = sum(1 for v in values if not holds(v))
     who = _binding_text(dict(constraint.bindings[worst])) + segments[worst]
     if failing == 0:
         detail = f"holds for all {len(values)} binding(s); tightest {who} with margin {value:.3g}"
@@ -234,9 +238,7 @@ def _constraint_verdict(
     return Verdict(constraint.name, "constraint", failing == 0, value, detail=detail)
 
 
-def _separation_verdict(
-    problem: Problem, trajectory: Trajectory, separation: float, tol: float
-) -> Verdict:
+def _separation_verdict(problem: Problem, trajectory: Trajectory, separation: float) -> Verdict:
     # rho = min_{p<q} min_k ||z_p(k) - z_q(k)||_inf - separation
     name = "separation"
     agents = problem.agents
@@ -256,7 +258,7 @@ def _separation_verdict(
         if seg[sp, sq, sk] < value - 1e-12:
             value = float(seg[sp, sq, sk])
             pair = f"{agents[sp].name} and {agents[sq].name} on the segment {sk} -> {sk + 1}"
-    satisfied = bool(value >= -tol)
+    satisfied = holds(value)
     detail = (
         f"every pair keeps {separation:g} apart; closest {pair} with margin {value:.3g}"
         if satisfied
