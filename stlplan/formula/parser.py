@@ -48,8 +48,8 @@ class _ToTree(Transformer):  # type: ignore[type-arg]
     def conjunction(self, *items: Formula) -> Formula:
         return And(tuple(items))
 
-    def until(self, left: Formula, _op: Token, interval: Interval, right: Formula) -> Formula:
-        return Until(interval, left, right)
+    def until(self, left: Formula, op: Token, interval: Interval, right: Formula) -> Formula:
+        return Until(interval, left, right, strict=op.type == "STRICT_UNTIL")
 
     def negation(self, _op: Token, child: Formula) -> Formula:
         return negate(child)
@@ -170,6 +170,7 @@ _TERMINAL_TEXT = {
     "ALWAYS": "'G'",
     "EVENTUALLY": "'F'",
     "UNTIL": "'U'",
+    "STRICT_UNTIL": "'U*'",
     "AMPERSAND": "'&'",
     "VBAR": "'|'",
     "STAR": "'*'",
@@ -233,8 +234,8 @@ def to_text(formula: Formula) -> str:
         return f"G[{formula.interval.lo},{formula.interval.hi}] {_wrap(formula.child)}"
     if isinstance(formula, Eventually):
         return f"F[{formula.interval.lo},{formula.interval.hi}] {_wrap(formula.child)}"
-    i = formula.interval
-    return f"{_wrap(formula.left)} U[{i.lo},{i.hi}] {_wrap(formula.right)}"
+    i, op = formula.interval, "U*" if formula.strict else "U"
+    return f"{_wrap(formula.left)} {op}[{i.lo},{i.hi}] {_wrap(formula.right)}"
 
 
 def _wrap_atom(atom: Formula) -> str:

@@ -125,17 +125,21 @@ def _eventually(node: Formula, signals: Signals, horizon: int) -> np.ndarray:
 
 def _until(node: Formula, signals: Signals, horizon: int) -> np.ndarray:
     # rho(l U[a,b] r, k) = max_{k' in [k+a, k+b]} min(rho(r, k'), min_{k'' in [k, k']} rho(l, k''))
+    # rho(l U*[a,b] r, k): the same with k'' in [k, k') (an empty min is +inf)
     assert isinstance(node, Until)
     left = _evaluate(node.left, signals, horizon)
     right = _evaluate(node.right, signals, horizon)
     lo, hi = node.interval.lo, node.interval.hi
     length = min(len(left), len(right)) - hi
-    prefix_min = left[:length].copy()  # min of left over [k, k + t], grown one t at a time
+    prefix_min = np.full(length, np.inf)  # min of left over [k, k + t] (strict: [k, k + t))
     best = np.full(length, -np.inf)
     for t in range(hi + 1):
-        prefix_min = np.minimum(prefix_min, left[t : t + length])
+        if not node.strict:
+            prefix_min = np.minimum(prefix_min, left[t : t + length])
         if t >= lo:
             best = np.maximum(best, np.minimum(right[t : t + length], prefix_min))
+        if node.strict:
+            prefix_min = np.minimum(prefix_min, left[t : t + length])
     return best
 
 
