@@ -43,6 +43,13 @@ A, B, C = InRegion("p", "A"), InRegion("p", "B"), InRegion("p", "C")
         # until: looser than G/F/!, tighter than '&'
         ("in(p, A) U[1,4] in(p, B)", Until(Interval(1, 4), A, B)),
         ("in(p, A) U*[1,4] in(p, B)", Until(Interval(1, 4), A, B, strict=True)),
+        # RTAMT's spellings; its until is the strict one; implication is !a | b, pushed down
+        ("eventually[0:4] in(p, A)", Eventually(Interval(0, 4), A)),
+        ("always[1,2] not in(p, A)", Always(Interval(1, 2), Not(A))),
+        ("in(p, A) and in(p, B) or in(p, C)", Or((And((A, B)), C))),
+        ("in(p, A) until[0:3] in(p, B)", Until(Interval(0, 3), A, B, strict=True)),
+        ("in(p, A) -> in(p, B)", Or((Not(A), B))),
+        ("in(p, A) & in(p, B) implies in(p, C)", Or((Or((Not(A), Not(B))), C))),
         ("in(p, A) U* [0,2] in(p, B) | in(p, C)", Or((Until(Interval(0, 2), A, B, True), C))),
         ("in(p, A) U[0,2] in(p, B) & in(p, C)", And((Until(Interval(0, 2), A, B), C))),
         ("G[0,1] in(p, A) U[0,2] in(p, B)", Until(Interval(0, 2), Always(Interval(0, 1), A), B)),
@@ -161,3 +168,19 @@ FORMULAS = st.recursive(LITERALS, _compound, max_leaves=10)
 def test_round_trip(tree: Formula) -> None:
     text = to_text(tree)
     assert parse(text) == tree, text
+
+
+@pytest.mark.parametrize(
+    ("text", "spelling"),
+    [
+        ("next in(p, A)", "F[1,1] phi"),
+        ("historically[0:2] in(p, A)", "past-time"),
+        ("p.x[0] > 1", "'<=' or '>='"),
+        ("in(p, A) xor in(p, B)", "(a & !b) | (!a & b)"),
+        ("always in(p, A)", "always[a,b]"),
+    ],
+)
+def test_other_tools_spellings_are_refused_with_stlplans(text: str, spelling: str) -> None:
+    with pytest.raises(FormulaError) as caught:
+        parse(text)
+    assert spelling in caught.value.message
