@@ -27,6 +27,7 @@ from stlplan.result import MonitorReport, PlanResult
 __all__ = [
     "Overrides",
     "check",
+    "export_rtamt",
     "plan",
     "plot_trajectory",
     "solve",
@@ -39,6 +40,20 @@ __all__ = [
 def validate(mission: str | Path) -> Problem:
     """Load and check a mission file; raise on the first mistake."""
     return load_problem(mission)
+
+
+def export_rtamt(mission: str | Path, out: str | Path | None = None) -> tuple[list[Any], str]:
+    """Each single-agent task and constraint of a mission as an RTAMT specification
+    (:class:`stlplan.outputs.rtamt.RtamtSpec`), and the document ``stlplan export-rtamt`` writes
+    (to ``out`` when given)."""
+    from stlplan.outputs.rtamt import rtamt_document, rtamt_specs
+
+    problem = load_problem(mission)
+    specs = rtamt_specs(problem)
+    text = rtamt_document(problem, str(mission), specs)
+    if out is not None:
+        Path(out).write_text(text, encoding="utf-8")
+    return specs, text
 
 
 def check(

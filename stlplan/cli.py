@@ -111,6 +111,22 @@ def validate(mission: MissionArg) -> None:
     )
 
 
+@app.command("export-rtamt")
+@handled
+def export_rtamt(
+    mission: MissionArg,
+    out: Annotated[
+        Path | None, typer.Option(help="Write to this file instead of standard output.")
+    ] = None,
+) -> None:
+    """Write each single-agent task and constraint as an RTAMT specification, to cross-check."""
+    specs, text = api.export_rtamt(mission, out)
+    if out is None:
+        sys.stdout.write(text)
+    else:
+        out_console.print(f"wrote {len(specs)} specification(s) to {out}")
+
+
 InterSampleOption = Annotated[
     bool | None,
     typer.Option(
