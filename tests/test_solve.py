@@ -276,3 +276,23 @@ def test_thread_count_can_change_between_plans() -> None:
     for threads in (None, 2, 1):
         result = plan(reach_problem(), PlanOptions(time_limit=30, threads=threads))
         assert result.status is PlanStatus.OPTIMAL, (threads, result.message)
+
+
+@pytest.mark.parametrize(
+    ("op", "status"), [("U*", PlanStatus.OPTIMAL), ("U", PlanStatus.INFEASIBLE)]
+)
+def test_the_strict_until_needs_no_left_where_right_holds(op: str, status: PlanStatus) -> None:
+    # the agent starts in B, outside A (|u| <= 1 keeps it out of A at step 0): A U*[0,2] B holds
+    # at once with no effort; the paper's U needs A at step 0 as well, which nothing can give
+    problem = mission(
+        horizon=2,
+        dynamics={"si": single_integrator(1.0)},
+        agents=[{"name": "a", "dynamics": "si", "initial_state": [0, 0]}],
+        regions={"A": {"box": [[2, 3], [-1, 1]]}, "B": {"box": [[-0.5, 0.5], [-1, 1]]}},
+        tasks={"t": {"formula": f"in(p, A) {op}[0,2] in(p, B)", "roles": {"p": {"agent": "a"}}}},
+        objective={"beta": 1.0, "effort": "l1"},
+    )
+    result = plan(problem, PlanOptions(time_limit=30, threads=1))
+    assert result.status is status
+    if status is PlanStatus.OPTIMAL:
+        assert result.effort == pytest.approx(0.0, abs=1e-9)
