@@ -32,6 +32,7 @@ DEFAULT_TOLERANCE = 1e-6
 __all__ = [
     "Overrides",
     "check",
+    "export_rtamt",
     "plan",
     "plot_trajectory",
     "solve",
@@ -50,6 +51,20 @@ def validate(mission: str | Path) -> Problem:
     return problem
 
 
+def export_rtamt(mission: str | Path, out: str | Path | None = None) -> tuple[list[Any], str]:
+    """Each single-agent task and constraint of a mission as an RTAMT specification
+    (:class:`stlplan.outputs.rtamt.RtamtSpec`), and the document ``stlplan export-rtamt`` writes
+    (to ``out`` when given)."""
+    from stlplan.outputs.rtamt import rtamt_document, rtamt_specs
+
+    problem = load_problem(mission)
+    specs = rtamt_specs(problem)
+    text = rtamt_document(problem, str(mission), specs)
+    if out is not None:
+        Path(out).write_text(text, encoding="utf-8")
+    return specs, text
+
+
 def check(
     mission: str | Path | Problem,
     trajectory: str | Path,
@@ -60,15 +75,17 @@ def check(
 
     ``inter_sample``: judge safety between steps too (None keeps the mission's
     ``safety.inter_sample``). ``tolerance``: how far each number of the trajectory may be off,
-    ``tolerance * max(1, |v|)``, in the dynamics and bounds; requirements hold at robustness
-    ``>= -tolerance`` (:mod:`stlplan.monitor.dynamics`).
+    ``tolerance * max(1, |v|)``, in the dynamics and bounds; a tolerance above the default also
+    lets requirements hold at robustness ``>= EPSILON / 2 - tolerance``
+    (:mod:`stlplan.formula.boundary`), for trajectories rounded by other tools.
     """
     if not (tolerance >= 0 and math.isfinite(tolerance)):
         raise UsageError(f"tolerance: expected a finite number >= 0, found {tolerance!r}")
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
     problem = problem.with_inter_sample(inter_sample)
     traj = read_trajectory_csv(problem, Path(trajectory))
-    return problem, monitor_check(problem, traj, tol=tolerance)
+    slack = tolerance if tolerance > DEFAULT_TOLERANCE else 0.0
+    return problem, monitor_check(problem, traj, tol=tolerance, slack=slack)
 
 
 def plot_trajectory(

@@ -89,14 +89,14 @@ def test_separation_segments_match_the_dense_minimum() -> None:
 
 
 def corner_problem(horizon: int, inter_sample: bool) -> Problem:
-    # from (0, 0) to x = 2 at step H past Obs = [0.5, 1.5] x [-2, 0.5], |u| <= 1 per axis
+    # from (0, 0) to x = 2 at step H past Obs = [0.55, 1.45] x [-2, 0.5], |u| <= 1 per axis
     return mission(
         horizon=horizon,
         safety={"inter_sample": inter_sample},
         agents=[{"name": "a", "dynamics": "si", "initial_state": [0, 0]}],
         regions={
             "Goal": {"box": [[1.9, 2.1], [-0.1, 0.1]]},
-            "Obs": {"box": [[0.5, 1.5], [-2, 0.5]]},
+            "Obs": {"box": [[0.55, 1.45], [-2, 0.5]]},
         },
         tasks={
             "reach": {
@@ -170,7 +170,7 @@ def test_check_draws_the_trajectory_it_judges(tmp_path: Path) -> None:
         "agent,k,x0,x1,u0,u1\n"
         + "".join(
             f"a,{k},{x},{y},{dx},{dy}\n"
-            for k, (x, y, dx, dy) in enumerate([(0, 0, 1, 0.5), (1, 0.5, 1, -0.5), (2, 0, "", "")])
+            for k, (x, y, dx, dy) in enumerate([(0, 0, 1, 0.6), (1, 0.6, 1, -0.6), (2, 0, "", "")])
         ),
         encoding="utf-8",
     )

@@ -8,6 +8,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pyomo.contrib.solver.common.results import TerminationCondition
 from pyomo.contrib.solver.solvers.highs import Highs
 from pyomo.environ import (
@@ -170,6 +172,14 @@ TEMPORAL: list[tuple[str, Callable[[Sequence[str]], bool]]] = [
         "in(p, A) U[1,3] in(p, B)",
         lambda s: any("b" in s[t] and all("a" in s[u] for u in range(t + 1)) for t in range(1, 4)),
     ),
+    (
+        "in(p, A) U*[1,3] in(p, B)",
+        lambda s: any("b" in s[t] and all("a" in s[u] for u in range(t)) for t in range(1, 4)),
+    ),
+    (
+        "in(p, B) U*[0,2] !in(p, A)",
+        lambda s: any("a" not in s[t] and all("b" in s[u] for u in range(t)) for t in range(3)),
+    ),
     ("F[0,2] G[0,1] in(p, A)", lambda s: any("a" in s[t] and "a" in s[t + 1] for t in range(3))),
     (
         "G[0,1] (in(p, A) | F[1,2] in(p, B))",
@@ -281,3 +291,32 @@ def test_log_encoding_uses_fewer_binaries(encoding) -> None:
     expected = {"log": 1 + 2 * 4, "standard": 2 + 2 * 10}[encoding]
     assert len(binaries) == expected
     assert all(value(v.lb) == 0 for v in binaries)
+
+
+def _until_holds(spots: Sequence[str], lo: int, hi: int, strict: bool) -> bool:
+    """``in(p, A) U[lo,hi] in(p, B)`` (``U*`` when ``strict``) at 0, from its definition."""
+    for t in range(lo, hi + 1):
+        lefts = range(t) if strict else range(t + 1)
+        if "b" in spots[t] and all("a" in spots[u] for u in lefts):
+            return True
+    return False
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    spots=st.lists(st.sampled_from(list(SPOTS)), min_size=5, max_size=5),
+    bounds=st.tuples(st.integers(0, 4), st.integers(0, 4)).map(sorted),
+    strict=st.booleans(),
+    encoding=st.sampled_from(ENCODINGS),
+)
+def test_both_untils_match_their_definition_in_the_milp(
+    spots: list[str], bounds: list[int], strict: bool, encoding: str
+) -> None:
+    lo, hi = bounds
+    op = "U*" if strict else "U"
+    problem = _line_mission(4, REGIONS, start=SPOTS[spots[0]])
+    formula = problem.lowered(parse(f"in(p, A) {op}[{lo},{hi}] in(p, B)"), {"p": "a1"})
+    model, ctx = _fixed_path_model(problem, [SPOTS[s] for s in spots], encoding)
+    best = _solve(model, encode(formula, 0, ctx.bound({"p": "a1"})), maximize)
+    assert best is not None
+    assert (best > 1 - 1e-7) == _until_holds(spots, lo, hi, strict)

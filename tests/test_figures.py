@@ -46,11 +46,12 @@ def test_a_failed_continuous_solve_says_why_and_what_it_costs(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     import stlplan.planner.solve
+    from stlplan.planner.finish import Finish
 
     def failing(pm, options, clock):  # type: ignore[no-untyped-def]
-        return "the continuous solve ended maxTimeLimit", 0.0
+        return Finish("the continuous solve ended maxTimeLimit")
 
-    monkeypatch.setattr(stlplan.planner.solve, "_continuous", failing)
+    monkeypatch.setattr(stlplan.planner.solve, "finish", failing)
     _, result = api.plan(MISSIONS / "reach-avoid.yaml", overrides=Overrides(threads=1))
     assert result.status.has_plan and result.report is not None
     assert result.fallback is not None

@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from stlplan.formula.boundary import EPSILON
 from stlplan.formula.parser import parse
 from stlplan.formula.tree import step_parts
 from stlplan.mission.problem import Problem, build_problem
@@ -109,7 +110,9 @@ def test_collision_binds_and_lazy_matches_up_front(encoding: str) -> None:
     assert lazy.objective is not None and up_front.objective is not None
     assert free.objective is not None and free.objective > up_front.objective + 0.1  # it binds
     assert lazy.objective == pytest.approx(up_front.objective, abs=1e-6)
-    assert up_front.objective == pytest.approx(-(2 * 1.9 + 2 * 0.4), abs=1e-6)
+    # every predicate holds with the margin EPSILON: x reaches 1.9 + e, y goes 0.25 + e/2 out
+    # (a gap of 0.5 + e) and 0.15 + 3e/2 back (to within 0.1 - e of the axis)
+    assert up_front.objective == pytest.approx(-(2 * 1.9 + 2 * 0.4 + 6 * EPSILON), abs=1e-9)
     assert rounds >= 2  # the first plan collided
     assert accepted(problem, lazy) and accepted(problem, up_front)
 
@@ -124,7 +127,8 @@ def test_obstacle_binds_and_lazy_matches_up_front(window: int | None) -> None:
     assert lazy.objective is not None and up_front.objective is not None
     assert free.objective is not None and free.objective > up_front.objective + 0.1
     assert lazy.objective == pytest.approx(up_front.objective, abs=1e-6)
-    assert up_front.objective == pytest.approx(-(3.9 + 1.9), abs=1e-6)
+    # with the margin EPSILON: x reaches 3.9 + e, y goes 1 + e up and 0.9 + 2e back
+    assert up_front.objective == pytest.approx(-(3.9 + 1.9 + 4 * EPSILON), abs=1e-9)
     assert rounds >= 2
     assert accepted(problem, lazy)
 

@@ -14,6 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stlplan.errors import TrajectoryError
+from stlplan.formula.boundary import HOLDS_AT
 from stlplan.formula.parser import to_text
 from stlplan.formula.tree import (
     Always,
@@ -408,7 +409,9 @@ def brute(f: Formula, x: np.ndarray, k: int) -> float:
     assert isinstance(f, Until)
     best = -float("inf")
     for j in range(k + f.interval.lo, k + f.interval.hi + 1):
-        left = min(brute(f.left, x, i) for i in range(k, j + 1))
+        # the paper's U: left on [k, j]; the strict U* (stlpy, RTAMT): left on [k, j)
+        last = j - 1 if f.strict else j
+        left = min((brute(f.left, x, i) for i in range(k, last + 1)), default=float("inf"))
         best = max(best, min(brute(f.right, x, j), left))
     return best
 
@@ -434,7 +437,7 @@ def surface_formulas() -> st.SearchStrategy[Formula]:
             pair.map(lambda c: Or(c)),
             st.builds(Always, interval, inner),
             st.builds(Eventually, interval, inner),
-            st.builds(Until, interval, inner, inner),
+            st.builds(Until, interval, inner, inner, st.booleans()),
         )
 
     return st.recursive(leaf, extend, max_leaves=5)
@@ -453,4 +456,4 @@ def test_monitor_matches_brute_force(formula: Formula, data: st.DataObject) -> N
     verdict = check(problem, walk({"a": path})).verdict("phi")
     expected = brute(formula, np.array(path), 0)
     assert verdict.robustness == pytest.approx(expected, abs=1e-9)
-    assert verdict.satisfied is bool(expected >= -1e-6)
+    assert verdict.satisfied is bool(expected >= HOLDS_AT)

@@ -42,6 +42,15 @@ A, B, C = InRegion("p", "A"), InRegion("p", "B"), InRegion("p", "C")
         ("G[0,3] in(p, A) | in(p, B)", Or((Always(Interval(0, 3), A), B))),
         # until: looser than G/F/!, tighter than '&'
         ("in(p, A) U[1,4] in(p, B)", Until(Interval(1, 4), A, B)),
+        ("in(p, A) U*[1,4] in(p, B)", Until(Interval(1, 4), A, B, strict=True)),
+        # RTAMT's spellings; its until is the strict one; implication is !a | b, pushed down
+        ("eventually[0:4] in(p, A)", Eventually(Interval(0, 4), A)),
+        ("always[1,2] not in(p, A)", Always(Interval(1, 2), Not(A))),
+        ("in(p, A) and in(p, B) or in(p, C)", Or((And((A, B)), C))),
+        ("in(p, A) until[0:3] in(p, B)", Until(Interval(0, 3), A, B, strict=True)),
+        ("in(p, A) -> in(p, B)", Or((Not(A), B))),
+        ("in(p, A) & in(p, B) implies in(p, C)", Or((Or((Not(A), Not(B))), C))),
+        ("in(p, A) U* [0,2] in(p, B) | in(p, C)", Or((Until(Interval(0, 2), A, B, True), C))),
         ("in(p, A) U[0,2] in(p, B) & in(p, C)", And((Until(Interval(0, 2), A, B), C))),
         ("G[0,1] in(p, A) U[0,2] in(p, B)", Until(Interval(0, 2), Always(Interval(0, 1), A), B)),
         # negation is pushed to the atoms
@@ -106,9 +115,16 @@ def test_syntax_error_has_line_column_and_caret(text: str, line: int, column: in
     ("text", "fragment"),
     [
         ("!(in(p, A) U[0,2] in(p, B))", "until"),
+        ("!(in(p, A) U*[0,2] in(p, B))", "until"),
         ("F[3,1] in(p, A)", "[3,1]"),
         ("dist(p, q) <= -1", ">= 0"),
         ("in(x, A)", "reserved"),
+        # other tools' spellings are refused with stlplan's
+        ("next in(p, A)", "F[1,1] phi"),
+        ("historically[0:2] in(p, A)", "past-time"),
+        ("p.x[0] > 1", "'<=' or '>='"),
+        ("in(p, A) xor in(p, B)", "(a & !b) | (!a & b)"),
+        ("always in(p, A)", "always[a,b]"),
     ],
 )
 def test_semantic_formula_errors(text: str, fragment: str) -> None:
@@ -146,7 +162,7 @@ def _compound(inner: st.SearchStrategy[Formula]) -> st.SearchStrategy[Formula]:
         children.map(Or),
         st.builds(Always, INTERVALS, inner),
         st.builds(Eventually, INTERVALS, inner),
-        st.builds(Until, INTERVALS, inner, inner),
+        st.builds(Until, INTERVALS, inner, inner, st.booleans()),
     )
 
 

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from stlplan.formula.boundary import EPSILON
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
@@ -57,7 +58,7 @@ def reach_problem(effort: str = "l1", goal_x: tuple[float, float] = (1, 2)) -> P
 
 
 def sync_problem(gamma: float = 8) -> Problem:
-    # Vis agents reach C (x >= 2) at the earliest at k = 2 (v1), 3 (v2), 5 (v3)
+    # Vis agents reach C (x >= 1.5 + EPSILON) at the earliest at k = 2 (v1), 3 (v2), 5 (v3)
     starts = {"v1": [0, 0], "v2": [-1, 0.5], "v3": [-3, 1]}
     return mission(
         horizon=6,
@@ -66,7 +67,7 @@ def sync_problem(gamma: float = 8) -> Problem:
             {"name": n, "dynamics": "si", "capabilities": ["Vis"], "initial_state": s}
             for n, s in starts.items()
         ],
-        regions={"C": {"box": [[2, 3], [-1, 2]]}},
+        regions={"C": {"box": [[1.5, 3], [-1, 2]]}},
         tasks={
             "watch": {
                 "formula": "in(p, C)",
@@ -127,22 +128,22 @@ def test_maximized_margin(encoding: str) -> None:
 @pytest.mark.parametrize("encoding", ENCODINGS)
 def test_synchronous_robustness_by_hand(encoding: str) -> None:
     # best pair (v1, v2): both in C on steps 3..6, run 4, rho_s = 4 - 1 - d = 2;
-    # effort: v1 moves 2, v2 moves 3 -> objective 2 - 0.05 * 5
+    # effort: v1 moves 1.5 + e, v2 moves 2.5 + e -> objective 2 - 0.05 * (4 + 2e)
     result = plan(sync_problem(), PlanOptions(encoding=encoding, time_limit=60))
     assert result.status is PlanStatus.OPTIMAL
-    assert result.objective == pytest.approx(2 - 0.05 * 5, abs=1e-6)
+    assert result.objective == pytest.approx(2 - 0.05 * (4 + 2 * EPSILON), abs=5e-8)
     assert result.rho_s == {"watch": pytest.approx(2.0)}
     (assignment,) = result.assignments
     assert assignment.group == (("v1",), ("v2",))
     assert (assignment.run_start, assignment.run_length) == (3, 4)
-    assert result.effort == pytest.approx(5.0, abs=1e-6)
+    assert result.effort == pytest.approx(4 + 2 * EPSILON, abs=5e-7)
 
 
 def test_gamma_caps_synchronous_robustness() -> None:
-    # rho_s <= gamma = 1 needs a run of 3 (v1, v2 from step 3): effort still 5
+    # rho_s <= gamma = 1 needs a run of 3 (v1, v2 from step 3): effort still 4 + 2e
     result = plan(sync_problem(gamma=1), PlanOptions(time_limit=60))
     assert result.status is PlanStatus.OPTIMAL
-    assert result.objective == pytest.approx(1 - 0.05 * 5, abs=1e-6)
+    assert result.objective == pytest.approx(1 - 0.05 * (4 + 2 * EPSILON), abs=5e-8)
 
 
 def test_solver_robustness_equals_monitor() -> None:
@@ -210,8 +211,8 @@ def test_farm_case_one(encoding: str) -> None:
     assert result.status.has_plan
     assert result.trajectory is not None
     assert check(problem, result.trajectory).satisfied
-    if result.status is PlanStatus.OPTIMAL:
-        assert result.rho_s == {"crop_C": pytest.approx(5.0)}
+    if result.status is PlanStatus.OPTIMAL:  # safety between steps: run 6 from step 4
+        assert result.rho_s == {"crop_C": pytest.approx(4.0)}
 
 
 def swap_problem(effort: str) -> Problem:
@@ -278,3 +279,23 @@ def test_thread_count_can_change_between_plans() -> None:
     for threads in (None, 2, 1):
         result = plan(reach_problem(), PlanOptions(time_limit=30, threads=threads))
         assert result.status is PlanStatus.OPTIMAL, (threads, result.message)
+
+
+@pytest.mark.parametrize(
+    ("op", "status"), [("U*", PlanStatus.OPTIMAL), ("U", PlanStatus.INFEASIBLE)]
+)
+def test_the_strict_until_needs_no_left_where_right_holds(op: str, status: PlanStatus) -> None:
+    # the agent starts in B, outside A (|u| <= 1 keeps it out of A at step 0): A U*[0,2] B holds
+    # at once with no effort; the paper's U needs A at step 0 as well, which nothing can give
+    problem = mission(
+        horizon=2,
+        dynamics={"si": single_integrator(1.0)},
+        agents=[{"name": "a", "dynamics": "si", "initial_state": [0, 0]}],
+        regions={"A": {"box": [[2, 3], [-1, 1]]}, "B": {"box": [[-0.5, 0.5], [-1, 1]]}},
+        tasks={"t": {"formula": f"in(p, A) {op}[0,2] in(p, B)", "roles": {"p": {"agent": "a"}}}},
+        objective={"beta": 1.0, "effort": "l1"},
+    )
+    result = plan(problem, PlanOptions(time_limit=30, threads=1))
+    assert result.status is status
+    if status is PlanStatus.OPTIMAL:
+        assert result.effort == pytest.approx(0.0, abs=1e-9)

@@ -62,11 +62,13 @@ COMMANDS = (
     (files.check, files.CHECK_EPILOG, "Judge a trajectory from any tool with the monitor."),
     (files.schema, files.SCHEMA_EPILOG, "Write the mission file JSON Schema."),
     (files.example, files.EXAMPLE_EPILOG, "List the shipped missions, or write one."),
+    (files.export_rtamt, files.EXPORT_EPILOG, "Write the tasks as RTAMT specifications."),
     (planning.solve, planning.SOLVE_EPILOG, "Plan a mission, verify it, write the plan."),
     (planning.sweep, planning.SWEEP_EPILOG, "Solve missions from random initial states."),
 )
 for command, epilog, short_help in COMMANDS:
-    app.command(cls=Command, epilog=epilog, short_help=short_help)(command)
+    name = command.__name__.replace("_", "-")
+    app.command(name, cls=Command, epilog=epilog, short_help=short_help)(command)
 
 
 def main() -> None:

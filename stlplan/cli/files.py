@@ -224,3 +224,23 @@ def example(
         output.document({"example": examples.example(name).name, "file": str(target)})
     else:
         output.line(f"wrote {target}")
+
+
+EXPORT_EPILOG = f"Exit codes: 0 written, {EXITS_COMMON}"
+
+
+@handled
+def export_rtamt(
+    mission: MissionArg,
+    out: Annotated[
+        Path | None,
+        typer.Option(help="Write to this file instead of standard output.", metavar="FILE"),
+    ] = None,
+    quiet: QuietOption = False,
+) -> None:
+    """Write each single-agent task and constraint as an RTAMT specification, to cross-check."""
+    specs, text = api.export_rtamt(mission, out)
+    if out is None:
+        sys.stdout.write(text)
+    else:
+        Output(quiet=quiet).line(f"wrote {len(specs)} specification(s) to {out}")

@@ -111,4 +111,5 @@ def lower(
     if isinstance(formula, Eventually):
         return Eventually(formula.interval, lower(formula.child, regions, positions))
     left = lower(formula.left, regions, positions)
-    return Until(formula.interval, left, lower(formula.right, regions, positions))
+    right = lower(formula.right, regions, positions)
+    return Until(formula.interval, left, right, formula.strict)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from functools import cache
 from importlib import resources
 
@@ -27,7 +28,10 @@ from stlplan.formula.tree import (
     negate,
 )
 
-RESERVED = frozenset({"G", "F", "U", "in", "dist", "x"})
+RESERVED = frozenset(
+    {"G", "F", "U", "in", "dist", "x"}
+    | {"always", "eventually", "until", "not", "and", "or", "implies"}
+)
 MAX_NESTING = 100
 """Levels of nested operators a formula may have; deeper trees would exhaust Python's stack."""
 
@@ -42,14 +46,18 @@ def _lark() -> Lark:
 class _ToTree(Transformer):  # type: ignore[type-arg]
     """Calls the tree constructors bottom-up; ``!`` is pushed down to atoms."""
 
-    def disjunction(self, *items: Formula) -> Formula:
-        return Or(tuple(items))
+    def implication(self, premise: Formula, _op: Token, conclusion: Formula) -> Formula:
+        # a -> b  =  !a | b, with the negation pushed down to the atoms
+        return Or((negate(premise), conclusion))
 
-    def conjunction(self, *items: Formula) -> Formula:
-        return And(tuple(items))
+    def disjunction(self, *items: Formula | Token) -> Formula:
+        return Or(tuple(i for i in items if not isinstance(i, Token)))
 
-    def until(self, left: Formula, _op: Token, interval: Interval, right: Formula) -> Formula:
-        return Until(interval, left, right)
+    def conjunction(self, *items: Formula | Token) -> Formula:
+        return And(tuple(i for i in items if not isinstance(i, Token)))
+
+    def until(self, left: Formula, op: Token, interval: Interval, right: Formula) -> Formula:
+        return Until(interval, left, right, strict=op.type in ("STRICT_UNTIL", "UNTIL_WORD"))
 
     def negation(self, _op: Token, child: Formula) -> Formula:
         return negate(child)
@@ -160,7 +168,44 @@ def _syntax_message(text: str, exc: UnexpectedInput) -> str:
     hint = f"; expected one of: {', '.join(_pretty(e) for e in expected)}" if expected else ""
     source_line = (text.splitlines() or [""])[line - 1] if text else ""
     caret = " " * (column - 1) + "^"
-    return f"formula syntax error at line {line}, column {column}: unexpected {found}{hint}\n  {source_line}\n  {caret}"
+    spelling = _spelling_hint(source_line, column - 1)
+    return (
+        f"formula syntax error at line {line}, column {column}: unexpected {found}{hint}\n"
+        f"  {source_line}\n  {caret}{spelling}"
+    )
+
+
+_PAST = "stlplan has no past-time operators; state the requirement forward with G, F, U or U*"
+_SPELLINGS = {
+    "next": "stlplan has no 'next': write F[1,1] phi",
+    "prev": _PAST,
+    "previously": _PAST,
+    "historically": _PAST,
+    "once": _PAST,
+    "since": _PAST,
+    "rise": "stlplan has no 'rise': write !phi & F[1,1] phi",
+    "fall": "stlplan has no 'fall': write phi & F[1,1] !phi",
+    "xor": "stlplan has no 'xor': write (a & !b) | (!a & b)",
+    "iff": "stlplan has no 'iff': write (a -> b) & (b -> a)",
+    "<->": "stlplan has no '<->': write (a -> b) & (b -> a)",
+    "==": "comparisons are '<=' or '>=' (write both for an equality)",
+    "<": "comparisons are '<=' or '>=' (a strict '<' has the same robustness as '<=')",
+    ">": "comparisons are '<=' or '>=' (a strict '>' has the same robustness as '>=')",
+}
+
+
+def _spelling_hint(line: str, at: int) -> str:
+    """A line naming stlplan's spelling of an operator other STL tools write, found at (or just
+    before) column ``at`` of ``line``; empty when there is none."""
+    words = re.findall(r"[A-Za-z_]+|<->|==|<=?|>=?", line)
+    near = [m for m in re.finditer(r"[A-Za-z_]+|<->|==|<=?|>=?", line) if m.start() <= at]
+    for match in reversed(near[-2:]):
+        hint = _SPELLINGS.get(match.group())
+        if hint is not None:
+            return f"\n  {hint}"
+    if "always" in words or "eventually" in words:
+        return "\n  intervals are required: always[a,b], eventually[a,b] (or [a:b])"
+    return ""
 
 
 _TERMINAL_TEXT = {
@@ -173,6 +218,18 @@ _TERMINAL_TEXT = {
     "ALWAYS": "'G'",
     "EVENTUALLY": "'F'",
     "UNTIL": "'U'",
+    "STRICT_UNTIL": "'U*'",
+    "IMPLIES": "'->'",
+    "OR": "'|'",
+    "AND": "'&'",
+    "COLON": "':'",
+    "IMPLIES_WORD": "'implies'",
+    "OR_WORD": "'or'",
+    "AND_WORD": "'and'",
+    "NOT_WORD": "'not'",
+    "ALWAYS_WORD": "'always'",
+    "EVENTUALLY_WORD": "'eventually'",
+    "UNTIL_WORD": "'until'",
     "AMPERSAND": "'&'",
     "VBAR": "'|'",
     "STAR": "'*'",
@@ -236,8 +293,8 @@ def to_text(formula: Formula) -> str:
         return f"G[{formula.interval.lo},{formula.interval.hi}] {_wrap(formula.child)}"
     if isinstance(formula, Eventually):
         return f"F[{formula.interval.lo},{formula.interval.hi}] {_wrap(formula.child)}"
-    i = formula.interval
-    return f"{_wrap(formula.left)} U[{i.lo},{i.hi}] {_wrap(formula.right)}"
+    i, op = formula.interval, "U*" if formula.strict else "U"
+    return f"{_wrap(formula.left)} {op}[{i.lo},{i.hi}] {_wrap(formula.right)}"
 
 
 def _wrap_atom(atom: Formula) -> str:

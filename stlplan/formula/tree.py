@@ -117,11 +117,22 @@ class Eventually:
 
 @dataclass(frozen=True)
 class Until:
-    """``left U[a,b] right``: some ``k'`` in ``[k+a, k+b]`` has right, and left on ``[k, k']``."""
+    """``left U[a,b] right``: some ``k'`` in ``[k+a, k+b]`` has right, and left on ``[k, k']``.
+
+    The paper's until holds ``left`` up to and including ``k'``; the strict until ``U*`` (stlpy's
+    and RTAMT's) holds it on ``[k, k')`` only, so ``right`` at ``k`` alone satisfies it when
+    ``a = 0``.
+    """
 
     interval: Interval
     left: Formula
     right: Formula
+    strict: bool = False
+    """``left`` on ``[k, k')`` (``U*``) instead of ``[k, k']`` (``U``)."""
+
+    def left_steps(self, k: int, t: int) -> range:
+        """The steps at which ``left`` must hold when ``right`` holds at ``t`` (from ``k``)."""
+        return range(k, t if self.strict else t + 1)
 
 
 Formula = InRegion | Distance | Linear | Predicate | Not | And | Or | Always | Eventually | Until

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from stlplan.formula.boundary import holds
 from stlplan.formula.tree import Formula, Or, Predicate, step_parts
 from stlplan.mission.problem import Problem
 from stlplan.monitor.robustness import robustness
@@ -104,9 +105,9 @@ def separation_segments(positions: np.ndarray, separation: float) -> np.ndarray:
     return segment_floor(alpha[:, :, :-1], alpha[:, :, 1:])
 
 
-def crossing_segments(problem: Problem, trajectory: Trajectory, tol: float = 1e-6) -> list[Cut]:
-    """Every segment on which a safety requirement fails by more than ``tol``: the agents whose
-    path it is, and its first step (for drawing; the monitor's verdicts give the worst ones)."""
+def crossing_segments(problem: Problem, trajectory: Trajectory) -> list[Cut]:
+    """Every segment on which a safety requirement fails (``rho_seg`` below ``HOLDS_AT``): the
+    agents whose path it is, and its first step (for drawing; the verdicts give the worst ones)."""
     if not problem.inter_sample:
         return []
     found: set[Cut] = set()
@@ -114,26 +115,24 @@ def crossing_segments(problem: Problem, trajectory: Trajectory, tol: float = 1e-
         for binding in constraint.bindings:
             signals = {role: trajectory.states[name] for role, name in binding.items()}
             lowered = problem.lowered(constraint.formula, binding)
-            for k in _failing_steps(lowered, signals, problem.horizon, tol):
+            for k in _failing_steps(lowered, signals, problem.horizon):
                 found.update((name, k) for name in binding.values())
     if problem.separation is not None and len(problem.agents) > 1:
         names = [a.name for a in problem.agents]
         z = np.stack([trajectory.position(a.name, a.position) for a in problem.agents])
         seg = separation_segments(z, problem.separation)
-        for p, q, k in np.argwhere(seg < -tol):
+        for p, q, k in np.argwhere(~holds(seg)):
             if p < q:
                 found.update({(names[p], int(k)), (names[q], int(k))})
     return sorted(found)
 
 
-def _failing_steps(
-    formula: Formula, signals: Mapping[str, np.ndarray], horizon: int, tol: float
-) -> set[int]:
+def _failing_steps(formula: Formula, signals: Mapping[str, np.ndarray], horizon: int) -> set[int]:
     """First steps of the segments on which a safety part of ``formula`` fails."""
     out: set[int] = set()
     for part, starts in _segments(formula).items():
         values = _segment_values(part, starts, signals, horizon)
-        out.update(k for k, v in zip(starts, values, strict=True) if v < -tol)
+        out.update(k for k, v in zip(starts, values, strict=True) if not holds(v))
     return out
 
 

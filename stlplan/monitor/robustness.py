@@ -4,7 +4,8 @@ The monitor's arithmetic core. It reads a formula after :func:`stlplan.formula.n
 (only :class:`Predicate`, :class:`And`, :class:`Or`, :class:`Always`, :class:`Eventually`,
 :class:`Until`) and the states of the agents bound to its roles, and returns the robustness
 ``rho(k)`` at every step ``k`` where the formula can be decided inside the horizon, i.e.
-``k + horizon(formula) <= H``. The formula holds at ``k`` iff ``rho(k) >= 0``.
+``k + horizon(formula) <= H``. The formula holds at ``k`` iff ``rho(k) >= HOLDS_AT``
+(:func:`stlplan.formula.boundary.holds`: a region's boundary is neither inside nor outside).
 
 Each node type has one small evaluator in :data:`EVALUATORS`; an evaluator returns an array whose
 index is ``k`` and whose length is ``H + 1 - horizon(node)``.
@@ -124,17 +125,21 @@ def _eventually(node: Formula, signals: Signals, horizon: int) -> np.ndarray:
 
 def _until(node: Formula, signals: Signals, horizon: int) -> np.ndarray:
     # rho(l U[a,b] r, k) = max_{k' in [k+a, k+b]} min(rho(r, k'), min_{k'' in [k, k']} rho(l, k''))
+    # rho(l U*[a,b] r, k): the same with k'' in [k, k') (an empty min is +inf)
     assert isinstance(node, Until)
     left = _evaluate(node.left, signals, horizon)
     right = _evaluate(node.right, signals, horizon)
     lo, hi = node.interval.lo, node.interval.hi
     length = min(len(left), len(right)) - hi
-    prefix_min = left[:length].copy()  # min of left over [k, k + t], grown one t at a time
+    prefix_min = np.full(length, np.inf)  # min of left over [k, k + t] (strict: [k, k + t))
     best = np.full(length, -np.inf)
     for t in range(hi + 1):
-        prefix_min = np.minimum(prefix_min, left[t : t + length])
+        if not node.strict:
+            prefix_min = np.minimum(prefix_min, left[t : t + length])
         if t >= lo:
             best = np.maximum(best, np.minimum(right[t : t + length], prefix_min))
+        if node.strict:
+            prefix_min = np.minimum(prefix_min, left[t : t + length])
     return best
 
 

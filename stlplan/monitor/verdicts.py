@@ -4,19 +4,22 @@
 agent's dynamics from the mission's formula trees and the trajectory alone, with numpy. It never
 imports the encoder, the solver or Pyomo, so a plan is checked by code that did not produce it.
 
-Semantics (DESIGN.md section 2; ``tol`` is the tolerance on every ``>= 0`` test):
+Semantics (DESIGN.md section 2). A robustness value holds iff it is at least ``HOLDS_AT``
+(``EPSILON / 2``, :mod:`stlplan.formula.boundary`): a region's boundary is neither inside nor
+outside, and the planner enforces every predicate with a margin of at least ``EPSILON``.
 
 * element ``e`` of task ``T``: ``rho_e(k)`` is the robustness of ``phi`` with ``e``'s agents bound
   to the roles; a group's robustness is ``min_{e in group} rho_e(0)``, the task's is the max over
-  groups, and ``T`` holds iff that is ``>= -tol``. Groups are never enumerated: the best group is
+  groups, and ``T`` holds iff that holds. Groups are never enumerated: the best group is
   found by bisection over the elements' values (:func:`stlplan.mission.groups.best_group`);
-* synchronous task ``F[a,b] <G[0,d] phi, c, Pattern>``: ``s_j(k) = 1`` iff ``rho_e(k) >= -tol`` for
+* synchronous task ``F[a,b] <G[0,d] phi, c, Pattern>``: ``s_j(k) = 1`` iff ``rho_e(k)`` holds for
   every element of group ``j``; ``run_j(k')`` counts the consecutive steps ``k', k'+1, ...`` with
   ``s_j = 1`` (stopping where ``phi`` can no longer be evaluated); ``rho_s = max_j max_{k' in [a,b]}
   run_j(k') - 1 - d`` and the task holds iff ``rho_s >= 0`` (a group's run is the least of its
   elements' runs, so the best group from each ``k'`` is again a bisection over elements);
 * constraints hold at step 0 under every binding; separation is
-  ``min_{p<q, k} ||z_p(k) - z_q(k)||_inf - d_col >= -tol``;
+  ``min_{p<q, k} ||z_p(k) - z_q(k)||_inf - d_col``, which must hold;
+* dynamics and bounds hold within the tolerance ``tol`` (relative to the terms' scale);
 * with inter-sample safety (``problem.inter_sample``, the default) avoidance parts of constraints
   and separation are also judged on the straight segments between steps
   (:mod:`stlplan.monitor.crossings`): a constraint's or the separation's robustness is the minimum over
@@ -32,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from stlplan.errors import TrajectoryError
+from stlplan.formula.boundary import holds
 from stlplan.formula.tree import Formula, Linear, atoms
 from stlplan.mission.groups import best_group
 from stlplan.mission.problem import ConstraintModel, Problem, TaskModel
@@ -41,7 +45,9 @@ from stlplan.monitor.robustness import robustness
 from stlplan.result import Element, MonitorReport, Trajectory, Verdict
 
 
-def check(problem: Problem, trajectory: Trajectory, tol: float = 1e-6) -> MonitorReport:
+def check(
+    problem: Problem, trajectory: Trajectory, tol: float = 1e-6, slack: float = 0.0
+) -> MonitorReport:
     """Every verdict on ``trajectory``: tasks, constraints, separation, then dynamics.
 
     Parameters
@@ -51,9 +57,11 @@ def check(problem: Problem, trajectory: Trajectory, tol: float = 1e-6) -> Monito
     trajectory
         States ``x_p(0..H)`` and inputs ``u_p(0..H-1)`` of every agent of the mission.
     tol
-        Tolerance of the monitor: a robustness ``>= -tol`` counts as satisfied, and each number
-        of the trajectory may be off by ``tol * max(1, |v|)`` in the physical checks
-        (:mod:`stlplan.monitor.dynamics`).
+        Tolerance of the dynamics and bounds checks: each number of the trajectory may be off
+        by ``tol * max(1, |v|)`` (:mod:`stlplan.monitor.dynamics`).
+    slack
+        How far below ``HOLDS_AT`` a requirement's robustness may fall and still hold (0 for
+        plans; a user's ``--tolerance`` for rounded trajectories from other tools).
 
     Raises
     ------
@@ -63,11 +71,11 @@ def check(problem: Problem, trajectory: Trajectory, tol: float = 1e-6) -> Monito
     _check_shapes(problem, trajectory)
     verdicts: list[Verdict] = []
     for task in problem.tasks:
-        verdicts.append(_task_verdict(problem, trajectory, task, tol))
+        verdicts.append(_task_verdict(problem, trajectory, task, slack))
     for constraint in problem.constraints:
-        verdicts.append(_constraint_verdict(problem, trajectory, constraint, tol))
+        verdicts.append(_constraint_verdict(problem, trajectory, constraint, slack))
     if problem.separation is not None:
-        verdicts.append(_separation_verdict(problem, trajectory, problem.separation, tol))
+        verdicts.append(_separation_verdict(problem, trajectory, problem.separation, slack))
     for agent in problem.agents:
         verdicts.append(dynamics_verdict(agent, trajectory, tol))
     return MonitorReport(tuple(verdicts), known=trajectory.known, tolerance=tol)
@@ -126,14 +134,16 @@ def _group_elements(task: TaskModel, group: Sequence[int]) -> tuple[Element, ...
     return tuple(task.elements[i] for i in group)
 
 
-def _task_verdict(problem: Problem, trajectory: Trajectory, task: TaskModel, tol: float) -> Verdict:
+def _task_verdict(
+    problem: Problem, trajectory: Trajectory, task: TaskModel, slack: float
+) -> Verdict:
     rho = element_robustness(problem, trajectory, task)
     if task.sync is not None:
-        return _synchronous_verdict(task, rho, tol)
+        return _synchronous_verdict(task, rho, slack)
     # rho(T) = max over groups of min_{e in group} rho_e(0), without enumerating groups
     value, group = best_group(task.elements, rho[:, 0], task.count, task.reuse_agents)
     chosen = () if group is None else group
-    satisfied = bool(value >= -tol)
+    satisfied = bool(holds(value, slack))
     text = _group_text(task, chosen)
     detail = (
         f"group {text} holds with margin {value:.3g}"
@@ -184,13 +194,13 @@ def _best_from(task: TaskModel, rho: np.ndarray, run: np.ndarray, start: int) ->
     return Start(start, int(length), spatial, best or group or ())
 
 
-def _synchronous_verdict(task: TaskModel, rho: np.ndarray, tol: float) -> Verdict:
+def _synchronous_verdict(task: TaskModel, rho: np.ndarray, slack: float) -> Verdict:
     """``rho_s = max_{k' in [a,b]} (longest common run of a group from k') - 1 - d``: for each
     start, the longest run any group keeps is found by :func:`best_group` over the elements'
     own runs (a group's common run is the least of its elements' runs)."""
     assert task.sync is not None
     a, b, d = task.sync.a, task.sync.b, task.sync.d
-    run = run_lengths(np.nan_to_num(rho, nan=-np.inf) >= -tol)
+    run = run_lengths(holds(np.nan_to_num(rho, nan=-np.inf), slack))
     starts = [_best_from(task, rho, run, k) for k in range(a, b + 1)]
     # the longest run, then the earliest start, then the best spatial robustness
     best = max(starts, key=lambda s: (s.length, -s.start, s.spatial))
@@ -259,7 +269,7 @@ def _binding_value(
 
 
 def _constraint_verdict(
-    problem: Problem, trajectory: Trajectory, constraint: ConstraintModel, tol: float
+    problem: Problem, trajectory: Trajectory, constraint: ConstraintModel, slack: float
 ) -> Verdict:
     # rho(constraint) = min over bindings of rho(phi, 0) (and of rho_seg on the segments)
     values, segments = [], []
@@ -271,7 +281,7 @@ def _constraint_verdict(
         return Verdict(constraint.name, "constraint", True, float("inf"), detail="no binding")
     worst = int(np.argmin(np.where(np.isnan(values), -np.inf, values)))
     value = values[worst]
-    failing = sum(1 for v in values if not v >= -tol)
+    failing = sum(1 for v in values if not holds(v, slack))
     who = _binding_text(dict(constraint.bindings[worst])) + segments[worst]
     if failing == 0:
         detail = f"holds for all {len(values)} binding(s); tightest {who} with margin {value:.3g}"
@@ -281,7 +291,7 @@ def _constraint_verdict(
 
 
 def _separation_verdict(
-    problem: Problem, trajectory: Trajectory, separation: float, tol: float
+    problem: Problem, trajectory: Trajectory, separation: float, slack: float
 ) -> Verdict:
     # rho = min_{p<q} min_k ||z_p(k) - z_q(k)||_inf - separation
     name = "separation"
@@ -302,7 +312,7 @@ def _separation_verdict(
         if seg[sp, sq, sk] < value - 1e-12:
             value = float(seg[sp, sq, sk])
             pair = f"{agents[sp].name} and {agents[sq].name} on the segment {sk} -> {sk + 1}"
-    satisfied = bool(value >= -tol)
+    satisfied = holds(value, slack)
     detail = (
         f"every pair keeps {separation:g} apart; closest {pair} with margin {value:.3g}"
         if satisfied

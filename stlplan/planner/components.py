@@ -148,7 +148,7 @@ def _crossing(full: PlanModel, parts: Sequence[Part]) -> list[Requirement]:
     states = {}
     for part in parts:
         states.update(trajectory_states(part.pm))
-    margin = full.margin if isinstance(full.margin, float) else 0.0
+    margin = full.margin if isinstance(full.margin, float) else float(full.margin.lb)
     bad = violated(full.deferral.lazy, states, margin, VIOLATION_TOL)
     return [full.deferral.lazy[n] for n in bad]
 

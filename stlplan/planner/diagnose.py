@@ -38,7 +38,7 @@ def needs(formula: Formula, shift: int = 0) -> Iterator[Need]:
 
     Follows only ``&``, ``G``, ``F`` and the right side of ``U`` (never ``|`` or ``!``):
     ``G[a,b] f`` needs ``f`` at ``k+a``; ``F[a,b] f`` at some step up to ``k+b``; ``l U[a,b] r``
-    needs ``r`` by ``k+b`` and ``l`` at ``k``.
+    needs ``r`` by ``k+b`` and ``l`` at ``k`` (``l U*[0,b] r`` needs ``r`` only).
     """
     if isinstance(formula, InRegion):
         yield formula.role, formula.region, shift
@@ -50,7 +50,8 @@ def needs(formula: Formula, shift: int = 0) -> Iterator[Need]:
     elif isinstance(formula, Eventually):
         yield from needs(formula.child, shift + formula.interval.hi)
     elif isinstance(formula, Until):
-        yield from needs(formula.left, shift)
+        if formula.interval.lo > 0 or not formula.strict:  # U*[0,b] may hold by right alone
+            yield from needs(formula.left, shift)
         yield from needs(formula.right, shift + formula.interval.hi)
 
 

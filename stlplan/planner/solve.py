@@ -8,7 +8,8 @@ mission's effort norm: ``l2`` is ``sum u^2`` (a convex QP), ``l1`` is ``sum |u|`
 the step-1 objective, which moves the plan to an exact vertex: integrality tolerances cannot then
 leak into the predicates the monitor checks.
 
-Both continuous solves run on a small model (:mod:`stlplan.planner.encoding.continuous`): an LP over the
+Both continuous solves (:mod:`stlplan.planner.finish`) run on a small model
+(:mod:`stlplan.planner.encoding.continuous`): an LP over the
 step-1 model first finds the predicates the fixed decisions enforce, then only those, the
 dynamics (states eliminated) and the effort remain. HiGHS's QP solver stalls on the full model,
 whose Hessian is singular. Lazy requirements never added to the MILP keep, in the continuous
@@ -20,22 +21,28 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from pyomo.environ import ConcreteModel, Constraint, Objective, Reals, Var, minimize, value
+from pyomo.environ import ConcreteModel, Constraint, Var
 
 from stlplan.mission.problem import Problem
 from stlplan.planner import stops
-from stlplan.planner.clock import FLOORS_SHARE, Clock, Phase, ProgressCallback
+from stlplan.planner.clock import FLOORS_SHARE, Clock, ProgressCallback
 from stlplan.planner.components import solve_parts
-from stlplan.planner.encoding.continuous import continuous_model, copy_plan
-from stlplan.planner.encoding.deferred import best_option
 from stlplan.planner.encoding.model import PlanModel, build_model
 from stlplan.planner.encoding.readout import plan_result
-from stlplan.planner.encoding.stl import Enforced
-from stlplan.planner.lazy import Step1, solve_step1, trajectory_states
-from stlplan.planner.session import TC, PlanOptions, solve_once
+from stlplan.planner.finish import Finish, enforced_predicates, finish, fix_decisions
+from stlplan.planner.lazy import Step1, solve_step1
+from stlplan.planner.session import PlanOptions
 from stlplan.result import Fallback, ModelSize, PlanResult, PlanStatus
 
 __all__ = ["enforced_predicates", "fix_decisions", "model_size", "plan"]
+
+STRICT_INTEGRALITY = 1e-9
+"""HiGHS's integrality (and MIP feasibility) tolerance when step 1 is solved again strictly."""
+
+STRICT_NOTE = (
+    f" (step 1 solved again with integrality tolerance {STRICT_INTEGRALITY:g}: its first plan met"
+    " its decisions only within HiGHS's default tolerance)"
+)
 
 
 def model_size(model: ConcreteModel) -> ModelSize:
@@ -45,76 +52,34 @@ def model_size(model: ConcreteModel) -> ModelSize:
     return ModelSize(len(free), sum(1 for v in free if v.is_binary()), rows)
 
 
-def fix_decisions(pm: PlanModel) -> None:
-    """Fix every binary at its rounded value (domain made real first: HiGHS has no MIQP).
+def strict(options: PlanOptions) -> PlanOptions:
+    """``options`` with HiGHS's integrality tolerance at :data:`STRICT_INTEGRALITY`."""
+    extra = dict(options.highs_options)
+    extra["mip_feasibility_tolerance"] = STRICT_INTEGRALITY
+    return dataclasses.replace(options, highs_options=tuple(extra.items()))
 
-    Each ``rho_s^l`` keeps its step-1 value as a lower bound (the fixed runs pin it anyway), and
-    so does a maximized margin.
+
+def _solved(
+    problem: Problem, options: PlanOptions, clock: Clock
+) -> tuple[PlanModel, Step1, Finish, bool]:
+    """Step 1, then the continuous stage: the model with the plan loaded, how step 1 and the
+    continuous stage ended, and whether step 1 was solved strictly.
+
+    When step 1's decisions, taken exactly, admit no plan, its plan met them only within HiGHS's
+    integrality tolerance (a binary at ``1e-6`` from 0 or 1 relaxes a big-M row by ``M 1e-6``,
+    more than ``EPSILON``): step 1 is solved again with :func:`strict` options.
     """
-    for v in pm.model.component_data_objects(Var, active=True):
-        if v.is_binary() and not v.fixed:
-            rounded = float(round(v.value or 0.0))
-            v.domain = Reals
-            v.fix(rounded)
-    for enc in pm.synchronous:
-        enc.rho_s.setlb(max(0.0, round(float(enc.rho_s.value), 6) - 1e-6))
-    if not isinstance(pm.margin, float):
-        pm.margin.setlb(float(pm.margin.value) - 1e-9)
-
-
-def enforced_predicates(
-    pm: PlanModel, options: PlanOptions, clock: Clock, phase: Phase
-) -> tuple[list[Enforced] | None, float, str]:
-    """The predicates step 1's fixed decisions enforce, the seconds it took, and how the LP
-    ended (HiGHS's termination, by name).
-
-    With the binaries fixed, every indicator has a least feasible value, 1 exactly where the
-    decisions enforce it (requirements only push indicators up). One LP finds them all:
-    ``min sum z`` over the step-1 rows. Returns None if that LP fails.
-    """
-    model = pm.model
-    model.step1.deactivate()
-    model.least = Objective(expr=sum(model.spec.indicators.values()), sense=minimize)
-    results, seconds, _ = solve_once(model, options, clock, phase, mip=False)
-    model.del_component(model.least)
-    model.step1.activate()
-    ended = results.termination_condition.name
-    if results.termination_condition != TC.convergenceCriteriaSatisfied:
-        return None, seconds, ended
-    guarded = [enforced for z, enforced in pm.ledger.guarded if value(z) > 0.5]
-    return pm.ledger.required + guarded, seconds, ended
-
-
-def kept_sides(pm: PlanModel) -> list[Enforced]:
-    """For each lazy requirement never added: the half-plane the loaded plan meets best."""
-    if pm.deferral is None:
-        return []
-    states = trajectory_states(pm)
-    return [e for n in pm.pending() for e in best_option(pm.deferral.lazy[n], states)]
-
-
-def _continuous(pm: PlanModel, options: PlanOptions, clock: Clock) -> tuple[str | None, float]:
-    """Step 2 (or the one-step polish) with step 1's decisions fixed; None on success, else why
-    it failed (HiGHS's termination of the failed solve).
-
-    On failure the step-1 solution stays loaded in ``pm``.
-    """
-    snapshot = [(v, v.value) for v in pm.model.component_data_objects(Var)]
-    phase: Phase = "step2" if options.two_step else "polish"
-    fix_decisions(pm)
-    enforced, seconds, ended = enforced_predicates(pm, options, clock, phase)
-    for v, val in snapshot:
-        v.set_value(val, skip_validation=True)
-    if enforced is None:
-        return f"the LP finding the enforced predicates ended {ended}", seconds
-    enforced += kept_sides(pm)
-    with clock.building():
-        small = continuous_model(pm, enforced, "effort" if options.two_step else "polish")
-    results, more, _ = solve_once(small, options, clock, phase, mip=False)
-    if results.termination_condition != TC.convergenceCriteriaSatisfied:
-        return f"the continuous solve ended {results.termination_condition.name}", seconds + more
-    copy_plan(small, pm)
-    return None, seconds + more
+    pm, step1 = _step1(problem, options, clock)
+    if not step1.status.has_plan:
+        return pm, step1, Finish(), False
+    with stops.finishing():  # after a stop request too: step 2 is a quick LP or QP
+        ended = finish(pm, options, clock)
+    if not ended.infeasible or dict(options.highs_options).get("mip_feasibility_tolerance") == (
+        STRICT_INTEGRALITY
+    ):
+        return pm, step1, ended, False
+    pm, step1, ended, _ = _solved(problem, strict(options), clock)
+    return pm, step1, ended, True
 
 
 def _step1(problem: Problem, options: PlanOptions, clock: Clock) -> tuple[PlanModel, Step1]:
@@ -164,30 +129,32 @@ def plan(
     """
     options = options or PlanOptions.from_mission(problem.mission)
     clock = Clock.started(options.time_limit, progress, deadline)
-    pm, step1 = _step1(problem, options, clock)
+    pm, step1, ended, strictly = _solved(problem, options, clock)
+    failed = ended.failed
     size = model_size(pm.model)
+    redone = STRICT_NOTE if strictly else ""
     if not step1.status.has_plan:
         clock.report("done")
         return PlanResult(
             status=step1.status,
-            message=_message(step1, options, clock),
+            message=_message(step1, options, clock) + redone,
             bound=step1.bound,
             model_size=size,
             build_seconds=clock.build_seconds,
             solve_seconds=clock.elapsed() - clock.build_seconds,
             confirmations=tuple(clock.confirmations),
         )
-    with stops.finishing():  # after a stop request too: step 2 is a quick LP or QP
-        failed, _ = _continuous(pm, options, clock)
     clock.report("done", step1.objective, step1.bound, step1.gap)
-    message = _message(step1, options, clock)
+    message = _message(step1, options, clock) + redone
     fallback = None
     if failed is not None:
         step = "step 2" if options.two_step else "polish"
-        message += f"; the continuous re-solve failed ({failed}), the step-1 plan is kept"
-        fallback = Fallback(step, failed, "the step-1 plan")
+        message += f"; the continuous re-solve failed ({failed}), {ended.kept} is kept"
+        fallback = Fallback(step, failed, ended.kept)
     elif options.two_step:
         message += f"; step 2 minimized the {problem.mission.objective.effort} effort"
+    if ended.note:
+        message += f" ({ended.note})"
     figures = {"objective": step1.objective, "bound": step1.bound, "gap": step1.gap}
     result = plan_result(
         pm,

@@ -7,7 +7,7 @@ inert. This module builds the small model that remains:
     x_p(k+1) = A_p x_p(k) + B_p u_p(k),  x_p(0) = x_p^0,  boxes,  s >= |u|,
     alpha(x(k)) - r >= 0   for every enforced predicate,
 
-with ``r`` the step-1 margin, and either the effort of DESIGN 2.3 (``l2``: ``sum u^2``, a convex
+with ``r`` the step-1 margin (never below ``EPSILON``, :mod:`stlplan.formula.boundary`), and either the effort of DESIGN 2.3 (``l2``: ``sum u^2``, a convex
 QP; ``l1``: ``sum s``; ``linf``: ``sum_p v_p`` with ``v_p >= s_{p,k,j}``) to minimize, or the
 step-1 objective restricted to the fixed decisions (``w r - beta sum s``) to maximize. Runs of the
 synchronous tasks, hence every ``rho_s^l``, are fixed with the decisions.
@@ -15,7 +15,7 @@ synchronous tasks, hence every ``rho_s^l``, are fixed with the decisions.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, Literal
 
 import numpy as np
@@ -23,6 +23,7 @@ from pyomo.environ import ConcreteModel, Constraint, ConstraintList, Objective, 
 from pyomo.environ import maximize as maximize_sense
 from pyomo.environ import minimize as minimize_sense
 
+from stlplan.formula.boundary import required_margin
 from stlplan.planner.encoding.model import PlanModel, reachable_boxes
 from stlplan.planner.encoding.stl import Enforced, alpha
 
@@ -103,6 +104,25 @@ def _absolute_inputs(model: ConcreteModel) -> None:
         model.s_rows.add(model.s[key] >= -u)
 
 
+def _predicate_rows(model: ConcreteModel, enforced: Sequence[Enforced], margin: Any) -> None:
+    """``alpha(x(k)) - r >= 0`` for every enforced predicate, over the condensed states."""
+    model.predicates = ConstraintList()
+    for node, k, binding in _unique(enforced):
+        slack = alpha(node, k, binding, model.states) - margin
+        if not isinstance(slack, float):  # a number: decided by the initial state alone
+            model.predicates.add(slack >= 0)
+
+
+def _fixed_margin(pm: PlanModel) -> float:
+    """Step 1's margin ``r``; when maximized, less :data:`MARGIN_SLACK`, never below the
+    required margin."""
+    margin = float(value(pm.margin))
+    if isinstance(pm.margin, float):
+        return margin
+    floor = required_margin(pm.problem.mission.objective.margin.minimum)
+    return max(floor, margin - MARGIN_SLACK)
+
+
 def continuous_model(pm: PlanModel, enforced: Sequence[Enforced], stage: Stage) -> ConcreteModel:
     """The continuous model of step 2 (``effort``) or of the one-step polish (``polish``).
 
@@ -119,21 +139,14 @@ def continuous_model(pm: PlanModel, enforced: Sequence[Enforced], stage: Stage) 
     problem = pm.problem
     objective = problem.mission.objective
     model = ConcreteModel(name=f"{problem.mission.name}-{stage}")
-    states = condensed_states(model, pm)
+    model.states = condensed_states(model, pm)
     if stage == "polish" or objective.effort != "l2":
         _absolute_inputs(model)
-    margin: Any = float(value(pm.margin))
-    if not isinstance(pm.margin, float):  # maximized in step 1
-        floor = max(float(objective.margin.minimum), margin - MARGIN_SLACK)
-        margin = floor
-        if stage == "polish":
-            model.r = Var(bounds=(floor, None))
-            margin = model.r
-    model.predicates = ConstraintList()
-    for node, k, binding in _unique(enforced):
-        slack = alpha(node, k, binding, states) - margin
-        if not isinstance(slack, float):  # a number: decided by the initial state alone
-            model.predicates.add(slack >= 0)
+    margin: Any = _fixed_margin(pm)
+    if stage == "polish" and not isinstance(pm.margin, float):
+        model.r = Var(bounds=(margin, None))
+        margin = model.r
+    _predicate_rows(model, enforced, margin)
     if stage == "effort":
         names = [a.name for a in problem.agents]
         expr = effort_objective(model, names, objective.effort)
@@ -143,7 +156,27 @@ def continuous_model(pm: PlanModel, enforced: Sequence[Enforced], stage: Stage) 
         if objective.margin.maximize:
             score = score + objective.margin.weight * margin
         model.goal = Objective(expr=score, sense=maximize_sense)
-    model.states = states
+    return model
+
+
+def landing_model(
+    pm: PlanModel, enforced: Sequence[Enforced], target: Mapping[tuple[str, int, int], float]
+) -> ConcreteModel:
+    """The plan nearest ``target`` (inputs) that meets every enforced predicate: an LP.
+
+    ``minimize sum |u - u_target|`` subject to the rows of :func:`continuous_model` with ``r``
+    fixed; it lands the point of a continuous solve that ended short of optimality (HiGHS's QP
+    solver can stop a hair outside a row) exactly on the predicates, as a simplex vertex.
+    """
+    model = ConcreteModel(name=f"{pm.problem.mission.name}-landing")
+    model.states = condensed_states(model, pm)
+    _predicate_rows(model, enforced, _fixed_margin(pm))
+    model.far = Var(list(model.u), bounds=(0.0, None))
+    model.far_rows = ConstraintList()
+    for key, u in model.u.items():
+        model.far_rows.add(model.far[key] >= u - target[key])
+        model.far_rows.add(model.far[key] >= target[key] - u)
+    model.goal = Objective(expr=sum(model.far.values()), sense=minimize_sense)
     return model
 
 

@@ -7,7 +7,10 @@ Problem (step1) of the paper with DESIGN 2.2 (L1 effort, which keeps the model l
                 s >= u, s >= -u                      (s = |u| at the optimum),
                 every task, constraint and separation requirement (stl.py, tasks.py),
                 t <= rho_s(T_s^l), 0 <= rho_s(T_s^l) <= gamma_l for every synchronous task,
-                r >= margin.minimum                   (r fixed there when not maximized).
+                r >= max(margin.minimum, EPSILON)     (r fixed there when not maximized).
+
+Every predicate is enforced as ``alpha(x) - r >= 0``, so with ``r >= EPSILON`` a region's boundary
+is never both inside and outside (:mod:`stlplan.formula.boundary`).
 
 ``t = rho_s(Phi) = min_l rho_s(T_s^l)`` at the optimum; the term is absent without synchronous
 tasks.
@@ -33,6 +36,7 @@ from pyomo.environ import (
     maximize,
 )
 
+from stlplan.formula.boundary import required_margin
 from stlplan.mission.problem import AgentModel, Problem
 from stlplan.planner.encoding.deferred import Deferral, defer, segment_requirements
 from stlplan.planner.encoding.floors import add_effort_floors
@@ -190,13 +194,17 @@ def add_agents(
 def _margin(
     model: ConcreteModel, problem: Problem, boxes: Mapping[str, tuple[np.ndarray, np.ndarray]]
 ) -> tuple[Any, float]:
-    """``r``: the required minimum (a number), or a variable in ``[minimum, ceiling]``."""
+    """``r``: the required margin (a number), or a variable in ``[required, ceiling]``.
+
+    The required margin is ``max(minimum, EPSILON)`` (:func:`stlplan.formula.boundary.required_margin`).
+    """
     spec = problem.mission.objective.margin
+    floor = required_margin(spec.minimum)
     if not spec.maximize:
-        return float(spec.minimum), float(spec.minimum)
+        return floor, floor
     reach = margin_ceiling(all_formulas(problem), boxes, problem.horizon)
-    ceiling = max(float(spec.minimum), reach)
-    model.r = Var(bounds=(float(spec.minimum), ceiling))
+    ceiling = max(floor, reach)
+    model.r = Var(bounds=(floor, ceiling))
     return model.r, ceiling
 
 
@@ -299,7 +307,7 @@ def build_model(
             requirement.encode(ctx)
     t = add_objective(model, problem, synchronous, margin)
     if floors and problem.mission.objective.beta > 0:
-        minimum = float(problem.mission.objective.margin.minimum)
+        minimum = required_margin(problem.mission.objective.margin.minimum)
         add_effort_floors(model, problem, ctx.ledger, minimum, floors_deadline)
     return PlanModel(
         model, problem, tasks, synchronous, t, margin, encoding, ctx.ledger, ctx, deferral

@@ -211,16 +211,18 @@ def encode_eventually(node: Eventually, k: int, ctx: StlContext) -> Any:
 
 
 def until_terms(node: Until, k: int, ctx: StlContext) -> list[Any]:
-    """For each ``k'`` in ``[k+a, k+b]``: the indicator of ``right(k') and left(k..k')``."""
+    """For each ``k'`` in ``[k+a, k+b]``: the indicator of ``right(k') and left(k..k')``
+    (``left(k..k'-1)`` for the strict ``U*``)."""
     terms = []
     for t in range(k + node.interval.lo, k + node.interval.hi + 1):
-        lefts = [encode(node.left, s, ctx) for s in range(k, t + 1)]
+        lefts = [encode(node.left, s, ctx) for s in node.left_steps(k, t)]
         terms.append(conjunction(ctx, [encode(node.right, t, ctx), *lefts]))
     return terms
 
 
 def encode_until(node: Until, k: int, ctx: StlContext) -> Any:
     # l U[a,b] r at k  =  OR_{k' in [k+a, k+b]} (r at k' AND_{k'' in [k, k']} l at k'')
+    # l U*[a,b] r at k =  OR_{k' in [k+a, k+b]} (r at k' AND_{k'' in [k, k')} l at k'')
     return disjunction(ctx, until_terms(node, k, ctx))
 
 

@@ -1,0 +1,166 @@
+"""The continuous stage after step 1: step 2 (or the one-step polish) with the decisions fixed.
+
+Step 1's binaries are fixed at their rounded values; one LP over the step-1 model finds the
+predicates they enforce; the small continuous model of :mod:`stlplan.planner.encoding.continuous`
+minimizes the effort (or polishes the step-1 objective) over exactly those. Its plan meets every
+enforced predicate with the margin ``r >= EPSILON`` to HiGHS's LP tolerance (DESIGN 2.10), which
+step 1's plan, held only to the MIP tolerances, need not.
+
+When the continuous solve stops short of optimality without an infeasible verdict, its point is
+landed: the nearest plan meeting every enforced predicate, found by an LP
+(:func:`stlplan.planner.encoding.continuous.landing_model`). HiGHS's active-set QP solver does
+this routinely on step 2's ``l2`` effort: rows whose right-hand sides differ by ``EPSILON`` from a
+degenerate vertex make it claim optimality and then fail its own check by about ``1e-6`` ("Solve
+error"). A point that lands within :data:`LANDING_LIMIT` of where it was (``sum |u - u_QP|``)
+counts as step 2 done (the message says so); one that moves further lands as a reported fallback.
+Only when the landing fails too is the step-1 plan kept, and the monitor judges it like any other.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from pyomo.environ import Objective, Reals, Var, minimize, value
+
+from stlplan.planner.encoding.continuous import continuous_model, copy_plan, landing_model
+from stlplan.planner.encoding.deferred import best_option
+from stlplan.planner.encoding.model import PlanModel
+from stlplan.planner.encoding.stl import Enforced
+from stlplan.planner.lazy import trajectory_states
+from stlplan.planner.session import TC, Clock, HighsSession, Phase, PlanOptions, solve_once
+
+LANDING_LIMIT = 1e-5
+"""Largest move ``sum |u - u_QP|`` of a landing that completes step 2 without a fallback."""
+
+INFEASIBLE = {TC.provenInfeasible.name, TC.infeasibleOrUnbounded.name}
+"""Terminations that mean the fixed decisions admit no plan."""
+
+
+@dataclass(frozen=True)
+class Finish:
+    """How the continuous stage ended."""
+
+    failed: str | None = None
+    """None when it succeeded; else why it failed (HiGHS's termination of the failed solve)."""
+    infeasible: bool = False
+    """It failed because the fixed decisions admit no plan."""
+    kept: str = "the step-1 plan"
+    """What the plan is when it failed."""
+    note: str = ""
+    """How it succeeded, when not plainly (a landed point)."""
+
+
+def fix_decisions(pm: PlanModel) -> None:
+    """Fix every binary at its rounded value (domain made real first: HiGHS has no MIQP).
+
+    Each ``rho_s^l`` keeps its step-1 value as a lower bound (the fixed runs pin it anyway), and
+    so does a maximized margin.
+    """
+    for v in pm.model.component_data_objects(Var, active=True):
+        if v.is_binary() and not v.fixed:
+            rounded = float(round(v.value or 0.0))
+            v.domain = Reals
+            v.fix(rounded)
+    for enc in pm.synchronous:
+        enc.rho_s.setlb(max(0.0, round(float(enc.rho_s.value), 6) - 1e-6))
+    if not isinstance(pm.margin, float):
+        pm.margin.setlb(float(pm.margin.value) - 1e-9)
+
+
+def enforced_predicates(
+    pm: PlanModel, options: PlanOptions, clock: Clock, phase: Phase
+) -> tuple[list[Enforced] | None, float, str]:
+    """The predicates step 1's fixed decisions enforce, the seconds it took, and how the LP
+    ended (HiGHS's termination, by name).
+
+    With the binaries fixed, every indicator has a least feasible value, 1 exactly where the
+    decisions enforce it (requirements only push indicators up). One LP finds them all:
+    ``min sum z`` over the step-1 rows. Returns None if that LP fails.
+    """
+    model = pm.model
+    model.step1.deactivate()
+    model.least = Objective(expr=sum(model.spec.indicators.values()), sense=minimize)
+    results, seconds, _ = solve_once(model, options, clock, phase, mip=False)
+    model.del_component(model.least)
+    model.step1.activate()
+    ended = results.termination_condition.name
+    if results.termination_condition != TC.convergenceCriteriaSatisfied:
+        return None, seconds, ended
+    guarded = [enforced for z, enforced in pm.ledger.guarded if value(z) > 0.5]
+    return pm.ledger.required + guarded, seconds, ended
+
+
+def kept_sides(pm: PlanModel) -> list[Enforced]:
+    """For each lazy requirement never added: the half-plane the loaded plan meets best."""
+    if pm.deferral is None:
+        return []
+    states = trajectory_states(pm)
+    return [e for n in pm.pending() for e in best_option(pm.deferral.lazy[n], states)]
+
+
+def _target(session: HighsSession, model: Any) -> dict[Any, float] | None:
+    """The inputs of the point HiGHS ended at, by key of ``model.u`` (None without one)."""
+    highs = session.highs
+    if highs is None:
+        return None
+    columns = session.columns()
+    point = highs.getSolution().col_value
+    if len(point) == 0 or any(id(u) not in columns for u in model.u.values()):
+        return None
+    return {key: float(point[columns[id(u)]]) for key, u in model.u.items()}
+
+
+def _land(
+    pm: PlanModel,
+    enforced: list[Enforced],
+    target: dict[Any, float],
+    options: PlanOptions,
+    clock: Clock,
+    phase: Phase,
+) -> float | None:
+    """Copy into ``pm`` the plan nearest ``target`` that meets every enforced predicate; returns
+    how far it is (``sum |u - target|``), None when the LP fails."""
+    with clock.building():
+        landing = landing_model(pm, enforced, target)
+    results, _, _ = solve_once(landing, options, clock, phase, mip=False)
+    if results.termination_condition != TC.convergenceCriteriaSatisfied:
+        return None
+    copy_plan(landing, pm)
+    return float(value(landing.goal))
+
+
+def finish(pm: PlanModel, options: PlanOptions, clock: Clock) -> Finish:
+    """Step 2 (or the one-step polish) with step 1's decisions fixed, the plan loaded in ``pm``.
+
+    On failure the step-1 solution stays loaded in ``pm``, unless a landing succeeded.
+    """
+    snapshot = [(v, v.value) for v in pm.model.component_data_objects(Var)]
+    phase: Phase = "step2" if options.two_step else "polish"
+    fix_decisions(pm)
+    enforced, _, ended = enforced_predicates(pm, options, clock, phase)
+    for v, val in snapshot:
+        v.set_value(val, skip_validation=True)
+    if enforced is None:
+        return Finish(f"the LP finding the enforced predicates ended {ended}", ended in INFEASIBLE)
+    enforced += kept_sides(pm)
+    with clock.building():
+        small = continuous_model(pm, enforced, "effort" if options.two_step else "polish")
+    session = HighsSession(small, options, clock, phase, mip=False)
+    solved = session.solve(finishing=True)
+    ended = solved.results.termination_condition.name
+    if solved.results.termination_condition == TC.convergenceCriteriaSatisfied:
+        copy_plan(small, pm)
+        return Finish()
+    failed = f"the continuous solve ended {ended}"
+    if ended in INFEASIBLE:
+        return Finish(failed, True)
+    target = _target(session, small)
+    moved = None if target is None else _land(pm, enforced, target, options, clock, phase)
+    if moved is None:
+        return Finish(failed)
+    if moved <= LANDING_LIMIT:
+        return Finish(
+            note=f"HiGHS's solve ended {ended}; its point landed {moved:.1g} away by an LP"
+        )
+    return Finish(failed, kept=f"its point moved {moved:.3g} onto the enforced predicates (an LP)")
