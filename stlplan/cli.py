@@ -194,7 +194,10 @@ def solve(
         bool,
         typer.Option("--one-step", help="Skip step 2 (effort minimization with decisions fixed)."),
     ] = False,
-    encoding: Annotated[Encoding | None, typer.Option(help="Disjunction encoding.")] = None,
+    encoding: Annotated[
+        Encoding | None,
+        typer.Option(help="Disjunction encoding (default: the mission's, standard)."),
+    ] = None,
     inter_sample: InterSampleOption = None,
     quiet: Annotated[
         bool, typer.Option("--quiet", "-q", help="Print only the one-line result.")

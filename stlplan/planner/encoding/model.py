@@ -220,7 +220,7 @@ def add_objective(
 
 def build_model(
     problem: Problem,
-    encoding: Encoding = "log",
+    encoding: Encoding = "standard",
     lazy: bool = False,
     floors: bool = False,
     floors_deadline: float = math.inf,
