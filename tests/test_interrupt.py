@@ -9,6 +9,8 @@ from __future__ import annotations
 import json
 import os
 import signal
+import threading
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -175,4 +177,24 @@ def test_held_signal_arrives_after_the_critical_section() -> None:
             os.kill(os.getpid(), signal.SIGINT)
             done.append("inside")  # not interrupted while held
         done.append("after")  # the signal lands on leaving the section
+    assert done == ["inside"]
+
+
+def test_held_signal_waits_when_another_thread_receives_it() -> None:
+    # this thread blocks SIGINT, so the kernel hands it to the waiting thread; Python still runs
+    # the handler here, which must defer it to the end of the section
+    release = threading.Event()
+    waiter = threading.Thread(target=release.wait)
+    waiter.start()
+    done = []
+    try:
+        with stops.stop_on_signals(), pytest.raises(stops.Interrupted):
+            with stops.held():
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(0.05)
+                done.append("inside")
+            done.append("after")
+    finally:
+        release.set()
+        waiter.join()
     assert done == ["inside"]

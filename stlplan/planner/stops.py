@@ -21,6 +21,8 @@ from types import FrameType
 from typing import Any
 
 CAUGHT = (signal.SIGINT, signal.SIGTERM)
+MASKS = hasattr(signal, "pthread_sigmask")
+"""Whether this platform can block signals per thread."""
 
 
 class Interrupted(KeyboardInterrupt):
@@ -62,6 +64,10 @@ class StopState:
     depth: int = 0
     finishing: int = 0
     enabled: bool = True
+    holding: int = 0
+    """Nested :func:`held` sections: a signal's handler then defers it to the section's end."""
+    deferred: int | None = None
+    """A signal that arrived during a held section, handled when it ends."""
 
 
 STATE = StopState()
@@ -109,6 +115,9 @@ def solving() -> Iterator[None]:
 
 
 def _on_signal(signum: int, frame: FrameType | None) -> None:
+    if STATE.holding:  # delivered through a thread that does not block it (e.g. HiGHS's)
+        STATE.deferred = STATE.deferred or signum
+        return
     if STATE.solving == 0:
         STATE.signum = STATE.signum or signum
         raise Interrupted(signum)
@@ -120,15 +129,22 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
 
 @contextmanager
 def held() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM back during a short critical section; they arrive after it."""
-    if not hasattr(signal, "pthread_sigmask"):
-        yield
-        return
-    before = signal.pthread_sigmask(signal.SIG_BLOCK, CAUGHT)
+    """Hold SIGINT and SIGTERM back during a short critical section; they arrive after it.
+
+    The signal mask holds them for this thread; a process signal that another thread (one of
+    HiGHS's workers) receives still runs the handler here, which defers it to the section's end.
+    """
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, CAUGHT) if MASKS else None
+    STATE.holding += 1
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+        STATE.holding -= 1
+        if before is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, before)
+        if not STATE.holding and STATE.deferred is not None:
+            signum, STATE.deferred = STATE.deferred, None
+            _on_signal(signum, None)
 
 
 def leave_signals_alone() -> None:
