@@ -25,7 +25,7 @@ farm: $(STAMP)  ## Solve the shipped farm mission (Case I) into out/farm
 test: $(STAMP)  ## Run the test suite (without the slow solves)
 	$(BIN)/pytest -q -m "not slow"
 
-test-slow: $(STAMP)  ## Run only the slow tests (full farm solves)
+test-slow: $(STAMP)  ## Run only the slow tests (full farm solves, the STL suite against its reference)
 	$(BIN)/pytest -q -m slow
 
 fuzz: $(STAMP)  ## Fuzz formulas and mission files with 5000 fresh random Hypothesis examples per test
@@ -37,14 +37,16 @@ smoke: $(STAMP)  ## Solve Cases I-III once each under a time limit; fail unless 
 	  $(BIN)/stlplan solve missions/$$m.yaml --out out/smoke/$$m --time-limit $(SMOKE_LIMIT) --quiet || exit 1; \
 	done
 
-bench: $(STAMP)  ## Benchmark Cases I-III: 30 random states each, straightforward formulation on 2 (~1.5 h)
+bench: $(STAMP)  ## Benchmark Cases I-III (30 states, straightforward on 2), then the STL suite and Cases I-III with both encodings (~2.5 h)
 	$(BIN)/python -m stlplan.bench --runs 30 --formulations default sampled --compare-runs 2 --compare-time-limit 600
+	$(BIN)/python -m stlplan.bench --cases suite farm farm-case2 farm-case3 --runs 3 --formulations log standard --base log --compare-runs 0 --time-limit 300 --threads 1 --name bench-encodings
 
 bench-scale: $(STAMP)  ## Scaled farms (16, 24, 32 agents), 3 states each: selection against groups (~2 h)
 	$(BIN)/python -m stlplan.bench --cases scale/farm-x2 scale/farm-x3 scale/farm-x4 --runs 3 --formulations default groups --compare-runs 0 --time-limit 600 --name bench-scale
 
-bench-quick: $(STAMP)  ## Benchmark Cases I-III on 2 states each, straightforward on 1 of Case I (~6 min)
+bench-quick: $(STAMP)  ## Benchmark Cases I-III on 2 states each, straightforward on 1 of Case I, the STL suite with both encodings (~20 min)
 	$(BIN)/python -m stlplan.bench --runs 2 --formulations default sampled --compare-runs 1 --compare-cases farm --compare-time-limit 300 --name bench-quick
+	$(BIN)/python -m stlplan.bench --cases suite --formulations log standard --base log --compare-runs 0 --time-limit 60 --threads 1 --name bench-quick-encodings
 
 lint: $(STAMP)  ## ruff check, ruff format --check, mypy
 	$(BIN)/ruff check stlplan tests

@@ -1,8 +1,10 @@
-"""Benchmark of the farm cases: the default formulation against the straightforward one.
+"""Benchmark of the farm cases and the general-STL suite, formulation against formulation.
 
-Each case (``missions/<case>.yaml``) is solved from random initial states drawn as a sweep draws
-them (:func:`stlplan.sweep.initial.draw_positions` with a fixed seed, runs ``0..n-1``): uniform in
-the initial area, at rest, pairwise at least ``d_col`` apart. Every run is solved with the default
+Each farm case (``missions/<case>.yaml``) is solved from random initial states drawn as a sweep
+draws them (:func:`stlplan.sweep.initial.draw_positions` with a fixed seed, runs ``0..n-1``):
+uniform in the initial area, at rest, pairwise at least ``d_col`` apart. A mission of the suite
+(``missions/stl/``, cases ``stl/<name>``, all of them by ``--cases suite``) has no initial area: it
+is solved once per formulation, as written. Every run is solved with the default
 formulation (the planner's defaults: lazy obstacle and collision rows, effort floors) and the first
 few runs of each case also with the straightforward formulation (every row up front, no floors)
 under a generous time limit, so the two can be compared on the same states. Every plan goes
@@ -35,6 +37,10 @@ from stlplan.examples import missions_dir
 CASES = ("farm", "farm-case2", "farm-case3")
 SCALE_CASES = ("scale/farm-x2", "scale/farm-x3", "scale/farm-x4")
 """Case I's map and tasks with the team replicated 2, 3 and 4 times (16, 24, 32 agents)."""
+SUITE = tuple(f"stl/{p.stem}" for p in sorted((missions_dir() / "stl").glob("*.yaml")))
+"""The general-STL suite: single- and multi-agent missions, some infeasible, solved as written."""
+NO_PLAN = ("infeasible", "no_plan")
+"""Statuses of a solve that ends without a plan for the monitor to judge."""
 
 FORMULATIONS: dict[str, tuple[tuple[str, Any], ...]] = {
     "default": (),
@@ -48,6 +54,7 @@ FORMULATIONS: dict[str, tuple[tuple[str, Any], ...]] = {
     "near-0.1": (("lazy_margin", 0.1),),
     "log": (("encoding", "log"),),
     "groups": (("tasks", "groups"),),
+    "standard": (("encoding", "standard"),),
     "heuristics-0.01": (("highs_options", (("mip_heuristic_effort", 0.01),)),),
     "heuristics-0.2": (("highs_options", (("mip_heuristic_effort", 0.2),)),),
 }
@@ -59,7 +66,7 @@ GAP = 1e-4
 
 COLUMNS = (
     "case", "seed", "run", "formulation", "variables", "binaries", "constraints", "build_s",
-    "solve_s", "wall_s", "rounds", "status", "accepted", "gap", "rho_s", "objective", "effort", "message",
+    "solve_s", "wall_s", "cpu_s", "rounds", "status", "accepted", "gap", "rho_s", "objective", "effort", "message",
 )  # fmt: skip
 
 
@@ -79,7 +86,10 @@ def _initial_problem(case: str, seed: int, run: int) -> Any:
     from stlplan.sweep.initial import draw_positions, with_initial_positions
 
     path = missions_dir() / f"{case}.yaml"
-    mission = load_problem(path).mission
+    problem = load_problem(path)
+    mission = problem.mission
+    if mission.sweep is None:  # a suite mission: its own initial states
+        return problem
     positions = draw_positions(mission, seed, run)
     return build_problem(with_initial_positions(mission, positions), source=str(path))
 
@@ -112,12 +122,13 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
 
     problem = _initial_problem(job.case, seed, job.run)
     overrides = _overrides(job, threads)
-    tick = time.perf_counter()
+    tick, cpu = time.perf_counter(), time.process_time()
     try:
         _, result = api.plan(problem, overrides, progress=on_progress)
     except StlplanError as exc:  # the monitor rejected the plan, or HiGHS failed
         row.update(status="error", accepted=False, message=str(exc))
         row["wall_s"] = round(time.perf_counter() - tick, 2)
+        row["cpu_s"] = round(time.process_time() - cpu, 2)
         return row
     size = result.model_size
     report = result.report
@@ -128,9 +139,12 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
         build_s=round(result.build_seconds or 0.0, 2),
         solve_s=round(result.solve_seconds or 0.0, 2),
         wall_s=round(time.perf_counter() - tick, 2),
+        cpu_s=round(time.process_time() - cpu, 2),
         rounds=rounds[0],
         status=result.status.value,
-        accepted=bool(report is not None and report.satisfied),
+        accepted=None
+        if report is None and result.status.value in NO_PLAN
+        else bool(report is not None and report.satisfied),
         gap=None if result.gap is None else f"{result.gap:.2e}",
         rho_s=None if report is None else report.rho_s,
         objective=_step1_objective(result),
@@ -143,7 +157,8 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
 def plan_jobs(args: argparse.Namespace) -> Iterator[Job]:
     """Every run with each formulation, then the first runs with the comparison ones."""
     for case in args.cases:
-        for run in range(args.first_run, args.first_run + args.runs):
+        runs = 1 if case in SUITE else args.runs  # a suite mission has one initial state
+        for run in range(args.first_run, args.first_run + runs):
             for name in args.formulations:
                 yield Job(case, run, name, args.time_limit)
             if run < args.first_run + args.compare_runs and case in args.compare_cases:
@@ -163,10 +178,12 @@ def summary_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
             "formulation": name,
             "runs": len(mine),
             "optimal": sum(1 for r in mine if r.get("status") == "optimal"),
+            "infeasible": sum(1 for r in mine if r.get("status") == "infeasible"),
             "accepted": sum(1 for r in mine if r.get("accepted") in (True, "True")),
             "mean_s": round(float(times.mean()), 1),
             "median_s": round(float(np.median(times)), 1),
             "max_s": round(float(times.max()), 1),
+            "mean_cpu_s": _mean(r.get("cpu_s") for r in mine),
             "mean_rounds": round(float(np.mean([float(r.get("rounds") or 1) for r in mine])), 1),
         })  # fmt: skip
     return out
@@ -176,7 +193,9 @@ def side_by_side(rows: Sequence[dict[str, Any]], base: str = "default") -> list[
     """Per state solved by ``base`` and another formulation: both times, their ratio, objectives.
 
     ``agree``: both optimal and the objectives within the relative gap of each other, or the
-    other stopped at its limit with an objective no better than ``base``'s (a maximization).
+    other stopped at its limit with an objective no better than ``base``'s (a maximization), or
+    both infeasible. ``speed_up`` compares wall times, ``cpu_ratio`` the process CPU times (the
+    fairer figure on a shared machine: HiGHS runs in the process, on the threads given).
     """
     index = {(r["case"], r["run"], r["formulation"]): r for r in rows}
     out = []
@@ -187,14 +206,18 @@ def side_by_side(rows: Sequence[dict[str, Any]], base: str = "default") -> list[
         a, b = _number(mine.get("objective")), _number(other.get("objective"))
         ta, tb = float(mine["wall_s"]), float(other["wall_s"])
         agree = None
-        if a is not None and b is not None:
+        if mine.get("status") == other.get("status") == "infeasible":
+            agree = True
+        elif a is not None and b is not None:
             both = mine.get("status") == other.get("status") == "optimal"
             agree = abs(a - b) <= GAP * max(abs(a), abs(b)) if both else b <= a + GAP * abs(a)
+        ca, cb = _number(mine.get("cpu_s")), _number(other.get("cpu_s"))
         out.append({
             "case": case, "run": run, "formulation": name, f"{base}_s": ta,
-            f"{name}_s": tb, "speed_up": round(tb / ta, 1) if ta > 0 else None,
-            f"{name}_status": other.get("status"), f"{base}_objective": a,
-            f"{name}_objective": b, "agree": agree,
+            "other_s": tb, "speed_up": round(tb / ta, 1) if ta > 0 else None,
+            "other_status": other.get("status"), f"{base}_objective": a,
+            "other_objective": b, "agree": agree,
+            "cpu_ratio": round(cb / ca, 2) if ca and cb is not None else None,
         })  # fmt: skip
     return out
 
@@ -206,11 +229,19 @@ def _step1_objective(result: Any) -> float | None:
     return None if value is None else round(value, 6)
 
 
+def _mean(values: Iterator[Any]) -> float | None:
+    """Mean of the recorded numbers (None where none was recorded)."""
+    numbers = [float(v) for v in values if v not in (None, "")]
+    return round(float(np.mean(numbers)), 1) if numbers else None
+
+
 def _number(value: Any) -> float | None:
     return None if value in (None, "") else float(value)
 
 
-def markdown(rows: Sequence[dict[str, Any]], command: str, header: str) -> str:
+def markdown(
+    rows: Sequence[dict[str, Any]], command: str, header: str, base: str = "default"
+) -> str:
     """The summary table, the side-by-side comparison, then one row per solve, as Markdown."""
 
     def table(records: Sequence[dict[str, Any]], columns: Sequence[str]) -> list[str]:
@@ -222,9 +253,9 @@ def markdown(rows: Sequence[dict[str, Any]], command: str, header: str) -> str:
     summary = summary_rows(rows)
     lines = [f"# stlplan benchmark\n\n{header}\n\nCommand: `{command}`\n", "## Summary\n"]
     lines += table(summary, list(summary[0]) if summary else ["case"])
-    pairs = side_by_side(rows)
+    pairs = side_by_side(rows, base)
     if pairs:
-        lines += ["", "## Side by side (same states; speed_up = other time / default time)\n"]
+        lines += ["", f"## Side by side (same states; speed_up = other time / {base} time)\n"]
         lines += table(pairs, list(pairs[0]))
     lines += ["", "## Runs (wall_s: plan + monitor, seconds)\n"]
     lines += table(rows, [c for c in COLUMNS if c != "message"])
@@ -258,7 +289,10 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     """Command-line options (see ``python -m stlplan.bench --help``)."""
     parser = argparse.ArgumentParser(prog="python -m stlplan.bench", description=__doc__.split(
         "\n\n")[0])  # fmt: skip
-    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=CASES + SCALE_CASES)
+    parser.add_argument("--cases", nargs="+", default=list(CASES),
+                        choices=(*CASES, *SCALE_CASES, *SUITE, "suite"),
+                        help="farm cases, scaled farms (scale/farm-xK), suite missions (stl/NAME), "
+                        "or 'suite' for all of them")  # fmt: skip
     parser.add_argument("--runs", type=int, default=30, help="initial states per case")
     parser.add_argument("--first-run", type=int, default=0, help="index of the first state")
     parser.add_argument("--seed", type=int, default=0, help="seed of the initial states")
@@ -272,31 +306,36 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     )
     parser.add_argument("--compare-time-limit", type=float, default=900.0)
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--base", default="default", choices=FORMULATIONS,
+                        help="formulation the others are compared with, state by state")  # fmt: skip
     parser.add_argument("--out", type=Path, default=Path("bench-results"))
     parser.add_argument("--name", default="bench", help="file stem of the CSV and Markdown")
     parser.add_argument("--render", action="store_true",
                         help="solve nothing: rewrite NAME.md from NAME.csv")  # fmt: skip
-    return parser.parse_args(argv)
+    args = parser.parse_args(argv)
+    args.cases = [c for case in args.cases for c in (SUITE if case == "suite" else (case,))]
+    return args
 
 
-def render(csv_path: Path, md_path: Path) -> None:
+def render(csv_path: Path, md_path: Path, base: str = "default") -> None:
     """Rewrite the Markdown of an earlier run from its CSV (header and command kept)."""
     with open(csv_path, newline="", encoding="utf-8") as handle:
         rows: list[dict[str, Any]] = [{**r, "run": int(r["run"])} for r in csv.DictReader(handle)]
     old = md_path.read_text(encoding="utf-8").splitlines() if md_path.exists() else []
     header = next((line for line in old if line.startswith("HiGHS ")), "(machine not recorded)")
     command = next((line[10:-1] for line in old if line.startswith("Command: `")), "(unknown)")
-    md_path.write_text(markdown(rows, command, header), encoding="utf-8")
+    md_path.write_text(markdown(rows, command, header, base), encoding="utf-8")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the benchmark; returns 0 when every plan was accepted by the monitor."""
+    """Run the benchmark; returns 0 when every plan was accepted by the monitor (a solve may
+    also end without a plan: infeasible, or none within the time limit)."""
     args = parse_args(argv)
     command = "python -m stlplan.bench " + shlex.join(sys.argv[1:] if argv is None else argv)
     args.out.mkdir(parents=True, exist_ok=True)
     csv_path, md_path = args.out / f"{args.name}.csv", args.out / f"{args.name}.md"
     if args.render:
-        render(csv_path, md_path)
+        render(csv_path, md_path, args.base)
         print(md_path.read_text(encoding="utf-8"))
         return 0
     header = machine_header(args.threads)
@@ -310,13 +349,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             rows.append(row)
             writer.writerow(row)
             handle.flush()
-            md_path.write_text(markdown(rows, command, header), encoding="utf-8")
+            md_path.write_text(markdown(rows, command, header, args.base), encoding="utf-8")
             print(f"[{n}/{len(jobs)}] {job.case} run {job.run} {job.formulation}: "
                   f"{row.get('status')} in {row.get('wall_s')} s, objective "
                   f"{row.get('objective')}, rounds {row.get('rounds')}", file=sys.stderr,
                   flush=True)  # fmt: skip
     print(md_path.read_text(encoding="utf-8") if rows else "no solves")
-    return 0 if all(r.get("accepted") for r in rows) else 1
+    return 0 if all(r.get("accepted") or r.get("status") in NO_PLAN for r in rows) else 1
 
 
 if __name__ == "__main__":

@@ -45,3 +45,24 @@ def test_render_rewrites_markdown_from_csv(tmp_path: Path) -> None:
     text = (tmp_path / "b.md").read_text()
     assert "HiGHS 9.9, machine" in text and "`python -m x`" in text
     assert "| farm | 0 | straightforward | 10 | 90 | 9 | optimal |" in text
+
+
+def test_suite_cases_run_once_as_written() -> None:
+    args = bench.parse_args(["--cases", "suite", "farm", "--runs", "3", "--compare-runs", "0",
+                             "--formulations", "log", "standard"])  # fmt: skip
+    assert set(bench.SUITE) <= set(args.cases) and "stl/patrol" in bench.SUITE
+    jobs = list(bench.plan_jobs(args))
+    patrol = [(j.run, j.formulation) for j in jobs if j.case == "stl/patrol"]
+    assert patrol == [(0, "log"), (0, "standard")]
+    assert len([j for j in jobs if j.case == "farm"]) == 6
+    problem = bench._initial_problem("stl/patrol", seed=0, run=0)
+    assert list(problem.agents[0].initial_state) == [2.0, 2.0]
+
+
+def test_side_by_side_infeasible_on_both_sides_agrees() -> None:
+    rows = [
+        {**row(0, "log", 3.0, "infeasible", None), "case": "stl/door-locked"},
+        {**row(0, "standard", 1.5, "infeasible", None), "case": "stl/door-locked"},
+    ]
+    (pair,) = bench.side_by_side(rows, base="log")
+    assert pair["speed_up"] == 0.5 and pair["agree"] is True

@@ -120,7 +120,9 @@ OneStepOption = Annotated[
 ]
 EncodingOption = Annotated[
     Encoding | None,
-    typer.Option(help="Disjunction encoding (default: the mission's).", metavar="log|standard"),
+    typer.Option(
+        help="Disjunction encoding (default: the mission's, standard).", metavar="log|standard"
+    ),
 ]
 TasksOption = Annotated[
     TaskForm | None,

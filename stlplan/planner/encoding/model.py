@@ -253,7 +253,7 @@ def encode_tasks(
 
 def build_model(
     problem: Problem,
-    encoding: Encoding = "log",
+    encoding: Encoding = "standard",
     lazy: bool = False,
     floors: bool = False,
     floors_deadline: float = math.inf,
