@@ -92,12 +92,14 @@ class _Milp:
         kinds = highspy.HighsVarType
         lp.integrality_ = [kinds.kInteger if i else kinds.kContinuous for i in self.integer]
         lp.sense_ = highspy.ObjSense.kMaximize
+        highspy.Highs.resetGlobalScheduler(True)  # sized afresh for this solve's one thread
         h = highspy.Highs()
         for name, value in (("output_flag", False), ("threads", 1), ("time_limit", time_limit),
                             ("mip_rel_gap", 1e-9), ("mip_abs_gap", 1e-9)):  # fmt: skip
             h.setOptionValue(name, value)
         h.passModel(lp)
         h.run()
+        highspy.Highs.resetGlobalScheduler(True)  # the next solve sizes the pool for itself
         status = h.getModelStatus()
         if status == highspy.HighsModelStatus.kInfeasible:
             return "infeasible", None, []
