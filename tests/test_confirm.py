@@ -12,6 +12,7 @@ import pytest
 from stlplan import api
 from stlplan.api import Overrides
 from stlplan.planner.confirm import attempts, has_plan, option, solve_confirmed, verdict
+from stlplan.planner.session import forget_threads
 from tests.conftest import MISSIONS
 
 DATA = Path(__file__).parent / "data"
@@ -20,6 +21,7 @@ EXACT = Overrides(threads=1, gap=1e-9)
 
 
 def _highs(path: Path) -> highspy.Highs:
+    forget_threads()  # a pool sized by earlier solves would refuse threads=1
     highs = highspy.Highs()
     highs.setOptionValue("output_flag", False)
     highs.setOptionValue("threads", 1)
