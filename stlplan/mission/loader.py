@@ -240,13 +240,7 @@ def _describe(issue: _Issue) -> tuple[FieldPath, str]:
     elif kind == "too_long":
         expected = f"at most {ctx.get('max_length')} item(s)"
     elif kind in _BOUNDS:
-        limit = next(iter(v for k, v in ctx.items() if k in ("ge", "gt", "le", "lt")), "?")
-        expected = f"a value {_BOUNDS[kind]} {limit}"
-        if limit in (schema.MAX_MAGNITUDE, -schema.MAX_MAGNITUDE):
-            expected = (
-                f"a number between -{schema.MAGNITUDE_TEXT} and {schema.MAGNITUDE_TEXT} "
-                "(larger magnitudes break the solver's tolerances; rescale the units)"
-            )
+        expected = _bound(kind, ctx)
     elif kind == "string_pattern_mismatch":
         expected = _PATTERNS.get(ctx.get("pattern"), f"text matching {ctx.get('pattern')}")
     elif kind in ("literal_error", "union"):
@@ -254,6 +248,17 @@ def _describe(issue: _Issue) -> tuple[FieldPath, str]:
     else:
         expected = _EXPECTED.get(kind, issue.msg)
     return path, f"expected {expected}, found {describe_value(issue.found)}{_hint(issue)}"
+
+
+def _bound(kind: str, ctx: dict[str, Any]) -> str:
+    """What a value out of its range should be: ``a value >= 0``, or within the magnitude limit."""
+    limit = next(iter(v for k, v in ctx.items() if k in ("ge", "gt", "le", "lt")), "?")
+    if limit in (schema.MAX_MAGNITUDE, -schema.MAX_MAGNITUDE):
+        return (
+            f"a number between -{schema.MAGNITUDE_TEXT} and {schema.MAGNITUDE_TEXT} "
+            "(larger magnitudes break the solver's tolerances; rescale the units)"
+        )
+    return f"a value {_BOUNDS[kind]} {limit}"
 
 
 def _hint(issue: _Issue) -> str:
