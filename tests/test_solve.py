@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from pathlib import Path
@@ -299,3 +300,16 @@ def test_the_strict_until_needs_no_left_where_right_holds(op: str, status: PlanS
     assert result.status is status
     if status is PlanStatus.OPTIMAL:
         assert result.effort == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_failed_completion_is_not_called_completed() -> None:
+    from stlplan.planner.lazy import Step1
+    from stlplan.planner.solve import _completion_text
+
+    done = Step1(PlanStatus.FEASIBLE, 1.0, 2.0, 0.5, 1.0, 3, 4, "maxTimeLimit", completed=True)
+    failed = dataclasses.replace(done, status=PlanStatus.NO_PLAN, objective=None, gap=None)
+    assert _completion_text(done) == ", completed with step-1 decisions fixed"
+    assert "cannot meet" in _completion_text(failed) and "completed with" not in _completion_text(
+        failed
+    )
+    assert _completion_text(dataclasses.replace(done, completed=False)) == ""

@@ -191,5 +191,17 @@ def _message(step1: Step1, options: PlanOptions, clock: Clock) -> str:
         text += " (HiGHS said infeasible, but a confirmation solve ended without a verdict)"
     if options.lazy and step1.rounds > 1:
         text += f" ({step1.rounds} lazy rounds, {step1.added} requirements added"
-        text += ", completed with step-1 decisions fixed)" if step1.completed else ")"
+        text += _completion_text(step1) + ")"
     return text
+
+
+def _completion_text(step1: Step1) -> str:
+    """How the last round's plan was completed at the time limit (when it was)."""
+    if not step1.completed:
+        return ""
+    if step1.status.has_plan:
+        return ", completed with step-1 decisions fixed"
+    return (
+        "; at the time limit the last round's plan violated requirements that its decisions, "
+        "fixed, cannot meet"
+    )
