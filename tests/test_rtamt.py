@@ -78,3 +78,27 @@ def test_export_rtamt_writes_a_file_and_lists_what_it_leaves_out(tmp_path: Path)
     assert "# not exported: crop_B (several roles)" in text
     assert "# not exported: crop_C (synchronous)" in text
     assert "always[0:9](" in text and "# constraint avoid_obstacle, role p = " in text
+
+
+SINGLE_AGENT_SUITE = (
+    "bounded-until", "door-key", "dwell", "dwell-sequence", "either-or", "many-targets",
+    "narrow-passage", "patrol", "stepping-stones",
+)  # fmt: skip
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", SINGLE_AGENT_SUITE)
+def test_rtamt_scores_the_single_agent_suite_as_the_monitor_does(name: str) -> None:
+    path = MISSIONS / "stl" / f"{name}.yaml"
+    problem, result = api.plan(path, overrides=Overrides(threads=1))
+    assert result.status is PlanStatus.OPTIMAL and result.trajectory is not None
+    specs, _ = api.export_rtamt(path)
+    assert specs
+    # RTAMT judges samples: compare with the monitor's sampled robustness of the same plan
+    sampled = check(problem.with_inter_sample(False), result.trajectory)
+    for spec in specs:
+        (agent,) = spec.agents
+        mine = sampled.verdict(spec.name).robustness
+        theirs = _rtamt_robustness(spec.text, spec.variables, result.trajectory.states[agent])
+        assert theirs == pytest.approx(mine, abs=1e-9), spec.name
+        assert theirs >= 0, spec.name

@@ -35,6 +35,13 @@ class AgentModel:
     input_lo: np.ndarray
     input_hi: np.ndarray
     initial_state: np.ndarray
+    at_rest: bool = False
+    """The agent must end at rest: ``(A - I) x(H) = 0``."""
+
+    def rest_rows(self) -> np.ndarray:
+        """The rows of ``A - I`` that are not zero: ``rows @ x(H) = 0`` is "at rest"."""
+        rows = self.A - np.eye(self.n)
+        return rows[np.any(rows != 0, axis=1)]
 
     @property
     def n(self) -> int:
@@ -154,6 +161,7 @@ def _agent_model(mission: Mission, index: int) -> AgentModel:
         input_lo=ib[:, 0],
         input_hi=ib[:, 1],
         initial_state=np.array(spec.initial_state, dtype=float),
+        at_rest=spec.final == "at_rest",
     )
 
 

@@ -75,6 +75,9 @@ class Agent(_Strict):
     """Capabilities the agent has, such as sensors (e.g. [UV])."""
     initial_state: list[Number]
     """Initial state x(0), one value per state component."""
+    final: Literal["free", "at_rest"] = "free"
+    """``at_rest``: the agent ends at rest, x(H) an equilibrium of its dynamics with zero input
+    (``A x(H) = x(H)``: for a double integrator, zero velocity)."""
 
 
 class Region(_Strict):

@@ -99,6 +99,22 @@ def _initial(agent: AgentModel, x: np.ndarray, tol: float, keep: list[int]) -> l
     )
 
 
+def _at_rest(agent: AgentModel, x: np.ndarray, tol: float) -> list[Violation]:
+    """Violations of ``(A - I) x(H) = 0`` for an agent that must end at rest."""
+    if not agent.at_rest:
+        return []
+    rows = agent.rest_rows()
+    residual = np.abs(x[-1:] @ rows.T)
+    allowed = slack(x[-1:], tol) @ np.abs(rows).T
+    return _violations(
+        np.array([len(x) - 1]),
+        4,
+        residual,
+        allowed,
+        lambda r, i: f"not at rest at the last step: (A - I) x(H) is {residual[r, i]:.3g} off 0",
+    )
+
+
 def _with_inputs(agent: AgentModel, x: np.ndarray, u: np.ndarray, tol: float) -> list[Violation]:
     """Violations of ``x(0) = x_init``, ``x(k+1) = A x(k) + B u(k)`` and the bounds."""
     everything = list(range(agent.n))
@@ -166,9 +182,9 @@ def dynamics_verdict(agent: AgentModel, trajectory: Trajectory, tol: float) -> V
     x = np.asarray(trajectory.states[agent.name], dtype=float)
     u = np.asarray(trajectory.inputs[agent.name], dtype=float)
     if trajectory.known == "inputs":
-        found = _with_inputs(agent, x, u, tol)
+        found = _with_inputs(agent, x, u, tol) + _at_rest(agent, x, tol)
     elif trajectory.known == "states":
-        found = _with_states(agent, x, tol)
+        found = _with_states(agent, x, tol) + _at_rest(agent, x, tol)
     else:
         found = _with_positions(agent, x, tol)
     if not found:

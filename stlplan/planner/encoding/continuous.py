@@ -92,7 +92,18 @@ def condensed_states(model: ConcreteModel, pm: PlanModel) -> dict[tuple[str, int
                     model.box.add((float(lo), states[a.name, k, i], float(hi)))
             free = a.A @ free
             gains = [a.A @ g for g in gains] + [a.B]
+        _rest(model, a, states, problem.horizon)
     return states
+
+
+def _rest(model: ConcreteModel, agent: Any, states: Mapping[Any, Any], horizon: int) -> None:
+    """``(A - I) x(H) = 0`` over the condensed states, for an agent that ends at rest."""
+    if not agent.at_rest:
+        return
+    for row in agent.rest_rows():
+        expr = sum(c * states[agent.name, horizon, i] for i, c in enumerate(row) if c)
+        if not isinstance(expr, (int, float)):
+            model.box.add(expr == 0)
 
 
 def _absolute_inputs(model: ConcreteModel) -> None:

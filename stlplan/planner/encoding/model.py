@@ -158,7 +158,7 @@ def add_agents(
     """Variables ``x`` (bounded by ``boxes``), ``u``, ``s``; dynamics and initial state.
 
     ``x_p(k+1) = A_p x_p(k) + B_p u_p(k)``, ``x_p(0) = x_p^0`` (fixed), ``s >= |u|`` with
-    ``0 <= s <= max(|u_lo|, |u_hi|)``.
+    ``0 <= s <= max(|u_lo|, |u_hi|)``, and ``(A_p - I) x_p(H) = 0`` for an agent that ends at rest.
     """
     H = problem.horizon
     x_box = {
@@ -186,6 +186,11 @@ def add_agents(
                 drift = sum(a.A[i, c] * model.x[a.name, k, c] for c in range(a.n) if a.A[i, c])
                 push = sum(a.B[i, c] * model.u[a.name, k, c] for c in range(a.m) if a.B[i, c])
                 model.dynamics.add(model.x[a.name, k + 1, i] == drift + push)
+        if a.at_rest:
+            for row in a.rest_rows():
+                model.dynamics.add(
+                    sum(c * model.x[a.name, H, i] for i, c in enumerate(row) if c) == 0
+                )
         for k, j in ((k, j) for k in range(H) for j in range(a.m)):
             model.effort_rows.add(model.s[a.name, k, j] >= model.u[a.name, k, j])
             model.effort_rows.add(model.s[a.name, k, j] >= -model.u[a.name, k, j])
