@@ -55,6 +55,8 @@ class Verdict:
     """First step of the longest synchronized run of the best group."""
     run_length: int | None = None
     """Number of steps of that run."""
+    counted: float | None = None
+    """``min(rho_s, gamma)``: what the objective counts of a synchronous task's ``rho_s``."""
     detail: str = ""
     """One line a person can read."""
 

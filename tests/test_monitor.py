@@ -457,3 +457,16 @@ def test_monitor_matches_brute_force(formula: Formula, data: st.DataObject) -> N
     expected = brute(formula, np.array(path), 0)
     assert verdict.robustness == pytest.approx(expected, abs=1e-9)
     assert verdict.satisfied is bool(expected >= HOLDS_AT)
+
+
+def test_a_run_past_gamma_is_counted_up_to_gamma_and_says_so() -> None:
+    paths = {"v1": in_c(range(3, 10)), "v2": in_c(range(3, 10))}
+    capped = {"sync": {**SYNC["sync"], "synchronous": {"within": [3, 7], "hold": 1, "gamma": 2}}}
+    verdict = check(make_problem(paths, dict.fromkeys(paths, "Vis"), capped), walk(paths)).verdict(
+        "sync"
+    )
+    assert (verdict.rho_s, verdict.counted) == (5.0, 2.0)
+    assert "rho_s = 5, counted up to gamma = 2" in verdict.detail
+    uncapped = sync_verdict(paths)  # the mission's gamma, 8 by default
+    assert (uncapped.rho_s, uncapped.counted) == (5.0, 5.0)
+    assert "counted up to" not in uncapped.detail

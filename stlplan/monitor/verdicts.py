@@ -213,6 +213,7 @@ def _synchronous_verdict(task: TaskModel, rho: np.ndarray, slack: float) -> Verd
         spatial_rho,
         _group_elements(task, best.group),
         rho_s=float(rho_s),
+        counted=float(min(rho_s, task.sync.gamma)) if rho_s >= 0 else float(rho_s),
         run_start=best.start,
         run_length=best.length,
         detail=_synchronous_detail(task, best.group, best.start, best.length, rho_s),
@@ -229,6 +230,13 @@ def _spatial_anywhere(task: TaskModel, rho: np.ndarray, start: int) -> float:
     return best_group(task.elements, window, task.count, task.reuse_agents)[0]
 
 
+def _capped(task: TaskModel, rho_s: int) -> str:
+    """Why the objective counts less than ``rho_s``: its cap gamma (DESIGN 2.1)."""
+    assert task.sync is not None
+    gamma = task.sync.gamma
+    return f", counted up to gamma = {gamma:g}" if rho_s > gamma else ""
+
+
 def _synchronous_detail(
     task: TaskModel, group: Sequence[int], start: int, length: int, rho_s: int
 ) -> str:
@@ -238,7 +246,7 @@ def _synchronous_detail(
     if rho_s >= 0:
         return (
             f"group {text} holds phi together for {length} steps from step {start} "
-            f"(needs {need}): rho_s = {rho_s}"
+            f"(needs {need}): rho_s = {rho_s}{_capped(task, rho_s)}"
         )
     if length == 0:
         return (

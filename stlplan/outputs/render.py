@@ -28,7 +28,11 @@ def _sync(v: Verdict) -> str:
         return ""
     if not v.run_length or v.run_start is None:
         return f"rho_s {_num(v.rho_s)}, no run"
-    return f"rho_s {_num(v.rho_s)}, steps {v.run_start}-{v.run_start + v.run_length - 1}"
+    capped = ""
+    if v.counted is not None and v.counted < v.rho_s:
+        capped = f" (counted up to gamma = {_num(v.counted)})"
+    steps = f"steps {v.run_start}-{v.run_start + v.run_length - 1}"
+    return f"rho_s {_num(v.rho_s)}{capped}, run {v.run_length}: {steps}"
 
 
 def _rows(report: MonitorReport) -> list[Verdict]:

@@ -20,7 +20,9 @@ def _verdict(v: Verdict) -> dict[str, Any]:
     if v.group is not None:
         entry["group"] = [list(e) for e in v.group]
     if v.rho_s is not None:
-        entry.update(rho_s=v.rho_s, run_start=v.run_start, run_length=v.run_length)
+        entry.update(
+            rho_s=v.rho_s, counted=v.counted, run_start=v.run_start, run_length=v.run_length
+        )
     return entry
 
 
