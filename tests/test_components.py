@@ -4,13 +4,16 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import pytest
 
 from stlplan.formula.boundary import EPSILON
+from stlplan.planner import components
 from stlplan.planner.clock import Clock
 from stlplan.planner.components import Part, _tighten, agent_parts, solve_parts, sub_problem
+from stlplan.planner.encoding.model import build_model
 from stlplan.planner.lazy import Step1
-from stlplan.planner.session import PlanOptions
+from stlplan.planner.session import HighsSession, PlanOptions
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
 from tests.test_lazy import accepted, mission, swap_problem
@@ -121,3 +124,87 @@ def test_tighten_solves_the_loosest_part_again_with_an_absolute_gap() -> None:
     assert exact.asked == []
     assert loose.asked == [pytest.approx(1e-4 * 3.7 - 1e-5)]
     assert parts[0].step1 is not None and parts[0].step1.bound == 4.0002
+
+
+def detour_for_free() -> Any:
+    # a (or b) must reach R; a's straight diagonal passes through the idle e at (1, 1), but every
+    # monotone path from (0, 0) to R costs the same L1 effort: the collision costs nothing
+    agents = [
+        {"name": "a", "dynamics": "si", "capabilities": ["X"], "initial_state": [0, 0]},
+        {"name": "b", "dynamics": "si", "capabilities": ["X"], "initial_state": [4, -4]},
+        {"name": "e", "dynamics": "si", "capabilities": ["Z"], "initial_state": [1, 1]},
+    ]
+    return mission(
+        safety={"inter_sample": True},
+        horizon=4,
+        agents=agents,
+        regions={"R": {"box": [[2, 3], [2, 3]]}},
+        tasks={"reach": {"formula": "F[3,4] in(p, R)", "roles": {"p": "X"}}},
+        separation=0.2,
+        objective={"beta": 1.0, "effort": "l1"},
+    )
+
+
+def test_a_merged_part_is_repaired_with_only_the_colliding_agents_free(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    repairs: list[tuple[frozenset[str], Step1 | None]] = []
+    repair = components._repair
+
+    def spy(part: Part, options: PlanOptions, deadline: float) -> Step1 | None:
+        repaired = repair(part, options, deadline)
+        repairs.append((part.free, repaired))
+        return repaired
+
+    monkeypatch.setattr(components, "_repair", spy)
+    problem = detour_for_free()
+    assert agent_parts(problem) == [("a", "b"), ("e",)]
+    options = PlanOptions(time_limit=60, gap=1e-6)
+    found = solve_parts(problem, options, Clock(0.0, None))
+    assert found is not None
+    _, step1 = found
+    whole = plan(problem, PlanOptions(time_limit=60, gap=1e-6, lazy=False, floors=False))
+    assert [free for free, _ in repairs] == [frozenset({"a", "e"})]  # b was held
+    repaired = repairs[0][1]
+    assert repaired is not None and repaired.objective is not None
+    assert step1.status is PlanStatus.OPTIMAL
+    assert step1.objective == pytest.approx(whole.objective, abs=1e-5)
+    # the repair found the optimum: a took another monotone path at no cost
+    assert repaired.objective == pytest.approx(whole.objective, abs=1e-5)
+    assert accepted(problem, plan(problem, options))
+
+
+def test_tighten_towards_a_plan_below_the_parts_sum() -> None:
+    # F = 3.7, a merged plan P = 3.6999: the slacks must fit in 1e-4 * 3.6999 - 1e-4
+    loose = _Solver(_step(4.0, 4.0002))
+    exact = _Solver(_step(-0.3, -0.3))
+    parts = [
+        Part(("v",), None, loose, _step(4.0, 4.0004)),  # type: ignore[arg-type]
+        Part(("u",), None, exact, _step(-0.3, -0.29999)),  # type: ignore[arg-type]
+    ]
+    _tighten(parts, PlanOptions(gap=1e-4), deadline=1e9, plan=3.6999)
+    assert loose.asked == [pytest.approx(1e-4 * 3.6999 - 1e-4 - 1e-5)]
+    # a plan that lost more than the gap cannot be helped by tighter parts: nothing is solved
+    costly = _Solver(_step(4.0, 4.0))
+    parts[0] = Part(("v",), None, costly, _step(4.0, 4.0004))  # type: ignore[arg-type]
+    _tighten(parts, PlanOptions(gap=1e-4), deadline=1e9, plan=3.6)
+    assert costly.asked == []
+
+
+def test_a_solve_starts_from_a_given_plan() -> None:
+    # HiGHS stops at its first improving plan: without a start that is a poor one here
+    pm = build_model(detour_for_free(), "standard", lazy=False, floors=False)
+    exact = HighsSession(pm.model, PlanOptions(), Clock(0.0, None), "step1")
+    optimum = exact.solve(60).results.incumbent_objective
+    plan_x = np.array(exact.highs.getSolution().col_value)
+    first = PlanOptions(
+        highs_options=(("mip_max_improving_sols", 1), ("mip_heuristic_effort", 0.0))
+    )
+    found = []
+    for start in (None, plan_x):
+        session = HighsSession(pm.model, first, Clock(0.0, None), "step1")
+        if start is not None:
+            session.start_from(start)
+        found.append(session.solve(60).results.incumbent_objective)
+    assert found[0] < optimum - 1.0
+    assert found[1] == pytest.approx(optimum, abs=1e-9)

@@ -16,6 +16,7 @@ from stlplan.monitor.verdicts import check
 from stlplan.planner.clock import Progress
 from stlplan.planner.encoding.deferred import SEPARATION, defer, neighbours, violated
 from stlplan.planner.encoding.model import build_model, reachable_boxes
+from stlplan.planner.lazy import Watch, lowest
 from stlplan.planner.session import PlanOptions
 from stlplan.planner.solve import plan
 from stlplan.result import PlanResult, PlanStatus
@@ -215,3 +216,13 @@ def test_segment_violations_between_safe_samples() -> None:
     assert violated(steps.lazy, states, margin=0.0, tolerance=1e-9) == []
     bad = violated(deferral.lazy, states, margin=0.0, tolerance=1e-9)
     assert [deferral.lazy[n].k for n in bad] == [1, 2]
+
+
+def test_a_known_ceiling_closes_the_loop() -> None:
+    watch = Watch(pm=None, columns={}, gap=1e-4, ceiling=2.0)  # type: ignore[arg-type]
+    watch.best = (1.9999, np.zeros(0), frozenset())
+    assert watch.closed(5.0)  # HiGHS's own bound is loose; the ceiling is within the gap
+    assert watch.closed(None)  # the ceiling alone bounds the problem
+    watch.ceiling = None
+    assert not watch.closed(5.0)
+    assert lowest(None, None) is None and lowest(3.0, None) == 3.0 and lowest(3.0, 2.0) == 2.0

@@ -14,6 +14,12 @@ lazy loop. Parts are linked by
 * a collision requirement between agents of two parts that the combined plan violates: the two
   parts are merged and solved again, starting with the requirements both had added.
 
+A merged part's optimum is at most ``U_m``, the sum of its parts' bounds (merging only adds
+requirements). It is first *repaired*: solved with every agent but those of the colliding pairs
+held near the parts' plans, a small problem. A repaired plan within the gap of ``U_m`` is the
+merged part's optimum; otherwise it is the first plan of the merged part's own solve, which
+stops as soon as a plan is within the gap of ``U_m`` or of its own bound.
+
 With no such violation left, the union of the parts' plans is feasible for the full problem and its
 objective is the sum ``F = sum_c F_c``, while ``U = sum_c U_c`` bounds the full optimum. A part is
 solved again with an absolute gap while ``(U - F) / |F|`` exceeds the gap, so the result is the
@@ -45,6 +51,9 @@ HOLD = 1e-4
 
 HiGHS accepts binaries within 1e-6 of 0 or 1, so a part's plan may miss an enforced predicate by
 ``big-M * 1e-6``; the assembly, whose indicators are exact, needs room to repair that."""
+
+REPAIR_SHARE = 0.25
+"""Share of the time left that the repair of a merged part may take."""
 
 ASSEMBLY_LIMIT = 60.0
 """Time limit of the assembly solve, seconds (a finishing solve: also within the run's budget
@@ -112,6 +121,8 @@ class Part:
     pm: PlanModel
     solver: LazySolver
     step1: Step1 | None = None
+    merged_from: tuple[Part, ...] = ()
+    free: frozenset[str] = frozenset()
 
     def added_keys(self) -> set[tuple[Any, ...]]:
         """Keys of the requirements this part's model holds."""
@@ -182,22 +193,32 @@ def _slack(part: Part) -> float:
     return (step1.bound or 0.0) - (step1.objective or 0.0)
 
 
-def _tighten(parts: Sequence[Part], options: PlanOptions, deadline: float) -> None:
-    """Solve parts again with absolute gaps until ``(U - F) / |F|`` meets the gap (while at
-    least :data:`stlplan.planner.session.MIN_SOLVE_SECONDS` of the budget is left)."""
+def _tighten(
+    parts: Sequence[Part], options: PlanOptions, deadline: float, plan: float | None = None
+) -> None:
+    """Solve parts again with absolute gaps until ``(U - P) / |P|`` meets the gap (while at
+    least :data:`stlplan.planner.session.MIN_SOLVE_SECONDS` of the budget is left).
+
+    ``P`` is ``plan``, the objective of a plan of the parts together, or the sum ``F`` of the
+    parts' objectives; the parts' slacks must then fit in ``gap |P| - (F - P)``.
+    """
     for _ in range(len(parts)):
         if deadline - time.perf_counter() < MIN_SOLVE_SECONDS:
             return
         objective, bound = _totals(parts)
         if objective is None or bound is None:
             return
-        gap = relative_gap(objective, bound)
+        reached = objective if plan is None else plan
+        gap = relative_gap(reached, bound)
         if gap is None or gap <= options.gap:
             return
         worst = max(parts, key=_slack)
         others = sum(_slack(p) for p in parts if p is not worst)
-        allowed = max(options.gap * abs(objective) - others, 1e-9)
-        worst.step1 = worst.solver.run(deadline - time.perf_counter(), abs_gap=allowed)
+        allowed = options.gap * abs(reached) - (objective - reached) - others
+        if plan is not None and allowed <= 1e-9:
+            return
+        remaining = deadline - time.perf_counter()
+        worst.step1 = worst.solver.run(remaining, abs_gap=max(allowed, 1e-9))
 
 
 def _combined(parts: Sequence[Part], options: PlanOptions, seconds: float, rounds: int) -> Step1:
@@ -230,8 +251,11 @@ def _combined(parts: Sequence[Part], options: PlanOptions, seconds: float, round
     )
 
 
-def _hold(full: PlanModel, parts: Sequence[Part]) -> list[tuple[Any, Any, Any]]:
-    """Bound ``x`` and ``u`` of ``full`` to within :data:`HOLD` of the parts' plans.
+def _hold(
+    full: PlanModel, parts: Sequence[Part], free: frozenset[str] = frozenset()
+) -> list[tuple[Any, Any, Any]]:
+    """Bound ``x`` and ``u`` of ``full`` to within :data:`HOLD` of the parts' plans (but those
+    of the agents in ``free``).
 
     Returns ``(variable, lower, upper)`` to restore.
     """
@@ -241,13 +265,51 @@ def _hold(full: PlanModel, parts: Sequence[Part]) -> list[tuple[Any, Any, Any]]:
             source, target = getattr(part.pm.model, name), getattr(full.model, name)
             for key, var in source.items():
                 goal = target[key]
-                if goal.fixed or var.value is None:
+                if goal.fixed or var.value is None or key[0] in free:
                     continue
                 lo, hi = goal.bounds
                 held.append((goal, lo, hi))
                 goal.setlb(min(max(lo, var.value - HOLD), hi))
                 goal.setub(max(min(hi, var.value + HOLD), lo))
     return held
+
+
+def _release(held: Sequence[tuple[Any, Any, Any]]) -> None:
+    """Restore the bounds :func:`_hold` changed."""
+    for var, lo, hi in held:
+        var.setlb(lo)
+        var.setub(hi)
+
+
+def _solve_part(part: Part, options: PlanOptions, deadline: float) -> Step1:
+    """A part's first solve; a merged part is repaired first (module docstring)."""
+    if not part.merged_from:
+        return part.solver.run(deadline - time.perf_counter())
+    repaired = _repair(part, options, deadline)
+    _, ceiling = _totals(part.merged_from)
+    assert part.solver.watch is not None
+    part.solver.watch.ceiling = ceiling
+    if repaired is not None and repaired.objective is not None and ceiling is not None:
+        objective = repaired.objective
+        if ceiling - objective <= options.gap * abs(objective):
+            gap = relative_gap(objective, ceiling)
+            return dataclasses.replace(repaired, status=PlanStatus.OPTIMAL, bound=ceiling, gap=gap)
+    return part.solver.run(deadline - time.perf_counter())
+
+
+def _repair(part: Part, options: PlanOptions, deadline: float) -> Step1 | None:
+    """Solve a merged part with only the agents of its colliding pairs free; then tighten the
+    bounds of the parts it was merged from towards the repaired plan (None: no plan)."""
+    held = _hold(part.pm, part.merged_from, part.free)
+    limit = max(MIN_SOLVE_SECONDS, REPAIR_SHARE * (deadline - time.perf_counter()))
+    try:
+        repaired = part.solver.run(limit, trial=True)
+    finally:
+        _release(held)
+    if repaired.objective is None:
+        return None
+    _tighten(part.merged_from, options, deadline, plan=repaired.objective)
+    return repaired
 
 
 def assemble(
@@ -266,9 +328,7 @@ def assemble(
     with stops.finishing():  # the plan is found: a stop request lets this solve end
         session = HighsSession(full.model, options, clock, "step1")
         solved = session.solve(ASSEMBLY_LIMIT, finishing=True)
-    for var, lo, hi in held:
-        var.setlb(lo)
-        var.setub(hi)
+    _release(held)
     objective = solved.results.incumbent_objective
     return None if objective is None else float(objective)
 
@@ -293,7 +353,7 @@ def solve_parts(
     while True:
         for part in parts:
             if part.step1 is None and not stops.requested():
-                part.step1 = part.solver.run(deadline - time.perf_counter())
+                part.step1 = _solve_part(part, options, deadline)
         done = _combined(parts, options, time.perf_counter() - tick, clock.round or 1)
         if not done.status.has_plan:
             return full, done
@@ -334,5 +394,8 @@ def _merged(
         seed |= {requirement_key(r) for r in crossing if set(r.binding.values()) <= agents}
         order = [a.name for a in problem.agents if a.name in agents]
         out = [p for p in out if p not in group]
-        out.append(_part(problem, order, options, clock, seed))
+        merged = _part(problem, order, options, clock, seed)
+        merged.merged_from = tuple(group)
+        merged.free = frozenset(a for r in crossing for a in r.binding.values()) & agents
+        out.append(merged)
     return out

@@ -84,6 +84,13 @@ class Step1:
     completed: bool = False
 
 
+def lowest(bound: float | None, ceiling: float | None) -> float | None:
+    """The tighter of two upper bounds (either may be unknown)."""
+    if bound is None or ceiling is None:
+        return ceiling if bound is None else bound
+    return min(bound, ceiling)
+
+
 def relative_gap(objective: float | None, bound: float | None) -> float | None:
     """``(bound - objective) / |objective|`` (HiGHS's relative gap, for a maximization)."""
     if objective is None or bound is None:
@@ -126,6 +133,8 @@ class Watch:
         feasible for the full problem.
     abs_gap
         An absolute gap that also closes the loop (None: the relative gap only).
+    ceiling
+        A bound of the full problem known from elsewhere (None: HiGHS's bound only).
     stopped
         Whether the watch interrupted the round (the best plan is within the gap).
     """
@@ -135,6 +144,7 @@ class Watch:
     gap: float
     best: tuple[float, np.ndarray, frozenset[int]] | None = None
     abs_gap: float | None = None
+    ceiling: float | None = None
     stopped: bool = False
 
     def states(self, x: np.ndarray) -> dict[str, np.ndarray]:
@@ -164,6 +174,7 @@ class Watch:
 
     def closed(self, bound: float | None) -> bool:
         """Whether the best full plan is within the gap (relative, or absolute) of ``bound``."""
+        bound = lowest(bound, self.ceiling)
         if self.best is None or bound is None:
             return False
         slack = bound - self.best[0]
@@ -199,13 +210,17 @@ class LazySolver:
             self.session.highs.cbMipImprovingSolution += self.watch.on_plan
             self.session.highs.cbMipInterrupt += self.watch.maybe_stop
         self.step1: Step1 | None = None
+        self.trial = False
 
-    def run(self, time_limit: float, abs_gap: float | None = None) -> Step1:
+    def run(self, time_limit: float, abs_gap: float | None = None, trial: bool = False) -> Step1:
         """Solve within ``time_limit`` seconds, to the relative gap (or to ``abs_gap`` alone).
 
-        The plan of the returned :class:`Step1` (when there is one) is loaded into ``pm``.
+        The plan of the returned :class:`Step1` (when there is one) is loaded into ``pm``. A
+        ``trial`` neither confirms an infeasible verdict nor completes a plan at the time limit
+        (no plan then).
         """
         tick = time.perf_counter()
+        self.trial = self.session.trial = trial
         if abs_gap is not None:  # the absolute gap alone decides
             self.session.solver.config.abs_gap = abs_gap
             self.session.solver.config.rel_gap = 0.0
@@ -215,8 +230,20 @@ class LazySolver:
             solved = self.session.solve(time_limit)
             self.step1 = _ended(solved, time.perf_counter() - tick, 1, 0)
         else:
-            self.step1 = self._rounds(time_limit, tick)
+            self.step1 = self._capped(self._rounds(time_limit, tick))
         return self.step1
+
+    def _capped(self, step1: Step1) -> Step1:
+        """``step1`` with the watch's ceiling as its bound when that is tighter."""
+        assert self.watch is not None
+        bound = lowest(step1.bound, self.watch.ceiling)
+        if bound == step1.bound:
+            return step1
+        gap = relative_gap(step1.objective, bound)
+        status = step1.status
+        if status is PlanStatus.FEASIBLE and self.watch.closed(bound):
+            status = PlanStatus.OPTIMAL
+        return dataclasses.replace(step1, status=status, bound=bound, gap=gap)
 
     def _rounds(self, time_limit: float, tick: float) -> Step1:
         pm, options, clock, watch = self.pm, self.options, self.clock, self.watch
@@ -225,6 +252,8 @@ class LazySolver:
         while True:
             remaining = time_limit - (time.perf_counter() - tick)
             watch.stopped = False  # (the session clears HiGHS's stale interrupt flag)
+            if watch.best is not None:
+                self.session.start_from(watch.best[1])
             solved = self.session.solve(remaining)
             rounds, seconds = (clock.round or 1) - first + 1, time.perf_counter() - tick
             results = solved.results
@@ -269,6 +298,8 @@ class LazySolver:
             )
         if not has_solution(last.results):
             return ended
+        if self.trial:
+            return dataclasses.replace(ended, status=PlanStatus.NO_PLAN, objective=None, gap=None)
         return _complete(self.pm, self.session, last, tick, rounds)
 
     def _from_best(self, last: Solved, tick: float, rounds: int, status: PlanStatus) -> Step1:

@@ -22,6 +22,7 @@ from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import highspy
+import numpy as np
 from highspy import cb
 from pyomo.contrib.solver.common.results import Results, SolutionStatus, TerminationCondition
 from pyomo.contrib.solver.solvers.highs import Highs
@@ -294,7 +295,12 @@ class HighsSession:
         self._fresh = True
         self.verdict = ""
         """HiGHS's model status of the last solve, by name."""
+        self.trial = False
+        """Whether an infeasible verdict is taken as it is (a trial solve, whose verdict decides
+        nothing about the mission)."""
+        self._start: np.ndarray | None = None
         if self.highs is not None and hasattr(self.highs, "cbMipInterrupt"):
+            self.highs.cbMipUserSolution += self._give_start
             self.highs.cbMipInterrupt += self._clear_stale_interrupt
             for name in ("cbMipInterrupt", "cbSimplexInterrupt", "cbIpmInterrupt"):
                 callbacks = getattr(self.highs, name)
@@ -311,6 +317,20 @@ class HighsSession:
         if self._fresh and event.data_in is not None:
             event.interrupt(False)
             self._fresh = False
+
+    def start_from(self, x: np.ndarray) -> None:
+        """Give the next solve a plan to start from: the values of columns ``0..len(x)-1`` (a
+        plan of an earlier solve; HiGHS repairs the columns added since, or drops the plan)."""
+        self._start = np.asarray(x, dtype=float)
+
+    def _give_start(self, event: Any) -> None:
+        start, self._start = self._start, None
+        if start is None or event.data_in is None:
+            return
+        count = min(len(start), int(self.highs.getNumCol()))
+        event.data_in.setSolution(np.arange(count, dtype=np.int32), start[:count])
+        if count < self.highs.getNumCol():
+            event.data_in.repairSolution()
 
     def columns(self) -> dict[int, int]:
         """HiGHS column of each Pyomo variable in the model, by ``id`` (fixed ones have none)."""
@@ -330,7 +350,7 @@ class HighsSession:
             TC.provenInfeasible,
             TC.infeasibleOrUnbounded,
         )
-        if infeasible and not stops.should_interrupt():
+        if infeasible and not self.trial and not stops.should_interrupt():
             first = (self.verdict, time.perf_counter() - tick)
             results = self._confirmed(results, first, finishing)
         seconds = time.perf_counter() - tick
