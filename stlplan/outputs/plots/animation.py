@@ -1,0 +1,341 @@
+"""The team moving over the map: ``plan.gif``, and ``plan.mp4`` where ``ffmpeg`` is installed.
+
+The map (regions, obstacles hatched, each agent's path faintly, the legend) is drawn once; every
+frame restores that picture and draws only what moves: a marker per agent with a trail of its last
+:data:`TRAIL_STEPS` steps, its name where it covers no other name, a gold ring around the agents of
+a synchronous task's chosen group while its synchronized run lasts (with the caption
+``sync run k=3-9``), and the step and time. Between steps ``k`` and ``k + 1`` an agent is drawn on
+the straight segment ``z(k) + s (z(k+1) - z(k))``, ``0 <= s < 1``, the path a robot follows between
+waypoints, at :data:`FRAMES_PER_STEP` points: ``H * FRAMES_PER_STEP + 1`` frames in all. The time is
+counted in steps of the dynamics (``t = k + s``).
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import subprocess
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, BinaryIO
+
+import numpy as np
+from matplotlib.artist import Artist
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.text import Annotation, Text
+from PIL import Image
+
+from stlplan.mission.problem import Problem
+from stlplan.outputs.plots.common import (
+    _LEGEND,
+    _group_agents,
+    _run_steps,
+    _sync_verdicts,
+    agent_handles,
+    agent_styles,
+    spread,
+    workspace,
+    write_atomically,
+)
+from stlplan.outputs.plots.plan import _draw_regions
+from stlplan.result import MonitorReport, Trajectory
+
+FRAMES_PER_STEP = 3
+"""Frames drawn per step of the plan: at ``k``, ``k + 1/3`` and ``k + 2/3``."""
+STEP_MS = 300
+"""How long one step of the plan lasts in the animation, milliseconds."""
+HOLD_MS = 1500
+"""How long the last frame stays before the animation starts over, milliseconds."""
+TRAIL_STEPS = 3
+"""The trail behind each marker covers this many steps."""
+ANIMATION_DPI = 80
+_TRAIL: dict[str, Any] = dict(linewidth=2.0, alpha=0.7, solid_capstyle="round", zorder=5)
+_MARKER: dict[str, Any] = dict(
+    markersize=8, markeredgecolor="black", linestyle="none", zorder=6, clip_on=False
+)
+_RING: dict[str, Any] = dict(
+    marker="o",
+    markersize=17,
+    mfc="none",
+    mec="gold",
+    mew=2.5,
+    linestyle="none",
+    zorder=5,
+    clip_on=False,
+)
+_ABOVE: dict[str, Any] = dict(va="bottom", zorder=8, clip_on=False)
+_CLOCK: dict[str, Any] = dict(_ABOVE, fontsize=10, family="monospace", ha="left")
+_CAPTION: dict[str, Any] = dict(_ABOVE, fontsize=9, fontweight="bold", ha="right")
+_NAME: dict[str, Any] = dict(fontsize=7.5, va="center", ha="left", zorder=7, clip_on=False)
+_NAME_OFFSET = 6.0
+_CAPTION_BOX = dict(boxstyle="round,pad=0.25", fc="lightyellow", ec="gold")
+
+
+def frame_times(horizon: int) -> np.ndarray:
+    """``t = k + i / FRAMES_PER_STEP`` for ``k < H``, then ``H``: one entry per frame."""
+    return np.arange(horizon * FRAMES_PER_STEP + 1) / FRAMES_PER_STEP
+
+
+def positions_at(path: np.ndarray, t: float) -> np.ndarray:
+    """Points on the waypoints ``path`` (shape ``(H + 1, ..., 2)``) at time ``t`` in ``[0, H]``."""
+    k = min(int(math.floor(t)), len(path) - 2)
+    s = t - k
+    return np.asarray(path[k] + s * (path[k + 1] - path[k]))
+
+
+def trail(path: np.ndarray, t: float) -> np.ndarray:
+    """The path from ``max(0, t - TRAIL_STEPS)`` to ``t``: its waypoints between, both ends."""
+    start = max(0.0, t - TRAIL_STEPS)
+    inner = np.arange(math.floor(start) + 1, math.ceil(t))
+    times = [start, *inner.tolist(), t]
+    return np.array([positions_at(path, float(s)) for s in times])
+
+
+@dataclass
+class _Movers:
+    """The artists a frame redraws, by kind."""
+
+    trails: list[Line2D]
+    markers: list[Line2D]
+    names: list[Annotation]
+    rings: list[Line2D]
+    caption: Text
+    clock: Text
+
+
+@dataclass
+class PlanAnimation:
+    """The frames of a plan's animation, rendered once and written as GIF and MP4.
+
+    Parameters
+    ----------
+    problem, trajectory, report
+        The mission, the team trajectory, and the monitor's verdicts on it (groups, runs).
+    title
+        Figure title; default the mission name.
+    """
+
+    problem: Problem
+    trajectory: Trajectory
+    report: MonitorReport
+    title: str | None = None
+    _frames: list[np.ndarray] = field(default_factory=list, repr=False)
+
+    def frames(self) -> list[np.ndarray]:
+        """RGB frames, shape ``(height, width, 3)``, one per entry of :func:`frame_times`."""
+        if not self._frames:
+            self._frames = _render(self.problem, self.trajectory, self.report, self.title)
+        return self._frames
+
+    def write_gif(self, path) -> None:
+        """Write the animation as a looping GIF (Pillow), atomically."""
+        images = _paletted(self.frames())
+        durations = [STEP_MS // FRAMES_PER_STEP] * (len(images) - 1) + [HOLD_MS]
+
+        def write(stream: BinaryIO) -> None:
+            images[0].save(
+                stream,
+                format="GIF",
+                save_all=True,
+                append_images=images[1:],
+                duration=durations,
+                loop=0,
+            )
+
+        write_atomically(path, write)
+
+    def write_mp4(self, path) -> None:
+        """Write the animation as H.264 MP4 through ``ffmpeg``, atomically.
+
+        Raises
+        ------
+        OSError
+            When ``ffmpeg`` is not installed or fails (with its message).
+        """
+        exe = ffmpeg()
+        if exe is None:
+            raise OSError("ffmpeg is not installed: an MP4 cannot be written")
+        frames = self.frames()
+        frames = frames + [frames[-1]] * (HOLD_MS * FRAMES_PER_STEP // STEP_MS)
+        write_atomically(path, lambda stream: _encode_mp4(exe, frames, stream))
+
+
+def ffmpeg() -> str | None:
+    """The ``ffmpeg`` on PATH, or None."""
+    return shutil.which("ffmpeg")
+
+
+def _encode_mp4(exe: str, frames: Sequence[np.ndarray], stream: BinaryIO) -> None:
+    height, width = frames[0].shape[:2]
+    fps = f"{1000 * FRAMES_PER_STEP}/{STEP_MS}"
+    command = [exe, "-hide_banner", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24"]
+    command += ["-s", f"{width}x{height}", "-r", fps, "-i", "-"]
+    command += ["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p"]
+    command += ["-movflags", "frag_keyframe+empty_moov", "-f", "mp4", "-"]
+    raw = b"".join(np.ascontiguousarray(f).tobytes() for f in frames)
+    done = subprocess.run(command, input=raw, stdout=stream, stderr=subprocess.PIPE, check=False)
+    if done.returncode != 0:
+        message = done.stderr.decode(errors="replace").strip() or f"exit {done.returncode}"
+        raise OSError(f"ffmpeg could not write the MP4: {message}")
+
+
+def _paletted(frames: Sequence[np.ndarray]) -> list[Image.Image]:
+    """Frames mapped onto one shared palette of the first and last frames' colours (no dither,
+    so the static map stays the same pixels from frame to frame)."""
+    both = Image.fromarray(np.vstack([frames[0], frames[-1]]))
+    palette = both.quantize(colors=255, method=Image.Quantize.FASTOCTREE)
+    return [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in frames]
+
+
+def animate_plan(
+    problem: Problem,
+    trajectory: Trajectory,
+    report: MonitorReport,
+    path,
+    title: str | None = None,
+) -> int:
+    """Write ``plan.gif`` to ``path`` (atomically); returns the number of frames."""
+    movie = PlanAnimation(problem, trajectory, report, title)
+    movie.write_gif(path)
+    return len(movie.frames())
+
+
+# ----------------------------------------------------------------------------------------- drawing
+def _figure(problem: Problem, title: str | None) -> tuple[Figure, Any]:
+    bounds = workspace(problem)
+    (xl, xh), (yl, yh) = bounds
+    width = 6.4
+    height = width * (yh - yl) / (xh - xl)
+    fig = Figure(figsize=(width + 2.4, height + 1.1), dpi=ANIMATION_DPI, layout="constrained")
+    ax = fig.add_subplot()
+    ax.set(xlim=(xl, xh), ylim=(yl, yh), aspect="equal")
+    ax.tick_params(labelsize=7)
+    ax.grid(True, color="0.9", linewidth=0.6)
+    ax.set_axisbelow(True)
+    ax.set_title(title or problem.mission.name, fontsize=11, fontweight="bold", pad=22)
+    _draw_regions(ax, problem, bounds, np.zeros((0, 2)), 72 * width / (xh - xl))
+    return fig, ax
+
+
+def _legend(fig: Figure, problem: Problem, styles, has_sync: bool) -> None:
+    handles = agent_handles(problem, styles)
+    if has_sync:
+        handles.append(Line2D([], [], label="synchronized run", **{**_RING, "markersize": 10}))
+    fig.legend(handles=handles, loc="outside right upper", **_LEGEND)
+
+
+def _movers(ax, problem: Problem, styles, report: MonitorReport) -> _Movers:
+    trails, markers, names = [], [], []
+    for agent in problem.agents:
+        marker, color = styles[agent.name]
+        (line,) = ax.plot([], [], color=color, animated=True, **_TRAIL)
+        (dot,) = ax.plot([], [], marker=marker, mfc=color, animated=True, **_MARKER)
+        trails.append(line)
+        markers.append(dot)
+        names.append(
+            ax.annotate(
+                agent.name,
+                (0, 0),
+                xytext=(_NAME_OFFSET, 0),
+                textcoords="offset points",
+                color=color,
+                animated=True,
+                **_NAME,
+            )
+        )
+    rings = [ax.plot([], [], animated=True, **_RING)[0] for _ in _sync_verdicts(report)]
+    above = dict(transform=ax.transAxes, animated=True)
+    caption = ax.text(1.0, 1.015, "", bbox=_CAPTION_BOX, **above, **_CAPTION)
+    clock = ax.text(0.0, 1.015, "", **above, **_CLOCK)
+    for artist in [*trails, *markers, *names, *rings, caption, clock]:
+        artist.set_in_layout(False)  # the layout is that of the map alone
+    return _Movers(trails, markers, names, rings, caption, clock)
+
+
+_GHOST: dict[str, Any] = dict(linewidth=0.8, alpha=0.35, zorder=3)
+
+
+def _render(
+    problem: Problem, trajectory: Trajectory, report: MonitorReport, title: str | None
+) -> list[np.ndarray]:
+    """Draw the static map once, then each frame's moving artists over a copy of it."""
+    styles = agent_styles(problem)
+    fig, ax = _figure(problem, title)
+    paths = np.stack([trajectory.position(a.name, a.position) for a in problem.agents], axis=1)
+    for i, agent in enumerate(problem.agents):
+        ax.plot(paths[:, i, 0], paths[:, i, 1], color=styles[agent.name][1], **_GHOST)
+    _legend(fig, problem, styles, bool(_sync_verdicts(report)))
+    movers = _movers(ax, problem, styles, report)
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()  # everything but the animated artists
+    background = canvas.copy_from_bbox(fig.bbox)
+    frames = []
+    for t in frame_times(problem.horizon):
+        canvas.restore_region(background)
+        for artist in _update(movers, ax, problem, paths, report, float(t)):
+            ax.draw_artist(artist)
+        frames.append(np.asarray(canvas.buffer_rgba())[..., :3].copy())
+    return frames
+
+
+def _update(
+    movers: _Movers, ax, problem: Problem, paths: np.ndarray, report: MonitorReport, t: float
+) -> list[Artist]:
+    """Move every artist to time ``t``; returns those to draw, back to front."""
+    here = positions_at(paths, t)
+    behind = trail(paths, t)
+    for i, (line, dot) in enumerate(zip(movers.trails, movers.markers, strict=True)):
+        line.set_data(behind[:, i, 0], behind[:, i, 1])
+        dot.set_data([here[i, 0]], [here[i, 1]])
+    shown = _place_names(movers.names, ax, problem, here)
+    rings = _sync_rings(movers.rings, problem, here, report, t)
+    step = min(int(math.floor(t)), problem.horizon)
+    movers.clock.set_text(
+        f"step k = {step:>{len(str(problem.horizon))}} / {problem.horizon}   t = {t:5.2f}"
+    )
+    runs = [f"k={r.steps[0]}-{r.steps[-1]}: {r.name}" for r in rings]
+    movers.caption.set_text("sync run " + "; ".join(runs))
+    shown += [movers.caption] if runs else []
+    drawn = [r.ring for r in rings]
+    return [*movers.trails, *drawn, *movers.markers, *shown, movers.clock]
+
+
+def _place_names(names: list[Annotation], ax, problem: Problem, here: np.ndarray) -> list[Artist]:
+    """Names beside the markers, each left out where it would cover a marker or a name placed
+    before it."""
+    scale = ax.figure.dpi / 72  # points to pixels
+    half = np.array([[0.3 * _NAME["fontsize"] * len(a.name) + 1, 4.0] for a in problem.agents])
+    markers = ax.transData.transform(here)
+    centers = markers + (half + [_NAME_OFFSET, 0.0]) * scale
+    dot = np.full_like(markers, _MARKER["markersize"] / 2 * scale)
+    boxes = np.vstack([markers, centers]), np.vstack([dot, half * scale])
+    keep = spread(*boxes, fixed=len(markers))[len(markers) :]
+    for name, point in zip(names, here, strict=True):
+        name.xy = (float(point[0]), float(point[1]))
+    return [name for name, k in zip(names, keep, strict=True) if k]
+
+
+@dataclass(frozen=True)
+class _Run:
+    """A synchronized run drawn at this frame: its task, steps and ring."""
+
+    name: str
+    steps: range
+    ring: Line2D
+
+
+def _sync_rings(
+    rings: list[Line2D], problem: Problem, here: np.ndarray, report: MonitorReport, t: float
+) -> list[_Run]:
+    """Rings around the chosen group's agents of each synchronized run that lasts at ``t``."""
+    index = {a.name: i for i, a in enumerate(problem.agents)}
+    active = []
+    for verdict, ring in zip(_sync_verdicts(report), rings, strict=True):
+        steps = _run_steps(verdict)
+        if steps and steps[0] <= t <= steps[-1]:
+            points = here[[index[name] for name in _group_agents(verdict)]]
+            ring.set_data(points[:, 0], points[:, 1])
+            active.append(_Run(verdict.name, steps, ring))
+    return active
