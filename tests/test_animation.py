@@ -26,9 +26,10 @@ from stlplan.outputs.plots import (
     timeline_figure,
 )
 from stlplan.outputs.plots.animation import (
+    FRAME_MS,
     FRAMES_PER_STEP,
     HOLD_MS,
-    STEP_MS,
+    MAX_FRAMES,
     frame_times,
     positions_at,
     trail,
@@ -104,6 +105,9 @@ def test_the_gif_has_one_frame_per_drawn_time(farm: Problem, tmp_path: Path) -> 
 
 def test_frames_follow_the_segments_between_steps() -> None:
     assert list(frame_times(2)) == pytest.approx([0, 1 / 3, 2 / 3, 1, 4 / 3, 5 / 3, 2])
+    long = frame_times(600)  # a long horizon: MAX_FRAMES evenly over the steps
+    assert len(long) == MAX_FRAMES and long[0] == 0 and long[-1] == 600
+    assert np.diff(long) == pytest.approx(600 / (MAX_FRAMES - 1))
     path = np.array([[0.0, 0.0], [3.0, 0.0], [3.0, 6.0]])
     assert positions_at(path, 0.5) == pytest.approx([1.5, 0.0])
     assert positions_at(path, 1.5) == pytest.approx([3.0, 3.0])
@@ -254,7 +258,7 @@ def test_the_mp4_goes_through_ffmpeg(
     assert ffmpeg() == str(fake)
     movie = PlanAnimation(farm, make_trajectory(farm), make_report())
     movie.write_mp4(tmp_path / "plan.mp4")
-    held = len(movie.frames()) + HOLD_MS * FRAMES_PER_STEP // STEP_MS
+    held = len(movie.frames()) + HOLD_MS // FRAME_MS
     assert (tmp_path / "plan.mp4").read_text() == f"{held} frames, ['-f', 'mp4', '-']"
 
 

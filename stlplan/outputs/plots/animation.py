@@ -6,8 +6,9 @@ frame restores that picture and draws only what moves: a marker per agent with a
 a synchronous task's chosen group while its synchronized run lasts (with the caption
 ``sync run k=3-9``), and the step and time. Between steps ``k`` and ``k + 1`` an agent is drawn on
 the straight segment ``z(k) + s (z(k+1) - z(k))``, ``0 <= s < 1``, the path a robot follows between
-waypoints, at :data:`FRAMES_PER_STEP` points: ``H * FRAMES_PER_STEP + 1`` frames in all. The time is
-counted in steps of the dynamics (``t = k + s``).
+waypoints, at :data:`FRAMES_PER_STEP` points: ``H * FRAMES_PER_STEP + 1`` frames in all, or
+:data:`MAX_FRAMES` spread evenly over ``[0, H]`` for a long horizon (the animation then runs
+through more steps a second). The time is counted in steps of the dynamics (``t = k + s``).
 """
 
 from __future__ import annotations
@@ -44,8 +45,10 @@ from stlplan.result import MonitorReport, Trajectory
 
 FRAMES_PER_STEP = 3
 """Frames drawn per step of the plan: at ``k``, ``k + 1/3`` and ``k + 2/3``."""
-STEP_MS = 300
-"""How long one step of the plan lasts in the animation, milliseconds."""
+MAX_FRAMES = 241
+"""At most this many frames, whatever the horizon."""
+FRAME_MS = 100
+"""How long one frame lasts, milliseconds: a step lasts ``FRAMES_PER_STEP * FRAME_MS``."""
 HOLD_MS = 1500
 """How long the last frame stays before the animation starts over, milliseconds."""
 TRAIL_STEPS = 3
@@ -74,8 +77,9 @@ _CAPTION_BOX = dict(boxstyle="round,pad=0.25", fc="lightyellow", ec="gold")
 
 
 def frame_times(horizon: int) -> np.ndarray:
-    """``t = k + i / FRAMES_PER_STEP`` for ``k < H``, then ``H``: one entry per frame."""
-    return np.arange(horizon * FRAMES_PER_STEP + 1) / FRAMES_PER_STEP
+    """``t = k + i / FRAMES_PER_STEP`` for ``k < H``, then ``H``: one entry per frame (at most
+    :data:`MAX_FRAMES`, evenly spread over ``[0, H]``)."""
+    return np.linspace(0, horizon, min(horizon * FRAMES_PER_STEP, MAX_FRAMES - 1) + 1)
 
 
 def positions_at(path: np.ndarray, t: float) -> np.ndarray:
@@ -132,7 +136,7 @@ class PlanAnimation:
     def write_gif(self, path) -> None:
         """Write the animation as a looping GIF (Pillow), atomically."""
         images = _paletted(self.frames())
-        durations = [STEP_MS // FRAMES_PER_STEP] * (len(images) - 1) + [HOLD_MS]
+        durations = [FRAME_MS] * (len(images) - 1) + [HOLD_MS]
 
         def write(stream: BinaryIO) -> None:
             images[0].save(
@@ -158,7 +162,7 @@ class PlanAnimation:
         if exe is None:
             raise OSError("ffmpeg is not installed: an MP4 cannot be written")
         frames = self.frames()
-        frames = frames + [frames[-1]] * (HOLD_MS * FRAMES_PER_STEP // STEP_MS)
+        frames = frames + [frames[-1]] * (HOLD_MS // FRAME_MS)
         write_atomically(path, lambda stream: _encode_mp4(exe, frames, stream))
 
 
@@ -169,7 +173,7 @@ def ffmpeg() -> str | None:
 
 def _encode_mp4(exe: str, frames: Sequence[np.ndarray], stream: BinaryIO) -> None:
     height, width = frames[0].shape[:2]
-    fps = f"{1000 * FRAMES_PER_STEP}/{STEP_MS}"
+    fps = f"1000/{FRAME_MS}"
     command = [exe, "-hide_banner", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24"]
     command += ["-s", f"{width}x{height}", "-r", fps, "-i", "-"]
     command += ["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p"]
