@@ -13,10 +13,12 @@ through more steps a second). The time is counted in steps of the dynamics (``t 
 
 from __future__ import annotations
 
+import contextlib
 import math
 import shutil
 import subprocess
-from collections.abc import Sequence
+import tempfile
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, BinaryIO
 
@@ -125,17 +127,18 @@ class PlanAnimation:
     trajectory: Trajectory
     report: MonitorReport
     title: str | None = None
-    _frames: list[np.ndarray] = field(default_factory=list, repr=False)
+    _frames: list[Image.Image] = field(default_factory=list, repr=False)
 
-    def frames(self) -> list[np.ndarray]:
-        """RGB frames, shape ``(height, width, 3)``, one per entry of :func:`frame_times`."""
+    def frames(self) -> list[Image.Image]:
+        """One paletted image per entry of :func:`frame_times`, all on one palette (a byte per
+        pixel: a long animation stays small in memory)."""
         if not self._frames:
             self._frames = _render(self.problem, self.trajectory, self.report, self.title)
         return self._frames
 
     def write_gif(self, path) -> None:
         """Write the animation as a looping GIF (Pillow), atomically."""
-        images = _paletted(self.frames())
+        images = self.frames()
         durations = [FRAME_MS] * (len(images) - 1) + [HOLD_MS]
 
         def write(stream: BinaryIO) -> None:
@@ -171,26 +174,34 @@ def ffmpeg() -> str | None:
     return shutil.which("ffmpeg")
 
 
-def _encode_mp4(exe: str, frames: Sequence[np.ndarray], stream: BinaryIO) -> None:
-    height, width = frames[0].shape[:2]
-    fps = f"1000/{FRAME_MS}"
+def _encode_mp4(exe: str, frames: Sequence[Image.Image], stream: BinaryIO) -> None:
+    """Pipe the frames as raw RGB into ``ffmpeg``, one at a time, and its MP4 into ``stream``."""
+    width, height = frames[0].size
     command = [exe, "-hide_banner", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24"]
-    command += ["-s", f"{width}x{height}", "-r", fps, "-i", "-"]
+    command += ["-s", f"{width}x{height}", "-r", f"1000/{FRAME_MS}", "-i", "-"]
     command += ["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p"]
     command += ["-movflags", "frag_keyframe+empty_moov", "-f", "mp4", "-"]
-    raw = b"".join(np.ascontiguousarray(f).tobytes() for f in frames)
-    done = subprocess.run(command, input=raw, stdout=stream, stderr=subprocess.PIPE, check=False)
-    if done.returncode != 0:
-        message = done.stderr.decode(errors="replace").strip() or f"exit {done.returncode}"
-        raise OSError(f"ffmpeg could not write the MP4: {message}")
+    with tempfile.TemporaryFile() as errors:
+        encoder = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=stream, stderr=errors)
+        assert encoder.stdin is not None  # stdin=PIPE
+        with contextlib.suppress(BrokenPipeError):  # ffmpeg stopped early: its message says why
+            for frame in frames:
+                encoder.stdin.write(frame.convert("RGB").tobytes())
+        with contextlib.suppress(BrokenPipeError):
+            encoder.stdin.close()
+        code = encoder.wait()
+        errors.seek(0)
+        message = errors.read().decode(errors="replace").strip()
+    if code != 0:
+        raise OSError(f"ffmpeg could not write the MP4: {message or f'exit {code}'}")
 
 
-def _paletted(frames: Sequence[np.ndarray]) -> list[Image.Image]:
-    """Frames mapped onto one shared palette of the first and last frames' colours (no dither,
-    so the static map stays the same pixels from frame to frame)."""
-    both = Image.fromarray(np.vstack([frames[0], frames[-1]]))
+def _quantizer(first: np.ndarray, last: np.ndarray) -> Callable[[np.ndarray], Image.Image]:
+    """Map RGB frames onto one palette of the first and last frames' colours (no dither, so the
+    static map keeps the same pixels from frame to frame)."""
+    both = Image.fromarray(np.vstack([first, last]))
     palette = both.quantize(colors=255, method=Image.Quantize.FASTOCTREE)
-    return [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in frames]
+    return lambda f: Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE)
 
 
 def animate_plan(
@@ -263,8 +274,9 @@ _GHOST: dict[str, Any] = dict(linewidth=0.8, alpha=0.35, zorder=3)
 
 def _render(
     problem: Problem, trajectory: Trajectory, report: MonitorReport, title: str | None
-) -> list[np.ndarray]:
-    """Draw the static map once, then each frame's moving artists over a copy of it."""
+) -> list[Image.Image]:
+    """Draw the static map once, then each frame's moving artists over a copy of it; the first
+    and last frames (drawn first) give the palette every frame is stored on."""
     styles = agent_styles(problem)
     fig, ax = _figure(problem, title)
     paths = np.stack([trajectory.position(a.name, a.position) for a in problem.agents], axis=1)
@@ -275,13 +287,18 @@ def _render(
     canvas = FigureCanvasAgg(fig)
     canvas.draw()  # everything but the animated artists
     background = canvas.copy_from_bbox(fig.bbox)
-    frames = []
-    for t in frame_times(problem.horizon):
+
+    def frame(t: float) -> np.ndarray:
         canvas.restore_region(background)
-        for artist in _update(movers, ax, problem, paths, report, float(t)):
+        for artist in _update(movers, ax, problem, paths, report, t):
             ax.draw_artist(artist)
-        frames.append(np.asarray(canvas.buffer_rgba())[..., :3].copy())
-    return frames
+        return np.asarray(canvas.buffer_rgba())[..., :3].copy()
+
+    times = frame_times(problem.horizon).tolist()
+    first, last = frame(times[0]), frame(times[-1])
+    quantize = _quantizer(first, last)
+    middle = (quantize(frame(t)) for t in times[1:-1])
+    return [quantize(first), *middle, quantize(last)]
 
 
 def _update(
