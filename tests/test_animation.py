@@ -247,7 +247,8 @@ def _fake_ffmpeg(folder: Path, body: str) -> Path:
 COUNTING_FFMPEG = """
 width, height = map(int, args[args.index("-s") + 1].split("x"))
 frames = len(sys.stdin.buffer.read()) // (width * height * 3)
-sys.stdout.write(f"{frames} frames, {args[-3:]}")
+with open(args[-1], "w") as out:
+    out.write(f"{frames} frames, {args[-4:-1]}")
 """
 
 
@@ -260,7 +261,7 @@ def test_the_mp4_goes_through_ffmpeg(
     movie = PlanAnimation(farm, make_trajectory(farm), make_report())
     movie.write_mp4(tmp_path / "plan.mp4")
     held = len(movie.frames()) + HOLD_MS // FRAME_MS
-    assert (tmp_path / "plan.mp4").read_text() == f"{held} frames, ['-f', 'mp4', '-']"
+    assert (tmp_path / "plan.mp4").read_text() == f"{held} frames, ['-f', 'mp4', '-y']"
 
 
 def test_a_failing_ffmpeg_is_an_os_error_and_leaves_nothing(

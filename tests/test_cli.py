@@ -10,6 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from stlplan.cli import app
+from stlplan.outputs.plots import ffmpeg
 from tests.conftest import MISSIONS
 
 runner = CliRunner()
@@ -53,7 +54,8 @@ def test_solve_writes_every_output_and_check_accepts_it(tmp_path: Path) -> None:
     code, output = _run("solve", str(MISSIONS / "sync-pair.yaml"), "--out", str(out), "-q")
     assert code == 0, output
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["plan.gif", "plan.png", "summary.json", "timeline.png", "trajectory.csv"]
+    movie = ["plan.gif", "plan.mp4"] if ffmpeg() is not None else ["plan.gif"]
+    assert names == [*movie, "plan.png", "summary.json", "timeline.png", "trajectory.csv"]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "optimal"
     assert summary["monitor"]["satisfied"] is True

@@ -20,7 +20,8 @@ import subprocess
 import tempfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, BinaryIO
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.artist import Artist
@@ -56,6 +57,10 @@ HOLD_MS = 1500
 TRAIL_STEPS = 3
 """The trail behind each marker covers this many steps."""
 ANIMATION_DPI = 80
+MAP_INCHES = 6.4
+"""The map's longer side; the shorter one follows the workspace's aspect."""
+_MARGINS = (0.5, 0.35, 0.7)
+"""Left, bottom and top margins around the map, inches."""
 _TRAIL: dict[str, Any] = dict(linewidth=2.0, alpha=0.7, solid_capstyle="round", zorder=5)
 _MARKER: dict[str, Any] = dict(
     markersize=8, markeredgecolor="black", linestyle="none", zorder=6, clip_on=False
@@ -141,9 +146,9 @@ class PlanAnimation:
         images = self.frames()
         durations = [FRAME_MS] * (len(images) - 1) + [HOLD_MS]
 
-        def write(stream: BinaryIO) -> None:
+        def write(tmp: Path) -> None:
             images[0].save(
-                stream,
+                tmp,
                 format="GIF",
                 save_all=True,
                 append_images=images[1:],
@@ -166,7 +171,7 @@ class PlanAnimation:
             raise OSError("ffmpeg is not installed: an MP4 cannot be written")
         frames = self.frames()
         frames = frames + [frames[-1]] * (HOLD_MS // FRAME_MS)
-        write_atomically(path, lambda stream: _encode_mp4(exe, frames, stream))
+        write_atomically(path, lambda tmp: _encode_mp4(exe, frames, tmp))
 
 
 def ffmpeg() -> str | None:
@@ -174,15 +179,18 @@ def ffmpeg() -> str | None:
     return shutil.which("ffmpeg")
 
 
-def _encode_mp4(exe: str, frames: Sequence[Image.Image], stream: BinaryIO) -> None:
-    """Pipe the frames as raw RGB into ``ffmpeg``, one at a time, and its MP4 into ``stream``."""
+def _encode_mp4(exe: str, frames: Sequence[Image.Image], target: Path) -> None:
+    """Pipe the frames as raw RGB into ``ffmpeg``, one at a time, for the MP4 ``target`` (its
+    index at the front, so a player starts before the whole file is read)."""
     width, height = frames[0].size
     command = [exe, "-hide_banner", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24"]
     command += ["-s", f"{width}x{height}", "-r", f"1000/{FRAME_MS}", "-i", "-"]
     command += ["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p"]
-    command += ["-movflags", "frag_keyframe+empty_moov", "-f", "mp4", "-"]
+    command += ["-movflags", "+faststart", "-f", "mp4", "-y", str(target)]
     with tempfile.TemporaryFile() as errors:
-        encoder = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=stream, stderr=errors)
+        encoder = subprocess.Popen(
+            command, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=errors
+        )
         assert encoder.stdin is not None  # stdin=PIPE
         with contextlib.suppress(BrokenPipeError):  # ffmpeg stopped early: its message says why
             for frame in frames:
@@ -218,27 +226,33 @@ def animate_plan(
 
 
 # ----------------------------------------------------------------------------------------- drawing
-def _figure(problem: Problem, title: str | None) -> tuple[Figure, Any]:
+def _figure(problem: Problem, title: str | None, legend: list[Line2D]) -> tuple[Figure, Any]:
+    """The map at most ``MAP_INCHES`` wide and high, with fixed margins for the tick labels, the
+    title and the clock above, and the legend on the right (as wide as its longest entry)."""
     bounds = workspace(problem)
     (xl, xh), (yl, yh) = bounds
-    width = 6.4
-    height = width * (yh - yl) / (xh - xl)
-    fig = Figure(figsize=(width + 2.4, height + 1.1), dpi=ANIMATION_DPI, layout="constrained")
-    ax = fig.add_subplot()
+    scale = MAP_INCHES / max(xh - xl, yh - yl)
+    width, height = scale * (xh - xl), scale * (yh - yl)
+    left, bottom, top = _MARGINS
+    right = 0.8 + 0.07 * max(len(str(h.get_label())) for h in legend)  # ~ 8-point characters
+    size = (left + width + right, bottom + height + top)
+    fig = Figure(figsize=size, dpi=ANIMATION_DPI)
+    ax = fig.add_axes((left / size[0], bottom / size[1], width / size[0], height / size[1]))
     ax.set(xlim=(xl, xh), ylim=(yl, yh), aspect="equal")
     ax.tick_params(labelsize=7)
     ax.grid(True, color="0.9", linewidth=0.6)
     ax.set_axisbelow(True)
     ax.set_title(title or problem.mission.name, fontsize=11, fontweight="bold", pad=22)
-    _draw_regions(ax, problem, bounds, np.zeros((0, 2)), 72 * width / (xh - xl))
+    ax.legend(handles=legend, loc="upper left", bbox_to_anchor=(1.02, 1.0), **_LEGEND)
+    _draw_regions(ax, problem, bounds, np.zeros((0, 2)), 72 * scale)
     return fig, ax
 
 
-def _legend(fig: Figure, problem: Problem, styles, has_sync: bool) -> None:
+def _legend(problem: Problem, styles, has_sync: bool) -> list[Line2D]:
     handles = agent_handles(problem, styles)
     if has_sync:
         handles.append(Line2D([], [], label="synchronized run", **{**_RING, "markersize": 10}))
-    fig.legend(handles=handles, loc="outside right upper", **_LEGEND)
+    return handles
 
 
 def _movers(ax, problem: Problem, styles, report: MonitorReport) -> _Movers:
@@ -262,10 +276,8 @@ def _movers(ax, problem: Problem, styles, report: MonitorReport) -> _Movers:
         )
     rings = [ax.plot([], [], animated=True, **_RING)[0] for _ in _sync_verdicts(report)]
     above = dict(transform=ax.transAxes, animated=True)
-    caption = ax.text(1.0, 1.015, "", bbox=_CAPTION_BOX, **above, **_CAPTION)
+    caption = ax.text(0.99, 1.015, "", bbox=_CAPTION_BOX, **above, **_CAPTION)
     clock = ax.text(0.0, 1.015, "", **above, **_CLOCK)
-    for artist in [*trails, *markers, *names, *rings, caption, clock]:
-        artist.set_in_layout(False)  # the layout is that of the map alone
     return _Movers(trails, markers, names, rings, caption, clock)
 
 
@@ -278,11 +290,10 @@ def _render(
     """Draw the static map once, then each frame's moving artists over a copy of it; the first
     and last frames (drawn first) give the palette every frame is stored on."""
     styles = agent_styles(problem)
-    fig, ax = _figure(problem, title)
+    fig, ax = _figure(problem, title, _legend(problem, styles, bool(_sync_verdicts(report))))
     paths = np.stack([trajectory.position(a.name, a.position) for a in problem.agents], axis=1)
     for i, agent in enumerate(problem.agents):
         ax.plot(paths[:, i, 0], paths[:, i, 1], color=styles[agent.name][1], **_GHOST)
-    _legend(fig, problem, styles, bool(_sync_verdicts(report)))
     movers = _movers(ax, problem, styles, report)
     canvas = FigureCanvasAgg(fig)
     canvas.draw()  # everything but the animated artists

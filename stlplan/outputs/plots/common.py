@@ -12,7 +12,7 @@ import secrets
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import Any
 
 import numpy as np
 from matplotlib import colormaps
@@ -278,18 +278,18 @@ def _status_line(report: MonitorReport) -> str:
 
 
 # ------------------------------------------------------------------------------------------ saving
-def write_atomically(path: str | os.PathLike[str], write: Callable[[BinaryIO], None]) -> None:
-    """Call ``write`` on a temporary file beside ``path``, then rename it to ``path``: a reader
-    sees the old file or the whole new one. A failed write leaves no temporary file behind."""
+def write_atomically(path: str | os.PathLike[str], write: Callable[[Path], None]) -> None:
+    """Call ``write`` on a temporary file beside ``path`` (created empty, the umask applying as
+    to any new file), then rename it to ``path``: a reader sees the old file or the whole new
+    one. A failed write leaves no temporary file behind."""
     target = Path(path)
     tmp = target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # umask applies, unlike mkstemp
+    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))  # unlike mkstemp's 0o600
     try:
-        with os.fdopen(fd, "wb") as stream:
-            write(stream)
+        write(tmp)
         os.replace(tmp, target)
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise
 
 
@@ -298,9 +298,7 @@ def save_figure(fig: Figure, path: str | os.PathLike[str]) -> None:
     FigureCanvasAgg(fig)
     write_atomically(
         path,
-        lambda stream: fig.savefig(
-            stream, format="png", dpi=DPI, bbox_inches="tight", pad_inches=0.15
-        ),
+        lambda tmp: fig.savefig(tmp, format="png", dpi=DPI, bbox_inches="tight", pad_inches=0.15),
     )
 
 
