@@ -2,9 +2,9 @@
 
 The map (regions, obstacles hatched, each agent's path faintly, the legend) is drawn once; every
 frame restores that picture and draws only what moves: a marker per agent with a trail of its last
-:data:`TRAIL_STEPS` steps, its name where it covers no other name, a gold ring around the agents of
-a synchronous task's chosen group while its synchronized run lasts (with the caption
-``sync run k=3-9``), and the step and time. Between steps ``k`` and ``k + 1`` an agent is drawn on
+:data:`TRAIL_STEPS` steps, its name where it covers no marker or other name, a gold ring around the
+agents of a synchronous task's chosen group while its synchronized run lasts (with the caption
+``sync run k=3-9: crop_C``), and the step and time. Between steps ``k`` and ``k + 1`` an agent is drawn on
 the straight segment ``z(k) + s (z(k+1) - z(k))``, ``0 <= s < 1``, the path a robot follows between
 waypoints, at :data:`FRAMES_PER_STEP` points: ``H * FRAMES_PER_STEP + 1`` frames in all, or
 :data:`MAX_FRAMES` spread evenly over ``[0, H]`` for a long horizon (the animation then runs
@@ -61,6 +61,8 @@ MAP_INCHES = 6.4
 """The map's longer side; the shorter one follows the workspace's aspect."""
 _MARGINS = (0.5, 0.35, 0.7)
 """Left, bottom and top margins around the map, inches."""
+_GHOST: dict[str, Any] = dict(linewidth=0.8, alpha=0.35, zorder=3)
+"""The whole path of an agent, faint under the moving marker."""
 _TRAIL: dict[str, Any] = dict(linewidth=2.0, alpha=0.7, solid_capstyle="round", zorder=5)
 _MARKER: dict[str, Any] = dict(
     markersize=8, markeredgecolor="black", linestyle="none", zorder=6, clip_on=False
@@ -256,6 +258,7 @@ def _legend(problem: Problem, styles, has_sync: bool) -> list[Line2D]:
 
 
 def _movers(ax, problem: Problem, styles, report: MonitorReport) -> _Movers:
+    """The moving artists, empty and animated: the map's one full draw leaves them out."""
     trails, markers, names = [], [], []
     for agent in problem.agents:
         marker, color = styles[agent.name]
@@ -279,9 +282,6 @@ def _movers(ax, problem: Problem, styles, report: MonitorReport) -> _Movers:
     caption = ax.text(0.99, 1.015, "", bbox=_CAPTION_BOX, **above, **_CAPTION)
     clock = ax.text(0.0, 1.015, "", **above, **_CLOCK)
     return _Movers(trails, markers, names, rings, caption, clock)
-
-
-_GHOST: dict[str, Any] = dict(linewidth=0.8, alpha=0.35, zorder=3)
 
 
 def _render(
