@@ -108,13 +108,18 @@ def summary(
 
 
 def write_plan(
-    problem: Problem, result: PlanResult, out: str | Path, options: dict[str, Any] | None = None
+    problem: Problem,
+    result: PlanResult,
+    out: str | Path,
+    options: dict[str, Any] | None = None,
+    animation: bool = True,
 ) -> list[Path]:
-    """Write ``trajectory.csv``, ``summary.json``, ``plan.png``, ``timeline.png`` (all or none).
+    """Write ``trajectory.csv``, ``summary.json``, ``plan.png``, ``timeline.png``, and with
+    ``animation`` ``plan.gif`` (and ``plan.mp4`` where ``ffmpeg`` is installed), all or none.
 
     Without a plan, only ``summary.json`` is written.
     """
-    from stlplan.outputs.plots import plot_plan, plot_timeline
+    from stlplan.outputs.plots import PlanAnimation, ffmpeg, plot_plan, plot_timeline
 
     out = Path(out)
     summary = summary_dict(problem, result, options or {})
@@ -125,10 +130,15 @@ def write_plan(
         files["trajectory.csv"] = lambda p: write_trajectory_csv(problem, traj, p)
         files["plan.png"] = lambda p: plot_plan(problem, traj, report, p, title=title)
         files["timeline.png"] = lambda p: plot_timeline(problem, traj, report, p)
+        if animation:
+            movie = PlanAnimation(problem, traj, report, title)  # frames shared by both files
+            files["plan.gif"] = movie.write_gif
+            if ffmpeg() is not None:
+                files["plan.mp4"] = movie.write_mp4
     return write_all(out, files, owned=PLAN_FILES)
 
 
-PLAN_FILES = ("summary.json", "trajectory.csv", "plan.png", "timeline.png")
+PLAN_FILES = ("summary.json", "trajectory.csv", "plan.png", "timeline.png", "plan.gif", "plan.mp4")
 """Everything a solve writes into its output folder (a rerun removes what it does not write)."""
 
 
@@ -137,8 +147,12 @@ def solve(
     out: str | Path | None = None,
     overrides: Overrides | None = None,
     progress: Callable[[Any], None] | None = None,
+    animation: bool = True,
 ) -> PlanResult:
-    """Plan, verify and (with ``out``) write the plan directory; returns the verified result."""
+    """Plan, verify and (with ``out``) write the plan directory; returns the verified result.
+
+    ``animation``: write ``plan.gif`` (and ``plan.mp4``) too (:func:`write_plan`).
+    """
     # a bad mission leaves no output folder behind
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
     options = PlanOptions.from_mission(problem.mission, overrides)
@@ -152,7 +166,8 @@ def solve(
         with stops.stop_on_signals():  # a signal while writing: nothing is written
             problem, result = plan(problem, overrides, progress=progress)
             if out is not None:
-                write_plan(problem, result, out, (overrides or Overrides()).given())
+                given = (overrides or Overrides()).given()
+                write_plan(problem, result, out, given, animation=animation)
     except KeyboardInterrupt:
         if created and out is not None:
             with contextlib.suppress(OSError):

@@ -535,7 +535,7 @@ def test_bad_input_never_creates_the_output_directory_contents(tmp_path: Path) -
 def test_a_write_failing_half_way_leaves_nothing(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The last output (timeline.png) cannot be written: no file of the plan is left behind."""
+    """An output (timeline.png) cannot be written: no file of the plan is left behind."""
     import stlplan.outputs.plots
 
     def disk_full(*args: object, **kwargs: object) -> None:

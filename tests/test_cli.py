@@ -10,6 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from stlplan.cli import app
+from stlplan.outputs.plots import ffmpeg
 from tests.conftest import MISSIONS
 
 runner = CliRunner()
@@ -53,7 +54,8 @@ def test_solve_writes_every_output_and_check_accepts_it(tmp_path: Path) -> None:
     code, output = _run("solve", str(MISSIONS / "sync-pair.yaml"), "--out", str(out), "-q")
     assert code == 0, output
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["plan.png", "summary.json", "timeline.png", "trajectory.csv"]
+    movie = ["plan.gif", "plan.mp4"] if ffmpeg() is not None else ["plan.gif"]
+    assert names == [*movie, "plan.png", "summary.json", "timeline.png", "trajectory.csv"]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "optimal"
     assert summary["monitor"]["satisfied"] is True
@@ -143,6 +145,21 @@ def test_a_rerun_leaves_only_its_own_outputs(tmp_path: Path) -> None:
     assert names == ["notes.txt", "summary.json"]
     summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
     assert summary["status"] == "infeasible"
+
+
+def test_no_animation_writes_none_and_removes_an_earlier_one(tmp_path: Path) -> None:
+    from PIL import Image
+
+    out = tmp_path / "out"
+    mission = str(MISSIONS / "reach-avoid.yaml")
+    code, output = _run("solve", mission, "--out", str(out), "-q", "--threads", "1")
+    assert code == 0, output
+    with Image.open(out / "plan.gif") as gif:
+        assert gif.n_frames == 12 * 3 + 1  # horizon 12, three frames per step, the last step
+    code, output = _run("solve", mission, "--out", str(out), "-q", "--no-animation")
+    assert code == 0, output
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["plan.png", "summary.json", "timeline.png", "trajectory.csv"]
 
 
 def test_summary_json_is_strict(tmp_path: Path) -> None:

@@ -254,7 +254,8 @@ def test_timeline_rows_and_shading(farm: Problem) -> None:
     fig = timeline_figure(farm, make_trajectory(farm), make_report())
     ax = fig.axes[0]
     rows = sorted(zip(ax.get_yticks(), ax.get_yticklabels(), strict=True), key=lambda r: -r[0])
-    assert [label.get_text().split()[0] for _, label in rows] == [a.name for a in farm.agents]
+    names = [a.name for a in farm.agents] + ["avoid_obstacle", "separation"]  # then the limits
+    assert [label.get_text().split()[0] for _, label in rows] == names
     shaded = [p for p in ax.patches if p.get_hatch() == ".."]
     assert len(shaded) == 2 and all(p.get_width() == 7 for p in shaded)
     legend = [t.get_text() for t in fig.legends[0].get_texts()]

@@ -133,6 +133,14 @@ TasksOption = Annotated[
     ),
 ]
 
+NoAnimationOption = Annotated[
+    bool,
+    typer.Option(
+        "--no-animation",
+        help="Write no animation (plan.gif, plan.mp4).",
+    ),
+]
+
 
 @handled
 def solve(
@@ -146,10 +154,12 @@ def solve(
     encoding: EncodingOption = None,
     tasks: TasksOption = None,
     inter_sample: InterSampleOption = None,
+    no_animation: NoAnimationOption = False,
     as_json: JsonOption = False,
     quiet: QuietOption = False,
 ) -> None:
-    """Plan a mission: solve the MILP, verify with the monitor, write CSV, JSON and plots.
+    """Plan a mission: solve the MILP, verify with the monitor, write CSV, JSON, plots and the
+    animation.
 
     With --json the document printed is summary.json.
     """
@@ -172,7 +182,9 @@ def solve(
         solver_output(discard=not output.full),
         ProgressLine(output.err, enabled=output.full) as line,
     ):
-        result = api.solve(problem, out=out, overrides=overrides, progress=line.update)
+        result = api.solve(
+            problem, out=out, overrides=overrides, progress=line.update, animation=not no_animation
+        )
     code = _exit_code(result)
     if as_json:
         output.document(api.summary(problem, result, overrides))

@@ -1,15 +1,18 @@
-"""Figures of a plan: the map (``plan.png``) and who serves which task when (``timeline.png``).
+"""Figures of a plan: the map (``plan.png``), who serves which task when (``timeline.png``) and
+the team moving over the map (``plan.gif``, ``plan.mp4``).
 
-Both figures are drawn on a :class:`matplotlib.figure.Figure` with an Agg canvas, never through
-``pyplot``, so no global figure state is created or leaked, and both are saved atomically (a
+Every figure is drawn on a :class:`matplotlib.figure.Figure` with an Agg canvas, never through
+``pyplot``, so no global figure state is created or leaked, and every file is saved atomically (a
 temporary file in the target directory, then :func:`os.replace`).
 
 The package is split into :mod:`~stlplan.outputs.plots.common` (constants, styles, geometry, mission facts,
-saving), :mod:`~stlplan.outputs.plots.plan` (the map) and :mod:`~stlplan.outputs.plots.timeline` (the timeline).
+saving), :mod:`~stlplan.outputs.plots.plan` (the map), :mod:`~stlplan.outputs.plots.timeline` (the
+timeline) and :mod:`~stlplan.outputs.plots.animation` (the animation).
 """
 
 from __future__ import annotations
 
+from stlplan.outputs.plots.animation import PlanAnimation, animate_plan, ffmpeg
 from stlplan.outputs.plots.common import (
     obstacle_regions,
     polygon_area,
@@ -22,6 +25,9 @@ from stlplan.outputs.plots.plan import plan_figure, plot_plan
 from stlplan.outputs.plots.timeline import plot_timeline, timeline_figure
 
 __all__ = [
+    "PlanAnimation",
+    "animate_plan",
+    "ffmpeg",
     "obstacle_regions",
     "plan_figure",
     "plot_plan",

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import os
 import secrets
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -17,13 +18,25 @@ import numpy as np
 from matplotlib import colormaps
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
 from stlplan.formula.normal import HalfSpaces
-from stlplan.formula.tree import Formula, InRegion, Not, atoms, children
+from stlplan.formula.tree import (
+    Always,
+    Eventually,
+    Formula,
+    InRegion,
+    Not,
+    atoms,
+    children,
+    horizon,
+)
 from stlplan.mission.problem import AgentModel, Problem, TaskModel
 from stlplan.result import MonitorReport, Trajectory, Verdict
 
 DPI = 150
+MANY_AGENTS = 12
+"""Past this many agents the legend has one entry per capability and paths carry no step labels."""
 INSIDE_TOLERANCE = 1e-6
 """Tolerance of ``G z <= h`` when deciding whether an agent is inside a region (as the monitor)."""
 
@@ -44,6 +57,9 @@ _POINTS: dict[str, Any] = dict(xytext=(4, 3), textcoords="offset points", fontsi
 _AXES: dict[str, Any] = dict(xycoords="axes fraction", annotation_clip=False)
 _SUBTITLE = dict(_AXES, xytext=(0, 5), textcoords="offset points", ha="center", va="bottom")
 _LEGEND: dict[str, Any] = dict(fontsize=8, title_fontsize=8, frameon=False)
+_LIMIT: dict[str, Any] = dict(facecolor="0.9", edgecolor="0.5", hatch="xx", lw=0.8, zorder=2)
+_LIMIT_VIOLATED: dict[str, Any] = dict(_LIMIT, edgecolor="#d62728", lw=1.6)
+_LIMIT_LABEL = dict(_CENTERED, color="0.1", zorder=3, clip_on=True, bbox=_BOX)
 _TIMELINE_NOTE = "bars: steps at which the agent is inside a region its role has in the task"
 
 
@@ -141,6 +157,44 @@ def task_presence(
     return presence
 
 
+@dataclass(frozen=True)
+class Limit:
+    """A requirement on every step of a window rather than a task to serve: a constraint or the
+    separation, for the timeline."""
+
+    name: str
+    kind: str
+    window: tuple[int, int]
+    """First and last step its formula reads (the separation: ``0..H``)."""
+    binds: tuple[str, ...]
+    """The agents it binds, in the mission's order."""
+
+
+def first_step(formula: Formula) -> int:
+    """The first step past ``k`` that deciding ``formula`` at ``k`` reads (0 for an atom)."""
+    if isinstance(formula, (Always, Eventually)):
+        return formula.interval.lo + first_step(formula.child)
+    return min((first_step(c) for c in children(formula)), default=0)
+
+
+def limit_windows(problem: Problem) -> list[Limit]:
+    """The constraints, then the separation (when the mission has one), as :class:`Limit`."""
+    order = {a.name: i for i, a in enumerate(problem.agents)}
+    limits = []
+    for constraint in problem.constraints:
+        bound = {name for binding in constraint.bindings for name in binding.values()}
+        last = min(horizon(constraint.formula), problem.horizon)
+        window = (min(first_step(constraint.formula), last), last)
+        binds = tuple(sorted(bound, key=order.__getitem__))
+        limits.append(Limit(constraint.name, "constraint", window, binds))
+    if problem.separation is not None:
+        everyone = tuple(a.name for a in problem.agents)
+        limits.append(
+            Limit("separation", f">= {problem.separation:g}", (0, problem.horizon), everyone)
+        )
+    return limits
+
+
 def _capability_key(agent: AgentModel) -> str:
     return "+".join(sorted(agent.capabilities)) or "no capability"
 
@@ -153,10 +207,44 @@ def agent_styles(problem: Problem) -> dict[str, tuple[str, tuple[float, ...]]]:
     styles = {}
     for i, names in enumerate(by_key.values()):
         cmap = colormaps[_FAMILIES[i % len(_FAMILIES)]]
-        shades = np.linspace(0.85, 0.5, len(names)) if len(names) > 1 else [0.75]
+        darkest = 0.5 if len(names) <= 4 else 0.4  # more agents: a wider range of shades
+        shades = np.linspace(0.85, darkest, len(names)) if len(names) > 1 else [0.75]
         for name, shade in zip(names, shades, strict=True):
             styles[name] = (_MARKERS[i % len(_MARKERS)], tuple(cmap(float(shade))))
     return styles
+
+
+def agent_handles(problem: Problem, styles) -> list[Line2D]:
+    """Legend entries of the team: one per agent (name and capability) up to
+    :data:`MANY_AGENTS` agents, one per capability beyond (its middle shade and its head count)."""
+    if len(problem.agents) <= MANY_AGENTS:
+        return [
+            _agent_handle(styles[a.name], f"{a.name} ({_capability_key(a)})")
+            for a in problem.agents
+        ]
+    by_key: dict[str, list[str]] = {}
+    for agent in problem.agents:
+        by_key.setdefault(_capability_key(agent), []).append(agent.name)
+    return [
+        _agent_handle(styles[names[len(names) // 2]], f"{key} ({len(names)} agents)")
+        for key, names in by_key.items()
+    ]
+
+
+def _agent_handle(style: tuple[str, Any], label: str) -> Line2D:
+    marker, color = style
+    return Line2D([], [], color=color, marker=marker, mfc="white", label=label)
+
+
+def spread(points: np.ndarray, half: np.ndarray, fixed: int = 0) -> np.ndarray:
+    """Which boxes to show, greedily in order: box ``i`` centred at ``points[i]`` (display units)
+    with half-sizes ``half[i]`` is kept when it misses every box kept before it; the first
+    ``fixed`` boxes (markers a label must not cover) are always kept."""
+    keep = np.arange(len(points)) < fixed
+    for i in range(fixed, len(points)):
+        gaps = np.abs(points[keep] - points[i]) - half[keep] - half[i]
+        keep[i] = not np.any(np.all(gaps < 0, axis=1))
+    return keep
 
 
 def _sync_verdicts(report: MonitorReport) -> list[Verdict]:
@@ -190,19 +278,28 @@ def _status_line(report: MonitorReport) -> str:
 
 
 # ------------------------------------------------------------------------------------------ saving
-def save_figure(fig: Figure, path: str | os.PathLike[str]) -> None:
-    """Write ``fig`` as PNG to ``path`` atomically: a temporary file beside it, then a rename."""
+def write_atomically(path: str | os.PathLike[str], write: Callable[[Path], None]) -> None:
+    """Call ``write`` on a temporary file beside ``path`` (created empty, the umask applying as
+    to any new file), then rename it to ``path``: a reader sees the old file or the whole new
+    one. A failed write leaves no temporary file behind."""
     target = Path(path)
-    FigureCanvasAgg(fig)
     tmp = target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # umask applies, unlike mkstemp
+    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))  # unlike mkstemp's 0o600
     try:
-        with os.fdopen(fd, "wb") as stream:
-            fig.savefig(stream, format="png", dpi=DPI, bbox_inches="tight", pad_inches=0.15)
+        write(tmp)
         os.replace(tmp, target)
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise
+
+
+def save_figure(fig: Figure, path: str | os.PathLike[str]) -> None:
+    """Write ``fig`` as PNG to ``path`` atomically: a temporary file beside it, then a rename."""
+    FigureCanvasAgg(fig)
+    write_atomically(
+        path,
+        lambda tmp: fig.savefig(tmp, format="png", dpi=DPI, bbox_inches="tight", pad_inches=0.15),
+    )
 
 
 def _titles(ax, title: str, subtitle: str) -> None:

@@ -22,17 +22,19 @@ from stlplan.outputs.plots.common import (
     _START,
     _SYNC,
     DPI,
-    _capability_key,
+    MANY_AGENTS,
     _group_agents,
     _run_steps,
     _status_line,
     _sync_verdicts,
     _titles,
+    agent_handles,
     agent_styles,
     obstacle_regions,
     polygon_area,
     region_vertices,
     save_figure,
+    spread,
     sync_caption,
     workspace,
 )
@@ -42,6 +44,7 @@ _CROSSING: dict[str, Any] = dict(
     color="#d62728", linewidth=3.2, alpha=0.85, solid_capstyle="round", zorder=4
 )
 """A segment of a path that enters an obstacle or another agent's separation box."""
+_NAME_SIZE = 7
 
 
 def _label_spot(vertices: np.ndarray, name: str, avoid: np.ndarray, pt_per_unit: float):
@@ -92,11 +95,12 @@ def _step_clusters(points: np.ndarray, eps: float) -> list[tuple[int, int]]:
     return clusters
 
 
-def _draw_agent(ax, z: np.ndarray, style: tuple[str, tuple[float, ...]], eps: float) -> None:
+def _draw_agent(ax, z: np.ndarray, style: tuple[str, tuple[float, ...]], eps: float | None) -> None:
+    """The agent's path and start; with ``eps``, step labels (one per cluster of steps)."""
     marker, color = style
     ax.plot(z[:, 0], z[:, 1], color=color, marker=marker, **_PATH)
     ax.plot(z[0, 0], z[0, 1], marker=marker, markerfacecolor=color, **_START)
-    for first, last in _step_clusters(z, eps):
+    for first, last in _step_clusters(z, eps) if eps is not None else ():
         if first == 0 and last == 0:
             continue  # the start marker already says "step 0"
         label = str(first) if first == last else f"{first}-{last}"
@@ -124,18 +128,29 @@ def _draw_crossings(ax, problem: Problem, trajectory: Trajectory) -> bool:
     return bool(cuts)
 
 
+def _draw_end_names(ax, problem: Problem, trajectory: Trajectory, styles, pt_per_unit) -> None:
+    """Each agent's name at its last position, left out where it would cover a name drawn."""
+    ends = np.array([trajectory.position(a.name, a.position)[-1] for a in problem.agents])
+    half = np.array([[0.3 * _NAME_SIZE * len(a.name) + 1, 4.0] for a in problem.agents])
+    centers = ends + (half + _POINTS["xytext"]) / pt_per_unit  # up and right of the point
+    dot = np.full_like(ends, _PATH["markersize"] / 2 / pt_per_unit)
+    boxes = np.vstack([ends, centers]), np.vstack([dot, half / pt_per_unit])
+    shown = spread(*boxes, fixed=len(ends))[len(ends) :]
+    for agent, end, keep in zip(problem.agents, ends, shown, strict=True):
+        if keep:
+            color = styles[agent.name][1]
+            ax.annotate(agent.name, end, color=color, **{**_POINTS, "fontsize": _NAME_SIZE})
+
+
 def _plan_legend(ax, problem: Problem, styles, has_sync: bool, crossed: bool = False) -> None:
-    handles = []
-    for agent in problem.agents:
-        marker, color = styles[agent.name]
-        label = f"{agent.name} ({_capability_key(agent)})"
-        handles.append(Line2D([], [], color=color, marker=marker, mfc="white", label=label))
+    handles = agent_handles(problem, styles)
     handles.append(Line2D([], [], marker="o", mfc="0.6", label="start (step 0)", **_START))
     if has_sync:
         handles.append(Line2D([], [], marker="o", mfc="0.6", label="synchronized run", **_SYNC))
     if crossed:
         handles.append(Line2D([], [], label="unsafe between steps", **_CROSSING))
-    legend_at = dict(loc="upper left", bbox_to_anchor=(1.01, 1.0), title="agent (capability)")
+    title = "agent (capability)" if len(problem.agents) <= MANY_AGENTS else "capability"
+    legend_at = dict(loc="upper left", bbox_to_anchor=(1.01, 1.0), title=title)
     ax.legend(handles=handles, **legend_at, **_LEGEND)
 
 
@@ -154,9 +169,12 @@ def plan_figure(
     step_labels = points + np.array([12.0, 6.0]) / pt_per_unit
     _draw_regions(ax, problem, bounds, np.vstack([points, step_labels]), pt_per_unit)
     styles = agent_styles(problem)
-    eps = 0.01 * max(xh - xl, yh - yl)
+    many = len(problem.agents) > MANY_AGENTS
+    eps = None if many else 0.01 * max(xh - xl, yh - yl)
     for agent in problem.agents:
         _draw_agent(ax, trajectory.position(agent.name, agent.position), styles[agent.name], eps)
+    if many:
+        _draw_end_names(ax, problem, trajectory, styles, pt_per_unit)
     crossed = _draw_crossings(ax, problem, trajectory)
     captions = _draw_sync_runs(ax, problem, trajectory, report, styles)
     ax.set(xlim=(xl, xh), ylim=(yl, yh), aspect="equal", xlabel="x", ylabel="y")

@@ -1,4 +1,5 @@
-"""The timeline figure (``timeline.png``): which agent serves which task at which step."""
+"""The timeline figure (``timeline.png``): which agent serves which task at which step, and the
+steps each constraint binds which agents."""
 
 from __future__ import annotations
 
@@ -16,6 +17,9 @@ from stlplan.outputs.plots.common import (
     _BAR_LABEL,
     _IDLE,
     _LEGEND,
+    _LIMIT,
+    _LIMIT_LABEL,
+    _LIMIT_VIOLATED,
     _SHADE,
     _TIMELINE_NOTE,
     DPI,
@@ -24,6 +28,7 @@ from stlplan.outputs.plots.common import (
     _run_steps,
     _sync_verdicts,
     _titles,
+    limit_windows,
     polygon_area,
     region_vertices,
     save_figure,
@@ -103,13 +108,19 @@ def _draw_sync_shading(ax, report: MonitorReport, rows) -> list[Patch]:
     return handles
 
 
-def _timeline_axes(ax, problem: Problem, rows: Mapping[str, int]) -> None:
-    horizon, count = problem.horizon, len(rows)
+def _timeline_axes(ax, problem: Problem, rows: Mapping[str, int], limits) -> None:
+    horizon, count = problem.horizon, len(rows) + len(limits)
     ax.set_xlim(-0.6, horizon + 0.6)
     ax.set_ylim(-0.6, count - 0.4)
     ax.set_xticks(range(0, horizon + 1, 1 if horizon <= 30 else (horizon + 29) // 30))
     labels = [f"{a.name} ({_capability_key(a)})" for a in problem.agents]
-    ax.set_yticks([rows[a.name] for a in problem.agents], labels, fontsize=9)
+    labels += [f"{limit.name} ({limit.kind})" for limit in limits]
+    ticks = [rows[a.name] for a in problem.agents] + list(range(len(limits) - 1, -1, -1))
+    ax.set_yticks(ticks, labels, fontsize=9)
+    for label in ax.get_yticklabels()[len(rows) :]:
+        label.set_style("italic")
+    if limits:
+        ax.axhline(len(limits) - 0.5, color="0.35", linewidth=1.2, zorder=1)
     ax.tick_params(axis="x", labelsize=9)
     ax.set_xlabel("step k", fontsize=10)
     for y in range(count + 1):
@@ -118,20 +129,54 @@ def _timeline_axes(ax, problem: Problem, rows: Mapping[str, int]) -> None:
     ax.set_axisbelow(True)
 
 
+def _draw_limits(ax, problem: Problem, report: MonitorReport, step_pt: float) -> list:
+    """One row per constraint (and the separation) under the agents: a hatched bar over the steps
+    its formula reads, labelled with the agents it binds; edged in red when the monitor says it
+    is violated."""
+    verdicts, limits = {v.name: v for v in report.verdicts}, limit_windows(problem)
+    for row, limit in zip(range(len(limits) - 1, -1, -1), limits, strict=True):
+        verdict = verdicts.get(limit.name)
+        style = _LIMIT if verdict is None or verdict.satisfied else _LIMIT_VIOLATED
+        first, last = limit.window
+        corner, width = (first - 0.45, row - 0.3), last - first + 0.9
+        ax.add_patch(Rectangle(corner, width, 0.6, **style))
+        everyone = len(limit.binds) == len(problem.agents) > 1
+        text = (
+            f"all {len(limit.binds)} agents" if everyone else _fitted(limit.binds, width * step_pt)
+        )
+        ax.text((first + last) / 2, row, text, fontsize=7, **_LIMIT_LABEL)
+    if not limits:
+        return []
+    return [Patch(label="constraint: the steps it reads", **_LIMIT)]
+
+
+def _fitted(names: Sequence[str], width_pt: float, size: float = 7) -> str:
+    """``names`` joined, cut to ``uv1, uv2 +6`` or ``8 agents`` where the bar is too short."""
+    for shown in range(len(names), 0, -1):
+        text = ", ".join(names[:shown]) + (f" +{len(names) - shown}" if shown < len(names) else "")
+        if 0.6 * size * len(text) <= width_pt:
+            return text
+    return f"{len(names)} agents" if len(names) > 1 else names[0]
+
+
 def timeline_figure(problem: Problem, trajectory: Trajectory, report: MonitorReport) -> Figure:
     """One row per agent over steps ``0..H``: when each agent serves each task, and sync runs."""
-    rows = {a.name: len(problem.agents) - 1 - i for i, a in enumerate(problem.agents)}
+    limits = limit_windows(problem)
+    rows = {a.name: len(problem.agents) + len(limits) - 1 - i for i, a in enumerate(problem.agents)}
     colors = {t.name: colormaps["tab10"](i % 10) for i, t in enumerate(problem.tasks)}
     width = float(np.clip(0.65 * (problem.horizon + 1.2) + 1.8, 8.0, 16.0))
     step_pt = 72 * (width - 1.8) / (problem.horizon + 1.2)
-    fig = Figure(figsize=(width, 0.5 * len(rows) + 2.4), dpi=DPI, layout="constrained")
+    height = 0.5 * (len(rows) + len(limits)) + 2.4
+    fig = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
     ax = fig.add_subplot()
     _draw_task_bars(ax, problem, trajectory, report, rows, (colors, step_pt))
     handles = [Patch(color=colors[t.name], label=t.name) for t in problem.tasks]
     handles += _draw_sync_shading(ax, report, rows)
-    _timeline_axes(ax, problem, rows)
+    handles += _draw_limits(ax, problem, report, step_pt)
+    _timeline_axes(ax, problem, rows, limits)
     fig.legend(handles=handles, loc="outside lower center", ncols=min(4, len(handles)), **_LEGEND)
-    _titles(ax, f"{problem.mission.name}: which agent serves which task when", _TIMELINE_NOTE)
+    note = _TIMELINE_NOTE + ("; hatched: the steps a constraint reads" if limits else "")
+    _titles(ax, f"{problem.mission.name}: which agent serves which task when", note)
     return fig
 
 
