@@ -1,12 +1,14 @@
 """Step 1 with lazy constraints: solve, add the requirements the plan violates, solve again.
 
-HiGHS has no lazy-constraint callback, so the loop runs around it, on one model kept loaded
-(:class:`stlplan.planner.session.HighsSession`). Round ``i`` solves problem (step1) with only the step
-requirements (:mod:`stlplan.planner.encoding.deferred`) added so far: a relaxation of the full problem,
-so its dual bound ``U_i`` bounds the full optimum from above. The requirements its plan violates
-(found with numpy on the trajectory, with their neighbours in time per ``lazy_window``) are then
-encoded exactly as the up-front formulation encodes them, and the next round starts. Each round
-adds at least one requirement, so the loop ends.
+The loop runs around HiGHS, on one model kept loaded
+(:class:`stlplan.planner.session.HighsSession`). Round ``i`` solves problem (step1) with only the
+step requirements (:mod:`stlplan.planner.encoding.deferred`) added so far: a relaxation of the
+full problem, so its dual bound ``U_i`` bounds the full optimum from above, and so does the least
+of them. The requirements its plan violates (found with numpy on the trajectory, with their
+neighbours in time per ``lazy_window``) are then encoded exactly as the up-front formulation
+encodes them, and the next round starts, given the best plan so far that meets every
+requirement (it meets the new ones too) to start from. Each round adds at least one
+requirement, so the loop ends.
 
 While a round runs, every improving plan HiGHS finds is also checked against the requirements
 not yet in the model. A plan that violates none is feasible for the full problem; the best such
@@ -24,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -257,6 +260,9 @@ class LazySolver:
             solved = self.session.solve(remaining)
             rounds, seconds = (clock.round or 1) - first + 1, time.perf_counter() - tick
             results = solved.results
+            bound = results.objective_bound
+            if not self.trial and bound is not None and math.isfinite(bound):
+                watch.ceiling = lowest(bound, watch.ceiling)  # every round bounds the problem
             _log.debug(
                 "round %d: %.1f s, %s, bound %s, best %s, added %d",
                 clock.round,
