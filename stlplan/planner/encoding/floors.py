@@ -23,6 +23,29 @@ They keep the optimum: every feasible point has one with the same ``x``, ``u``, 
 matter and objective whose indicators are 1 exactly on the subformulas the plan needs (the least
 indicators; unneeded disjunctions take their "off" slot, which costs nothing). There every
 indicator at 1 has all its predicates met by ``x``, so ``e_p`` is at least its floor.
+
+Serving two tasks. An agent that serves two tasks (on the farm one UV agent often serves crops A1
+and A2) gets from the cuts above only the larger of the two floors, although it must reach both
+regions, one after the other. For an agent ``p`` and two tasks ``T1``, ``T2`` that do not reuse
+agents, let ``a_T = sum_{e in T, p in e} x_e`` (1 when ``p`` serves ``T``, else 0), and for an
+element indicator ``h`` its *options*: the predicate sets on ``p`` reached through conjunctions
+alone, from ``h`` itself, or from each child of ``h`` when ``h`` is a disjunction (``F[a,b]``: one
+set per step). Then
+
+    J_p(T1, T2) = min over elements e1 of T1 and e2 of T2 with p,
+                  and over options O1 of h_e1 and O2 of h_e2, of E_p(O1 + O2)
+
+bounds ``p``'s effort whenever it serves both: both element indicators are 1, each enforces one of
+its options, and ``p`` meets their union. With ``f_e`` the floor of element ``e`` and
+``F_T = max_e f_e``, the cut
+
+    e_p >= sum_{e in T1} f_e x_e + sum_{e in T2} min(f_e, J_p - F_T1) x_e
+
+holds at every plan: serving one task it is a cut above; serving both, its right side is at most
+``F_T1 + J_p - F_T1``. Unlike the cuts above it adds the floors of two tasks up, so it binds when
+the agent's shares of the tasks are fractional too, whenever the way between the tasks costs at
+least the smaller floor. The same with ``T1`` and ``T2`` swapped, and ``e_p >= J_p (a_T1 + a_T2 -
+1)``, which is tight when both shares are 1; ``a_T1 + a_T2 <= 1`` when no union can be met. Pairs with more than :data:`MAX_OPTIONS` unions get no cut.
 """
 
 from __future__ import annotations
@@ -30,108 +53,17 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import highspy
-import numpy as np
 from pyomo.environ import ConcreteModel, ConstraintList, Var
 
-from stlplan.formula.tree import Predicate
-from stlplan.mission.problem import AgentModel, Problem
-from stlplan.planner.encoding.stl import Ledger
-
-INF = float("inf")
-FLOOR_TOL = 1e-7
-"""Floors below this are treated as 0 (no cut), and every floor is lowered by it (round-off)."""
-
-AgentPredicate = tuple[Predicate, int]
-"""A predicate on one agent's state at step ``k``, its role bound to that agent."""
-
-
-class EffortLp:
-    """``E_p(S)`` for one agent, as a warm-started HiGHS LP over its inputs.
-
-    Variables ``u`` (H*m) and ``s`` (H*m); rows ``s - u >= 0``, ``s + u >= 0`` and the state box
-    ``x_lo <= f_k + G_k u <= x_hi`` for ``k = 1..H``, with ``x(k) = f_k + G_k u`` condensed
-    (``f_k = A^k x^0``, ``G_k`` the stacked ``A^(k-1-i) B``). A query adds the predicate rows
-    ``c . G_k u >= b + r_min - c . f_k``, solves and deletes them.
-    """
-
-    def __init__(self, agent: AgentModel, horizon: int, margin: float) -> None:
-        self.margin = margin
-        n, m = agent.n, agent.m
-        self.free = np.empty((horizon + 1, n))
-        self.gains = np.zeros((horizon + 1, n, horizon * m))
-        self.free[0] = agent.initial_state
-        for k in range(horizon):
-            self.free[k + 1] = agent.A @ self.free[k]
-            self.gains[k + 1] = agent.A @ self.gains[k]
-            self.gains[k + 1][:, k * m : (k + 1) * m] = agent.B
-        self.highs = highspy.Highs()
-        self.highs.setOptionValue("output_flag", False)
-        self._base(agent, horizon)
-
-    def _base(self, agent: AgentModel, horizon: int) -> None:
-        width = horizon * agent.m
-        u_lo = np.tile(agent.input_lo, horizon)
-        u_hi = np.tile(agent.input_hi, horizon)
-        cost = np.concatenate([np.zeros(width), np.ones(width)])
-        lower = np.concatenate([u_lo, np.zeros(width)])
-        upper = np.concatenate([u_hi, np.maximum(np.abs(u_lo), np.abs(u_hi))])
-        self.highs.addVars(2 * width, lower, upper)
-        self.highs.changeColsCost(2 * width, np.arange(2 * width, dtype=np.int32), cost)
-        eye = np.eye(width)
-        rows = [np.hstack([-eye, eye]), np.hstack([eye, eye])]
-        lo = [np.zeros(width), np.zeros(width)]
-        hi = [np.full(width, INF), np.full(width, INF)]
-        for k in range(1, horizon + 1):
-            rows.append(np.hstack([self.gains[k], np.zeros((agent.n, width))]))
-            lo.append(agent.state_lo - self.free[k])
-            hi.append(agent.state_hi - self.free[k])
-        self._add_rows(np.vstack(rows), np.concatenate(lo), np.concatenate(hi))
-        self.base_rows = self.highs.getNumRow()
-
-    def _add_rows(self, matrix: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
-        starts: list[int] = []
-        index: list[int] = []
-        values: list[float] = []
-        for row in matrix:
-            starts.append(len(index))
-            nonzero = np.flatnonzero(np.abs(row) > 1e-12)
-            index.extend(nonzero.tolist())
-            values.extend(row[nonzero].tolist())
-        self.highs.addRows(
-            len(matrix), lo, hi, len(index),
-            np.array(starts, dtype=np.int32), np.array(index, dtype=np.int32),
-            np.array(values, dtype=float),
-        )  # fmt: skip
-
-    def floor(self, predicates: Iterable[AgentPredicate]) -> float:
-        """``E_p(S)``: least L1 effort meeting every predicate of ``S`` (inf if none can)."""
-        width = self.gains.shape[2]
-        matrix, lo = [], []
-        for node, k in predicates:
-            c = np.zeros(self.free.shape[1])
-            for term in node.terms:
-                c[term.component] += term.coef
-            matrix.append(np.concatenate([c @ self.gains[k], np.zeros(width)]))
-            lo.append(node.bound + self.margin - float(c @ self.free[k]))
-        if not matrix:
-            return 0.0
-        self._add_rows(np.vstack(matrix), np.array(lo), np.full(len(lo), INF))
-        self.highs.run()
-        status = self.highs.getModelStatus()
-        value = self.highs.getInfo().objective_function_value
-        extra = np.arange(self.base_rows, self.highs.getNumRow(), dtype=np.int32)
-        self.highs.deleteRows(len(extra), extra)
-        if status == highspy.HighsModelStatus.kInfeasible:
-            return INF
-        if status != highspy.HighsModelStatus.kOptimal:
-            return 0.0  # unknown: no cut
-        return max(0.0, float(value) - FLOOR_TOL)
-
+from stlplan.mission.problem import Problem
+from stlplan.planner.encoding.effort_lp import FLOOR_TOL, INF, AgentPredicate, EffortLp
+from stlplan.planner.encoding.stl import Ledger, conjunction_leaves
+from stlplan.planner.encoding.team_floors import add_team_floors
 
 Floor = dict[str, float]
 """Agent name to a lower bound of its effort."""
@@ -171,19 +103,12 @@ class FloorGraph:
 
     def closure(self, z: Any) -> tuple[dict[str, set[AgentPredicate]], list[Any]]:
         """Single-agent predicates reached from ``z`` through conjunctions, and the other leaves."""
+        reached, others = conjunction_leaves(z, self.conjunctions, self.predicates)
         sets: dict[str, set[AgentPredicate]] = {}
-        others: list[Any] = []
-        stack = [z]
-        while stack:
-            node = stack.pop()
-            if id(node) in self.conjunctions:
-                stack.extend(self.conjunctions[id(node)])
-            elif id(node) in self.predicates:
-                found = self.predicates[id(node)]
-                if found is not None:
-                    sets.setdefault(found[0], set()).add(found[1])
-            else:
-                others.append(node)
+        for node in reached:
+            found = self.predicates[id(node)]
+            if found is not None:
+                sets.setdefault(found[0], set()).add(found[1])
         return sets, others
 
     def floor(self, z: Any) -> Floor:
@@ -250,6 +175,75 @@ def add_effort_floors(
                 count += 1
     for z in impossible.values():
         model.effort_floors.add(z <= 0)
+    count += _service_floors(model, graph, ledger.services)
+    apart = {id(h): sum(graph.floor(h).values()) for _, h, _ in ledger.elements}
+    count += add_team_floors(model, ledger, lps, apart, deadline)
     # the LPs sized HiGHS's process-wide thread pool; let the MILP size it afresh
     highspy.Highs.resetGlobalScheduler(True)
     return count + len(impossible)
+
+
+MAX_OPTIONS = 256
+"""Most option unions (LPs) one agent and pair of tasks may take."""
+
+
+def _options(graph: FloorGraph, agent: str, z: Any) -> list[frozenset[AgentPredicate]]:
+    """The option sets of indicator ``z`` for ``agent`` (module docstring)."""
+    tops = graph.disjunctions.get(id(z), [z])
+    return [frozenset(graph.closure(top)[0].get(agent, ())) for top in tops]
+
+
+def _joint_floor(
+    graph: FloorGraph, agent: str, first: Sequence[Any], second: Sequence[Any]
+) -> float:
+    """``J_p``: least effort of ``agent`` meeting an option of each of two element indicators
+    (0 when there are too many options to try)."""
+    left = {o for h in first for o in _options(graph, agent, h)}
+    right = {o for h in second for o in _options(graph, agent, h)}
+    if len(left) * len(right) > MAX_OPTIONS:
+        return 0.0
+    return min(graph.effort_floor(agent, a | b) for a, b in itertools.product(left, right))
+
+
+def _service_floors(
+    model: ConcreteModel,
+    graph: FloorGraph,
+    services: Sequence[tuple[str, str, list[Any], list[Any]]],
+) -> int:
+    """Add the cuts of two tasks served by one agent (module docstring); returns the count."""
+    by_agent: dict[str, list[tuple[str, str, list[Any], list[Any]]]] = {}
+    for service in services:
+        by_agent.setdefault(service[1], []).append(service)
+    count = 0
+    for agent, mine in by_agent.items():
+        for (_, _, h1, x1), (_, _, h2, x2) in itertools.combinations(mine, 2):
+            joint = _joint_floor(graph, agent, h1, h2)
+            if joint <= FLOOR_TOL:
+                continue
+            both = sum(x1) + sum(x2)
+            if joint == INF:
+                model.effort_floors.add(both <= 1)
+            else:
+                model.effort_floors.add(model.e[agent] >= joint * (both - 1))
+            count += 1
+            f1, f2 = _weights(graph, agent, h1), _weights(graph, agent, h2)
+            cuts = {
+                (tuple(f1), tuple(_capped(f2, joint - max(f1)))),
+                (tuple(_capped(f1, joint - max(f2))), tuple(f2)),
+            }
+            for w1, w2 in cuts:
+                terms = [w * x for w, x in zip(w1 + w2, x1 + x2, strict=True) if w > FLOOR_TOL]
+                if terms:
+                    model.effort_floors.add(model.e[agent] >= sum(terms))
+                    count += 1
+    return count
+
+
+def _weights(graph: FloorGraph, agent: str, indicators: Sequence[Any]) -> list[float]:
+    """The agent's floor of each element indicator (0 for an impossible one: it is held at 0)."""
+    floors = (graph.floor(h).get(agent, 0.0) for h in indicators)
+    return [f if f < INF else 0.0 for f in floors]
+
+
+def _capped(weights: Sequence[float], cap: float) -> list[float]:
+    return [max(0.0, min(w, cap)) for w in weights]

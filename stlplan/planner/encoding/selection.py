@@ -105,6 +105,8 @@ def link_floors(ctx: StlContext, task: TaskModel, chosen: Sequence[Any], h: Sequ
     for agent in sorted({a for element in task.elements for a in element}):
         mine = [n for n, element in enumerate(task.elements) if agent in element]
         ctx.ledger.choices.append((None, [h[n] for n in mine], [chosen[n] for n in mine]))
+        service = (task.name, agent, [h[n] for n in mine], [chosen[n] for n in mine])
+        ctx.ledger.services.append(service)
 
 
 def select_task(ctx: StlContext, problem: Problem, task: TaskModel) -> Selection:
@@ -117,8 +119,9 @@ def select_task(ctx: StlContext, problem: Problem, task: TaskModel) -> Selection
         return Selection(task, tuple(1.0 for _ in task.elements))
     h = [encode(f, 0, ctx.bound(b)) for f, b in zip(formulas, bindings, strict=True)]
     chosen = choose_elements(ctx, task)
-    for x, h_e in zip(chosen, h, strict=True):
+    for x, h_e, element in zip(chosen, h, task.elements, strict=True):
         ctx.block.rows.add(x <= h_e)
+        ctx.ledger.elements.append((x, h_e, tuple(element)))
     link_floors(ctx, task, chosen, h)
     return Selection(task, chosen)
 

@@ -62,6 +62,30 @@ class Ledger:
     """``(z, [z_1..z_n])`` with ``z <= z_i``: ``z = 1`` enforces every child."""
     choices: list[tuple[Any, list[Any], list[Any]]] = field(default_factory=list)
     """``(z, [z_1..z_n], [w_1..w_n])`` with ``w_i <= z_i`` and ``sum w = z`` (``z`` None: 1)."""
+    elements: list[tuple[Any, Any, tuple[str, ...]]] = field(default_factory=list)
+    """``(x_e, h_e, agents)``: a task's element ``e`` is chosen (``x_e <= h_e``)."""
+    services: list[tuple[str, str, list[Any], list[Any]]] = field(default_factory=list)
+    """``(task, agent, [h_e], [x_e])``: the elements of a task that reuses no agent and that
+    contain the agent (at most one of them chosen), with their indicators."""
+
+
+def conjunction_leaves(
+    z: Any, conjunctions: Mapping[int, Sequence[Any]], predicates: Mapping[int, Any]
+) -> tuple[list[Any], list[Any]]:
+    """The predicate indicators reached from ``z`` through conjunctions alone (keys of
+    ``predicates`` and ``conjunctions`` are indicator ids), and the other leaves reached."""
+    reached: list[Any] = []
+    others: list[Any] = []
+    stack = [z]
+    while stack:
+        node = stack.pop()
+        if id(node) in conjunctions:
+            stack.extend(conjunctions[id(node)])
+        elif id(node) in predicates:
+            reached.append(node)
+        else:
+            others.append(node)
+    return reached, others
 
 
 @dataclass(frozen=True, eq=False)
