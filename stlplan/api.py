@@ -22,7 +22,7 @@ from stlplan.outputs.summary import summary_dict
 from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
 from stlplan.pipeline import plan
 from stlplan.planner import stops
-from stlplan.planner.session import Overrides, PlanOptions
+from stlplan.planner.options import Overrides, PlanOptions
 from stlplan.planner.size import check_size
 from stlplan.result import MonitorReport, PlanResult
 

@@ -20,7 +20,7 @@ from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.planner import stops
 from stlplan.planner.diagnose import cheap_diagnosis, cheap_reasons, diagnose
 from stlplan.planner.figures import reported
-from stlplan.planner.session import Overrides, PlanOptions
+from stlplan.planner.options import Overrides, PlanOptions
 from stlplan.planner.size import check_size
 from stlplan.result import PlanResult, PlanStatus
 

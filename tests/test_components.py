@@ -10,10 +10,12 @@ import pytest
 from stlplan.formula.boundary import EPSILON
 from stlplan.planner import components
 from stlplan.planner.clock import Clock
-from stlplan.planner.components import Part, _tighten, agent_parts, solve_parts, sub_problem
+from stlplan.planner.components import Part, _tighten, solve_parts
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.lazy import Step1
-from stlplan.planner.session import HighsSession, PlanOptions
+from stlplan.planner.options import PlanOptions
+from stlplan.planner.parts import agent_parts, sub_problem
+from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
 from tests.test_lazy import accepted, mission, swap_problem

@@ -14,7 +14,7 @@ from stlplan.mission.problem import Problem
 from stlplan.monitor.crossings import crossing_segments, segment_floor, separation_segments
 from stlplan.monitor.verdicts import check
 from stlplan.outputs.plots import plan_figure
-from stlplan.planner.session import PlanOptions
+from stlplan.planner.options import PlanOptions
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
 from tests.test_lazy import mission, swap_problem

@@ -13,7 +13,8 @@ from pyomo.environ import Reals, Var
 from stlplan.planner.clock import Clock
 from stlplan.planner.encoding import floors, team_floors
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.session import HighsSession, PlanOptions
+from stlplan.planner.options import PlanOptions
+from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
 from tests.test_lazy import mission

@@ -17,7 +17,7 @@ from stlplan.planner.clock import Progress
 from stlplan.planner.encoding.deferred import SEPARATION, defer, neighbours, violated
 from stlplan.planner.encoding.model import build_model, reachable_boxes
 from stlplan.planner.lazy import Watch, lowest
-from stlplan.planner.session import PlanOptions
+from stlplan.planner.options import PlanOptions
 from stlplan.planner.solve import plan
 from stlplan.result import PlanResult, PlanStatus
 

@@ -16,7 +16,7 @@ from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
 from stlplan.planner.clock import Progress
-from stlplan.planner.session import Overrides, PlanOptions
+from stlplan.planner.options import Overrides, PlanOptions
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
 

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -43,7 +43,9 @@ from stlplan.planner.clock import FLOORS_SHARE, Clock
 from stlplan.planner.encoding.deferred import Requirement, violated
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
 from stlplan.planner.lazy import VIOLATION_TOL, LazySolver, Step1, relative_gap, trajectory_states
-from stlplan.planner.session import MIN_SOLVE_SECONDS, HighsSession, PlanOptions
+from stlplan.planner.options import PlanOptions
+from stlplan.planner.parts import agent_parts, sub_problem
+from stlplan.planner.session import MIN_SOLVE_SECONDS, HighsSession
 from stlplan.result import PlanStatus
 
 HOLD = 1e-4
@@ -58,54 +60,6 @@ REPAIR_SHARE = 0.25
 ASSEMBLY_LIMIT = 60.0
 """Time limit of the assembly solve, seconds (a finishing solve: also within the run's budget
 and grace, :class:`stlplan.planner.session.Clock`)."""
-
-
-def agent_parts(problem: Problem) -> list[tuple[str, ...]]:
-    """The agents of each independent part, in agent order (one part when none can be split)."""
-    names = [a.name for a in problem.agents]
-    if problem.mission.objective.margin.maximize:
-        return [tuple(names)]
-    parent = {n: n for n in names}
-
-    def find(n: str) -> str:
-        while parent[n] != n:
-            parent[n] = parent[parent[n]]
-            n = parent[n]
-        return n
-
-    def link(group: Iterable[str]) -> None:
-        members = list(group)
-        for other in members[1:]:
-            parent[find(other)] = find(members[0])
-
-    for task in problem.tasks:
-        link({agent for element in task.elements for agent in element})
-    link({agent for t in problem.tasks if t.sync for e in t.elements for agent in e})
-    for constraint in problem.constraints:
-        for binding in constraint.bindings:
-            link(set(binding.values()))
-    parts: dict[str, list[str]] = {}
-    for n in names:
-        parts.setdefault(find(n), []).append(n)
-    return [tuple(p) for p in parts.values()]
-
-
-def sub_problem(problem: Problem, agents: Iterable[str]) -> Problem:
-    """``problem`` restricted to ``agents``: their tasks, constraint bindings and separation."""
-    keep = set(agents)
-    tasks = tuple(t for t in problem.tasks if {a for e in t.elements for a in e} <= keep)
-    constraints = []
-    for c in problem.constraints:
-        bindings = tuple(b for b in c.bindings if set(b.values()) <= keep)
-        if bindings:
-            constraints.append(dataclasses.replace(c, bindings=bindings))
-    return dataclasses.replace(
-        problem,
-        agents=tuple(a for a in problem.agents if a.name in keep),
-        tasks=tasks,
-        constraints=tuple(constraints),
-        _by_name={},
-    )
 
 
 def requirement_key(req: Requirement) -> tuple[Any, ...]:

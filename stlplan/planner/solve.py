@@ -31,7 +31,7 @@ from stlplan.planner.encoding.model import PlanModel, build_model
 from stlplan.planner.encoding.readout import plan_result
 from stlplan.planner.finish import Finish, enforced_predicates, finish, fix_decisions
 from stlplan.planner.lazy import Step1, solve_step1
-from stlplan.planner.session import PlanOptions
+from stlplan.planner.options import PlanOptions
 from stlplan.result import Fallback, ModelSize, PlanResult, PlanStatus
 
 __all__ = ["enforced_predicates", "fix_decisions", "model_size", "plan"]
