@@ -210,3 +210,31 @@ def test_a_solve_starts_from_a_given_plan() -> None:
         found.append(session.solve(60).results.incumbent_objective)
     assert found[0] < optimum - 1.0
     assert found[1] == pytest.approx(optimum, abs=1e-9)
+
+
+def _place(part: Part, where: dict[str, tuple[float, float]]) -> None:
+    """Load a plan standing still at ``where`` into ``part``'s model."""
+    for name, (x, y) in where.items():
+        for k in range(part.pm.problem.horizon + 1):
+            part.pm.model.x[name, k, 0].set_value(x)
+            part.pm.model.x[name, k, 1].set_value(y)
+
+
+def test_only_requirements_between_parts_are_crossings() -> None:
+    # a part's plan meets its own rows within HiGHS's tolerances (which may exceed the check's);
+    # such a requirement is no crossing: merging parts could not change it, and the loop of
+    # solve_parts would merge nothing and check again, forever
+    problem = two_teams()
+    options, clock = PlanOptions(time_limit=60), Clock(0.0, None)
+    full = build_model(problem, options.encoding, lazy=True, floors=False)
+    parts = [components._part(problem, names, options, clock) for names in agent_parts(problem)]
+    spread = {"a": (0.0, 0.0), "b": (1.0, 0.0), "c": (2.0, 0.0), "d": (3.0, 0.0), "e": (4.0, 0.0)}
+    for part in parts:
+        _place(part, {n: spread[n] for n in part.agents})
+    assert components._crossing(full, parts) == []
+    owner = {n: part for part in parts for n in part.agents}
+    _place(owner["b"], {"b": (0.0, 0.0)})  # a and b (one part) on the same spot
+    assert components._crossing(full, parts) == []
+    _place(owner["c"], {"c": (0.0, 0.0)})  # now c (another part) too
+    linked = components._crossing(full, parts)
+    assert linked and all({"c"} < set(r.binding.values()) for r in linked)

@@ -108,14 +108,22 @@ def _part(
 
 
 def _crossing(full: PlanModel, parts: Sequence[Part]) -> list[Requirement]:
-    """Requirements of the full problem the combined plan violates (they link parts)."""
+    """Requirements of the full problem linking agents of different parts that the combined
+    plan violates.
+
+    A requirement within one part is that part's own: its plan meets it as HiGHS meets any row,
+    within the solver's tolerances, which may exceed :data:`VIOLATION_TOL`; merging could not
+    change that, so such a requirement is not a crossing.
+    """
     assert full.deferral is not None
-    states = {}
+    states, owner = {}, {a: i for i, part in enumerate(parts) for a in part.agents}
     for part in parts:
         states.update(trajectory_states(part.pm))
     margin = full.margin if isinstance(full.margin, float) else float(full.margin.lb)
-    bad = violated(full.deferral.lazy, states, margin, VIOLATION_TOL)
-    return [full.deferral.lazy[n] for n in bad]
+    bad = [
+        full.deferral.lazy[n] for n in violated(full.deferral.lazy, states, margin, VIOLATION_TOL)
+    ]
+    return [r for r in bad if len({owner[a] for a in r.binding.values()}) > 1]
 
 
 def _merge(parts: list[Part], linked: list[set[str]]) -> list[list[Part]]:
