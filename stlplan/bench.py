@@ -47,6 +47,8 @@ FORMULATIONS: dict[str, tuple[tuple[str, Any], ...]] = {
     "sampled": (("inter_sample", False),),
     "straightforward": (("lazy", False), ("floors", False)),
     "no-floors": (("floors", False),),
+    "no-in-turn": (("in_turn_after", None),),
+    "in-turn-always": (("in_turn_after", 0.0),),
     "no-parts": (("decompose", False),),
     "lazy-only": (("decompose", False), ("floors", False)),
     "pair-window": (("lazy_window", None),),

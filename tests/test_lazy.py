@@ -16,9 +16,9 @@ from stlplan.monitor.verdicts import check
 from stlplan.planner.clock import Progress
 from stlplan.planner.encoding.deferred import SEPARATION, defer, neighbours, violated
 from stlplan.planner.encoding.model import build_model, reachable_boxes
-from stlplan.planner.lazy import Watch, lowest
 from stlplan.planner.options import PlanOptions
 from stlplan.planner.solve import plan
+from stlplan.planner.watch import Watch, lowest
 from stlplan.result import PlanResult, PlanStatus
 
 SINGLE_INTEGRATOR = {
@@ -122,16 +122,18 @@ def test_collision_binds_and_lazy_matches_up_front(encoding: str) -> None:
 def test_obstacle_binds_and_lazy_matches_up_front(window: int | None) -> None:
     problem = detour_problem(with_obstacle=True)
     free, _ = solve(detour_problem(with_obstacle=False))
-    lazy, rounds = solve(problem, lazy=True, lazy_window=window)
+    lazy, rounds = solve(problem, lazy=True, lazy_window=window, in_turn_after=None)
+    repaired, _ = solve(problem, lazy=True, lazy_window=window, in_turn_after=0.0)
     up_front, _ = solve(problem, lazy=False, floors=False)
-    assert lazy.status is up_front.status is PlanStatus.OPTIMAL
+    assert lazy.status is repaired.status is up_front.status is PlanStatus.OPTIMAL
     assert lazy.objective is not None and up_front.objective is not None
     assert free.objective is not None and free.objective > up_front.objective + 0.1
     assert lazy.objective == pytest.approx(up_front.objective, abs=1e-6)
+    assert repaired.objective == pytest.approx(up_front.objective, abs=1e-6)
     # with the margin EPSILON: x reaches 3.9 + e, y goes 1 + e up and 0.9 + 2e back
     assert up_front.objective == pytest.approx(-(3.9 + 1.9 + 4 * EPSILON), abs=1e-9)
-    assert rounds >= 2
-    assert accepted(problem, lazy)
+    assert rounds >= 2  # the first plan went through the obstacle
+    assert accepted(problem, lazy) and accepted(problem, repaired)
 
 
 @pytest.mark.parametrize("lazy", [True, False])

@@ -42,17 +42,13 @@ from stlplan.planner import stops
 from stlplan.planner.clock import FLOORS_SHARE, Clock
 from stlplan.planner.encoding.deferred import Requirement, violated
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
-from stlplan.planner.lazy import VIOLATION_TOL, LazySolver, Step1, relative_gap, trajectory_states
+from stlplan.planner.in_turn import Held, hold_near, release
+from stlplan.planner.lazy import LazySolver, Step1, relative_gap
 from stlplan.planner.options import PlanOptions
 from stlplan.planner.parts import agent_parts, sub_problem
 from stlplan.planner.session import MIN_SOLVE_SECONDS, HighsSession
+from stlplan.planner.watch import VIOLATION_TOL, trajectory_states
 from stlplan.result import PlanStatus
-
-HOLD = 1e-4
-"""How far the assembly may move a state or input from the parts' plans.
-
-HiGHS accepts binaries within 1e-6 of 0 or 1, so a part's plan may miss an enforced predicate by
-``big-M * 1e-6``; the assembly, whose indicators are exact, needs room to repair that."""
 
 REPAIR_SHARE = 0.25
 """Share of the time left that the repair of a merged part may take."""
@@ -213,34 +209,30 @@ def _combined(parts: Sequence[Part], options: PlanOptions, seconds: float, round
     )
 
 
-def _hold(
-    full: PlanModel, parts: Sequence[Part], free: frozenset[str] = frozenset()
-) -> list[tuple[Any, Any, Any]]:
-    """Bound ``x`` and ``u`` of ``full`` to within :data:`HOLD` of the parts' plans (but those
-    of the agents in ``free``).
-
-    Returns ``(variable, lower, upper)`` to restore.
-    """
-    held = []
+def _hold(full: PlanModel, parts: Sequence[Part], free: frozenset[str] = frozenset()) -> Held:
+    """Bound ``x`` and ``u`` of ``full`` to within :data:`stlplan.planner.in_turn.HOLD` of the
+    parts' plans (but those of the agents in ``free``); returns what :func:`release` restores."""
+    held: Held = []
     for part in parts:
         for name in ("x", "u"):
             source, target = getattr(part.pm.model, name), getattr(full.model, name)
             for key, var in source.items():
                 goal = target[key]
-                if goal.fixed or var.value is None or key[0] in free:
-                    continue
-                lo, hi = goal.bounds
-                held.append((goal, lo, hi))
-                goal.setlb(min(max(lo, var.value - HOLD), hi))
-                goal.setub(max(min(hi, var.value + HOLD), lo))
+                if not (goal.fixed or var.value is None or key[0] in free):
+                    hold_near(goal, float(var.value), held)
     return held
 
 
-def _release(held: Sequence[tuple[Any, Any, Any]]) -> None:
-    """Restore the bounds :func:`_hold` changed."""
-    for var, lo, hi in held:
-        var.setlb(lo)
-        var.setub(hi)
+def _solve_in_shares(parts: Sequence[Part], options: PlanOptions, deadline: float) -> None:
+    """Solve the parts not solved yet, the smallest first, each within an equal share of the
+    time left (what one leaves goes to the next); :func:`_tighten` spends what is left at
+    the end on the part furthest from its bound."""
+    waiting = sorted((p for p in parts if p.step1 is None), key=lambda p: len(p.agents))
+    for i, part in enumerate(waiting):
+        if stops.requested():
+            return
+        share = (deadline - time.perf_counter()) / (len(waiting) - i)
+        part.step1 = _solve_part(part, options, time.perf_counter() + share)
 
 
 def _solve_part(part: Part, options: PlanOptions, deadline: float) -> Step1:
@@ -267,7 +259,7 @@ def _repair(part: Part, options: PlanOptions, deadline: float) -> Step1 | None:
     try:
         repaired = part.solver.run(limit, trial=True)
     finally:
-        _release(held)
+        release(held)
     if repaired.objective is None:
         return None
     _tighten(part.merged_from, options, deadline, plan=repaired.objective)
@@ -290,7 +282,7 @@ def assemble(
     with stops.finishing():  # the plan is found: a stop request lets this solve end
         session = HighsSession(full.model, options, clock, "step1")
         solved = session.solve(ASSEMBLY_LIMIT, finishing=True)
-    _release(held)
+    release(held)
     objective = solved.results.incumbent_objective
     return None if objective is None else float(objective)
 
@@ -313,9 +305,7 @@ def solve_parts(
         )
     parts = [_part(problem, agents, options, clock) for agents in names]
     while True:
-        for part in parts:
-            if part.step1 is None and not stops.requested():
-                part.step1 = _solve_part(part, options, deadline)
+        _solve_in_shares(parts, options, deadline)
         done = _combined(parts, options, time.perf_counter() - tick, clock.round or 1)
         if not done.status.has_plan:
             return full, done

@@ -27,9 +27,9 @@ from stlplan.planner.encoding.continuous import continuous_model, copy_plan, lan
 from stlplan.planner.encoding.deferred import best_option
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.stl import Enforced
-from stlplan.planner.lazy import trajectory_states
 from stlplan.planner.options import PlanOptions
 from stlplan.planner.session import TC, Clock, HighsSession, Phase, solve_once
+from stlplan.planner.watch import trajectory_states
 
 LANDING_LIMIT = 1e-5
 """Largest move ``sum |u - u_QP|`` of a landing that completes step 2 without a fallback."""

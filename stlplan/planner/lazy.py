@@ -8,7 +8,9 @@ of them. The requirements its plan violates (found with numpy on the trajectory,
 neighbours in time per ``lazy_window``) are then encoded exactly as the up-front formulation
 encodes them, and the next round starts, given the best plan so far that meets every
 requirement (it meets the new ones too) to start from. Each round adds at least one
-requirement, so the loop ends.
+requirement, so the loop ends. While no plan meets every requirement and rounds are long, a
+round's plan is first repaired agent by agent (:mod:`stlplan.planner.in_turn`): a large team
+packed in a start area may otherwise wait several long rounds for its first plan.
 
 While a round runs, every improving plan HiGHS finds is also checked against the requirements
 not yet in the model. A plan that violates none is feasible for the full problem; the best such
@@ -29,14 +31,13 @@ import logging
 import math
 import time
 from dataclasses import dataclass
-from typing import Any
 
-import numpy as np
-from pyomo.environ import Var, value
+from pyomo.environ import Var
 
 from stlplan.planner.clock import Clock
-from stlplan.planner.encoding.deferred import best_side, neighbours, violated
+from stlplan.planner.encoding.deferred import best_side, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
+from stlplan.planner.in_turn import TURN_SHARE, InTurn
 from stlplan.planner.session import (
     MIN_SOLVE_SECONDS,
     TC,
@@ -46,12 +47,16 @@ from stlplan.planner.session import (
     has_solution,
     plan_status,
 )
+from stlplan.planner.watch import (
+    Watch,
+    lowest,
+    near_violations,
+    pending_violations,
+    trajectory_states,
+)
 from stlplan.result import PlanStatus
 
 _log = logging.getLogger(__name__)
-
-VIOLATION_TOL = 1e-7
-"""A requirement counts as violated when ``max_i alpha_i - r`` is below ``-VIOLATION_TOL``."""
 
 
 @dataclass(frozen=True)
@@ -87,107 +92,11 @@ class Step1:
     completed: bool = False
 
 
-def lowest(bound: float | None, ceiling: float | None) -> float | None:
-    """The tighter of two upper bounds (either may be unknown)."""
-    if bound is None or ceiling is None:
-        return ceiling if bound is None else bound
-    return min(bound, ceiling)
-
-
 def relative_gap(objective: float | None, bound: float | None) -> float | None:
     """``(bound - objective) / |objective|`` (HiGHS's relative gap, for a maximization)."""
     if objective is None or bound is None:
         return None
     return max(0.0, bound - objective) / max(abs(objective), 1e-9)
-
-
-def trajectory_states(pm: PlanModel) -> dict[str, np.ndarray]:
-    """States ``x_p(0..H)`` of the loaded solution, agent name to an (H+1, n) array."""
-    return {
-        a.name: np.array([[float(value(v)) for v in row] for row in pm.states(a)])
-        for a in pm.problem.agents
-    }
-
-
-def pending_violations(pm: PlanModel) -> list[int]:
-    """Lazy requirements not in the model that the loaded plan violates (indices)."""
-    assert pm.deferral is not None
-    states = trajectory_states(pm)
-    found = violated(pm.deferral.lazy, states, float(value(pm.margin)), VIOLATION_TOL)
-    return [n for n in found if n not in pm.added]
-
-
-def near_violations(pm: PlanModel, margin: float) -> list[int]:
-    """Lazy requirements not in the model that the loaded plan meets by less than ``margin``."""
-    assert pm.deferral is not None
-    states = trajectory_states(pm)
-    found = violated(pm.deferral.lazy, states, float(value(pm.margin)), -margin)
-    return [n for n in found if n not in pm.added]
-
-
-@dataclass(eq=False)
-class Watch:
-    """Checks HiGHS's improving plans against the lazy requirements while a round runs.
-
-    Attributes
-    ----------
-    best
-        ``(objective, column values, requirements in the model then)`` of the best plan
-        feasible for the full problem.
-    abs_gap
-        An absolute gap that also closes the loop (None: the relative gap only).
-    ceiling
-        A bound of the full problem known from elsewhere (None: HiGHS's bound only).
-    stopped
-        Whether the watch interrupted the round (the best plan is within the gap).
-    """
-
-    pm: PlanModel
-    columns: dict[int, int]
-    gap: float
-    best: tuple[float, np.ndarray, frozenset[int]] | None = None
-    abs_gap: float | None = None
-    ceiling: float | None = None
-    stopped: bool = False
-
-    def states(self, x: np.ndarray) -> dict[str, np.ndarray]:
-        """Agent states of HiGHS's column vector ``x`` (fixed states keep their value)."""
-        out = {}
-        for agent in self.pm.problem.agents:
-            rows = [[self._value(v, x) for v in row] for row in self.pm.states(agent)]
-            out[agent.name] = np.array(rows)
-        return out
-
-    def _value(self, var: Any, x: np.ndarray) -> float:
-        column = self.columns.get(id(var))
-        return float(var.value) if column is None else float(x[column])
-
-    def on_plan(self, event: Any) -> None:
-        """An improving plan: keep it when it violates no requirement left out of the model."""
-        assert self.pm.deferral is not None
-        objective = float(event.data_out.objective_function_value)
-        if self.best is None or objective > self.best[0]:
-            x = np.array(event.data_out.mip_solution)
-            margin = self.pm.margin
-            r = margin if isinstance(margin, float) else self._value(margin, x)
-            bad = violated(self.pm.deferral.lazy, self.states(x), r, VIOLATION_TOL)
-            if all(n in self.pm.added for n in bad):
-                self.best = (objective, x, frozenset(self.pm.added))
-        self.maybe_stop(event)
-
-    def closed(self, bound: float | None) -> bool:
-        """Whether the best full plan is within the gap (relative, or absolute) of ``bound``."""
-        bound = lowest(bound, self.ceiling)
-        if self.best is None or bound is None:
-            return False
-        slack = bound - self.best[0]
-        return slack <= max(self.gap * abs(self.best[0]), self.abs_gap or 0.0)
-
-    def maybe_stop(self, event: Any) -> None:
-        """Interrupt the round once the best full plan is within the gap of its bound."""
-        self.stopped = self.stopped or self.closed(float(event.data_out.mip_dual_bound))
-        if self.stopped:
-            event.interrupt()
 
 
 class LazySolver:
@@ -249,7 +158,7 @@ class LazySolver:
         return dataclasses.replace(step1, status=status, bound=bound, gap=gap)
 
     def _rounds(self, time_limit: float, tick: float) -> Step1:
-        pm, options, clock, watch = self.pm, self.options, self.clock, self.watch
+        pm, clock, watch = self.pm, self.clock, self.watch
         assert pm.deferral is not None and watch is not None
         first = clock.round or 1
         while True:
@@ -282,10 +191,22 @@ class LazySolver:
             out_of_time = not (converged or watch.stopped) or left < MIN_SOLVE_SECONDS
             if solved.stopped or out_of_time:
                 return self._last(solved, tick, rounds)
-            add_requirements(pm, neighbours(pm.deferral.lazy, bad, options.lazy_window))
-            if options.lazy_margin > 0:
-                add_requirements(pm, near_violations(pm, options.lazy_margin))
+            if self._between_rounds(bad, left, solved.seconds):
+                return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
             clock.round = (clock.round or 0) + 1
+
+    def _between_rounds(self, bad: list[int], left: float, seconds: float) -> bool:
+        """Add the requirements the round's plan violates (``bad``), first repairing that plan
+        in turn while no plan meets every requirement and the round took ``seconds`` of at least
+        ``in_turn_after``; whether the best plan closes the gap."""
+        pm, options, watch = self.pm, self.options, self.watch
+        assert pm.deferral is not None and watch is not None
+        near = near_violations(pm, options.lazy_margin) if options.lazy_margin > 0 else []
+        after = options.in_turn_after
+        if after is not None and seconds >= after and watch.best is None:
+            InTurn(pm, self.session, options, pending_violations).run(bad, TURN_SHARE * left)
+        add_requirements(pm, neighbours(pm.deferral.lazy, bad, options.lazy_window) + near)
+        return watch.closed(watch.ceiling)
 
     def _last(self, last: Solved, tick: float, rounds: int) -> Step1:
         """The loop ends short of the optimum (time, a stop request, infeasible, an error).

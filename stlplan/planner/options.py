@@ -45,6 +45,13 @@ class PlanOptions:
         less than this margin is added too.
     decompose
         With ``lazy``: solve independent parts of the team apart (:mod:`stlplan.planner.components`).
+    in_turn_after
+        With ``lazy``: while no plan meets every requirement, a round that took at least this
+        many seconds has its plan repaired agent by agent before the next round
+        (:mod:`stlplan.planner.in_turn`); None never repairs. Measured on the farm cases, a
+        repair after short rounds adds requirements that slow the later rounds more than its
+        early plan saves; after long rounds (a large team packed in a start area) it gives the
+        first plan where the next round finds none.
     floors
         Add the effort floors of :mod:`stlplan.planner.encoding.floors` (valid inequalities).
     highs_options
@@ -62,6 +69,7 @@ class PlanOptions:
     lazy_window: int | None = 0
     lazy_margin: float = 0.0
     decompose: bool = True
+    in_turn_after: float | None = 8.0
     floors: bool = True
     highs_options: tuple[tuple[str, Any], ...] = ()
 

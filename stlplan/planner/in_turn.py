@@ -1,0 +1,210 @@
+"""A lazy round's plan repaired agent by agent, for a plan that meets every requirement.
+
+A lazy round (:mod:`stlplan.planner.lazy`) solves a relaxation: its plan may drive agents
+through each other or a segment through an obstacle. On a large team packed in a small start
+area, the next round (the whole search again, with the violated requirements added) may find
+no plan meeting them in the time left. Repairing in turn finds one the way prioritized
+planners do: the agents the violated requirements name are freed one at a time, every other
+agent held at its plan, and the free agent's plan is solved again with the requirements it
+violates together with the agents already repaired (or never involved). Each of those solves
+is small: one agent's trajectory and choices. The agent is then held at its new plan. A
+requirement between two repaired agents is met by the later one, which avoided the earlier
+one's final plan, so when every turn succeeds the last plan meets every requirement. An agent
+that finds no plan around the agents already repaired is solved again together with the ones it
+could not avoid. The repaired agents then have one more turn each, alone, every other agent at
+its repaired plan: detours made around agents repaired later are undone where no longer needed.
+
+Nothing found here is trusted beyond what it is: the watch of the loop keeps a plan only when
+it violates no requirement left out of the model (a plan of the full problem, so its objective
+bounds the optimum from below). The solves are trials with a loose gap; their bounds bound
+nothing but a held problem and are never recorded. Requirements added on the way stay in the
+model: the full problem has them.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any
+
+import numpy as np
+from pyomo.environ import Var
+
+from stlplan.planner.encoding.deferred import neighbours
+from stlplan.planner.encoding.model import PlanModel, add_requirements
+from stlplan.planner.options import PlanOptions
+from stlplan.planner.session import MIN_SOLVE_SECONDS, HighsSession, has_solution
+
+_log = logging.getLogger(__name__)
+
+HOLD = 1e-4
+"""How far a held state or input may move from its plan.
+
+HiGHS accepts binaries within 1e-6 of 0 or 1, so a plan may miss an enforced predicate by
+``big-M * 1e-6``; a solve that holds it (an assembly, whose indicators are exact, or a turn)
+needs room to repair that."""
+
+TURN_SHARE = 0.25
+"""Of the time left to the loop, what one repair may spend."""
+
+TURN_SOLVES = 10
+"""Solves of one agent's turn at most (each after adding what the last plan violated)."""
+
+TURN_GAP = 0.01
+"""Relative gap of a turn's solves: the repair looks for a plan, the rounds prove."""
+
+Held = list[tuple[Any, Any, Any]]
+"""``(variable, lower, upper)`` to restore."""
+
+
+def hold_near(var: Any, value: float, held: Held) -> None:
+    """Bound ``var`` to within :data:`HOLD` of ``value`` (inside its own bounds); record the
+    old bounds in ``held``."""
+    lo, hi = var.bounds
+    held.append((var, lo, hi))
+    low = value - HOLD if lo is None else max(lo, value - HOLD)
+    high = value + HOLD if hi is None else min(hi, value + HOLD)
+    var.setlb(low if hi is None else min(low, hi))
+    var.setub(high if lo is None else max(high, lo))
+
+
+def release(held: Sequence[tuple[Any, Any, Any]]) -> None:
+    """Restore the bounds :func:`hold_near` changed."""
+    for var, lo, hi in held:
+        var.setlb(lo)
+        var.setub(hi)
+
+
+def hold_agents(pm: PlanModel, names: Iterable[str]) -> Held:
+    """Hold the states and inputs of the agents ``names`` at their loaded values."""
+    names = set(names)
+    held: Held = []
+    for component in (pm.model.x, pm.model.u):
+        for key, var in component.items():
+            if key[0] in names and not var.fixed and var.value is not None:
+                hold_near(var, float(var.value), held)
+    return held
+
+
+def agents_of(pm: PlanModel, indices: Iterable[int]) -> set[str]:
+    """Agents the lazy requirements ``indices`` name."""
+    assert pm.deferral is not None
+    return {name for n in indices for name in pm.deferral.lazy[n].binding.values()}
+
+
+class InTurn:
+    """One repair of the loaded plan (module docstring).
+
+    Parameters
+    ----------
+    pm, session, options
+        The lazy model, its HiGHS session and the run's options.
+    pending
+        Lazy requirements not in the model that the loaded plan violates.
+    """
+
+    def __init__(
+        self,
+        pm: PlanModel,
+        session: HighsSession,
+        options: PlanOptions,
+        pending: Callable[[PlanModel], list[int]],
+    ) -> None:
+        self.pm, self.session, self.options, self.pending = pm, session, options, pending
+
+    def run(self, bad: Sequence[int], seconds: float) -> bool:
+        """Repair the agents ``bad`` names within ``seconds``; whether every turn found a plan."""
+        names = [a.name for a in self.pm.problem.agents]
+        involved = agents_of(self.pm, bad)
+        turns = [n for n in names if n in involved]
+        done = set(names) - involved
+        config, trial = self.session.solver.config, self.session.trial
+        gap, self.session.trial = config.rel_gap, True
+        config.rel_gap = max(TURN_GAP, gap or 0.0)
+        deadline = time.perf_counter() + seconds
+        try:
+            repaired = self._repair(turns, done, deadline)
+            if repaired:
+                self._improve(turns, set(names), deadline)
+            return repaired
+        finally:
+            self.session.trial, config.rel_gap = trial, gap
+
+    def _repair(self, turns: list[str], done: set[str], deadline: float) -> bool:
+        """The turns of the agents ``turns``, in order; whether each found a plan."""
+        for name in turns:
+            if name in done:  # freed together with an earlier agent
+                continue
+            left = [n for n in turns if n not in done]
+            free = self._turn({name}, done, deadline, len(left))
+            if free is None:
+                return False
+            done |= free
+        return True
+
+    def _improve(self, turns: list[str], everyone: set[str], deadline: float) -> None:
+        """Each repaired agent once more, alone, every other agent at its repaired plan: the
+        detours it made around agents repaired after it are undone where no longer needed.
+        Stops at the first solve without a plan (the watch keeps the best plan so far)."""
+        for i, name in enumerate(turns):
+            share = (deadline - time.perf_counter()) / (len(turns) - i)
+            if share < MIN_SOLVE_SECONDS:
+                return
+            self.session.start_from(self._loaded())  # the plan so far: no turn makes it worse
+            if self._solve_free({name}, everyone - {name}, share):
+                return
+
+    def _loaded(self) -> np.ndarray:
+        """The loaded plan as HiGHS's column vector."""
+        columns = self.session.columns()
+        x = np.zeros(max(columns.values(), default=-1) + 1)
+        for v in self.pm.model.component_data_objects(Var):
+            column = columns.get(id(v))
+            if column is not None and v.value is not None:
+                x[column] = float(v.value)
+        return x
+
+    def _turn(self, free: set[str], done: set[str], deadline: float, left: int) -> set[str] | None:
+        """Agents ``free`` solved again (every other agent held); when that fails, once more
+        together with the repaired agents they could not avoid. Returns the agents freed, or
+        None without a plan."""
+        for _ in range(2):
+            share = (deadline - time.perf_counter()) / left
+            if share < MIN_SOLVE_SECONDS:
+                return None
+            partners = self._solve_free(free, done, share)
+            if not partners:
+                return free
+            if partners <= free:
+                return None
+            free = free | partners
+        return None
+
+    def _solve_free(self, free: set[str], done: set[str], seconds: float) -> set[str]:
+        """Solve with only ``free`` free, adding the requirements the plan violates among
+        ``free`` and ``done``; returns no agents when that ends with a plan, else the agents
+        of the requirements added (the free ones, without a plan: they could not be met)."""
+        assert self.pm.deferral is not None
+        lazy, deadline, partners = self.pm.deferral.lazy, time.perf_counter() + seconds, set(free)
+        others = (a.name for a in self.pm.problem.agents if a.name not in free)
+        held = hold_agents(self.pm, others)
+        try:
+            for _ in range(TURN_SOLVES):
+                left = deadline - time.perf_counter()
+                solved = self.session.solve(max(left, MIN_SOLVE_SECONDS))
+                if solved.stopped or not has_solution(solved.results):
+                    return partners
+                mine = [n for n in self.pending(self.pm) if agents_of(self.pm, [n]) <= done | free]
+                _log.debug(
+                    "turn of %s: %.1f s, %d violated", sorted(free), solved.seconds, len(mine)
+                )
+                if not mine:
+                    return set()
+                partners |= agents_of(self.pm, mine)
+                if left < MIN_SOLVE_SECONDS:
+                    return partners
+                add_requirements(self.pm, neighbours(lazy, mine, self.options.lazy_window))
+            return partners
+        finally:
+            release(held)

@@ -1,0 +1,117 @@
+"""What a lazy round's plans violate, and the watch that keeps the best plan of the full problem.
+
+A lazy model (:mod:`stlplan.planner.lazy`) leaves step requirements out; a plan of it is a plan
+of the full problem only when it violates none of those left out. The checks here read the
+plan's trajectory with numpy (:func:`stlplan.planner.encoding.deferred.violated`); the
+:class:`Watch` applies them to every improving plan HiGHS reports while a round runs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from pyomo.environ import value
+
+from stlplan.planner.encoding.deferred import violated
+from stlplan.planner.encoding.model import PlanModel
+
+VIOLATION_TOL = 1e-7
+"""A requirement counts as violated when ``max_i alpha_i - r`` is below ``-VIOLATION_TOL``."""
+
+
+def lowest(bound: float | None, ceiling: float | None) -> float | None:
+    """The tighter of two upper bounds (either may be unknown)."""
+    if bound is None or ceiling is None:
+        return ceiling if bound is None else bound
+    return min(bound, ceiling)
+
+
+def trajectory_states(pm: PlanModel) -> dict[str, np.ndarray]:
+    """States ``x_p(0..H)`` of the loaded solution, agent name to an (H+1, n) array."""
+    return {
+        a.name: np.array([[float(value(v)) for v in row] for row in pm.states(a)])
+        for a in pm.problem.agents
+    }
+
+
+def pending_violations(pm: PlanModel) -> list[int]:
+    """Lazy requirements not in the model that the loaded plan violates (indices)."""
+    assert pm.deferral is not None
+    states = trajectory_states(pm)
+    found = violated(pm.deferral.lazy, states, float(value(pm.margin)), VIOLATION_TOL)
+    return [n for n in found if n not in pm.added]
+
+
+def near_violations(pm: PlanModel, margin: float) -> list[int]:
+    """Lazy requirements not in the model that the loaded plan meets by less than ``margin``."""
+    assert pm.deferral is not None
+    states = trajectory_states(pm)
+    found = violated(pm.deferral.lazy, states, float(value(pm.margin)), -margin)
+    return [n for n in found if n not in pm.added]
+
+
+@dataclass(eq=False)
+class Watch:
+    """Checks HiGHS's improving plans against the lazy requirements while a round runs.
+
+    Attributes
+    ----------
+    best
+        ``(objective, column values, requirements in the model then)`` of the best plan
+        feasible for the full problem.
+    abs_gap
+        An absolute gap that also closes the loop (None: the relative gap only).
+    ceiling
+        A bound of the full problem known from elsewhere (None: HiGHS's bound only).
+    stopped
+        Whether the watch interrupted the round (the best plan is within the gap).
+    """
+
+    pm: PlanModel
+    columns: dict[int, int]
+    gap: float
+    best: tuple[float, np.ndarray, frozenset[int]] | None = None
+    abs_gap: float | None = None
+    ceiling: float | None = None
+    stopped: bool = False
+
+    def states(self, x: np.ndarray) -> dict[str, np.ndarray]:
+        """Agent states of HiGHS's column vector ``x`` (fixed states keep their value)."""
+        out = {}
+        for agent in self.pm.problem.agents:
+            rows = [[self._value(v, x) for v in row] for row in self.pm.states(agent)]
+            out[agent.name] = np.array(rows)
+        return out
+
+    def _value(self, var: Any, x: np.ndarray) -> float:
+        column = self.columns.get(id(var))
+        return float(var.value) if column is None else float(x[column])
+
+    def on_plan(self, event: Any) -> None:
+        """An improving plan: keep it when it violates no requirement left out of the model."""
+        assert self.pm.deferral is not None
+        objective = float(event.data_out.objective_function_value)
+        if self.best is None or objective > self.best[0]:
+            x = np.array(event.data_out.mip_solution)
+            margin = self.pm.margin
+            r = margin if isinstance(margin, float) else self._value(margin, x)
+            bad = violated(self.pm.deferral.lazy, self.states(x), r, VIOLATION_TOL)
+            if all(n in self.pm.added for n in bad):
+                self.best = (objective, x, frozenset(self.pm.added))
+        self.maybe_stop(event)
+
+    def closed(self, bound: float | None) -> bool:
+        """Whether the best full plan is within the gap (relative, or absolute) of ``bound``."""
+        bound = lowest(bound, self.ceiling)
+        if self.best is None or bound is None:
+            return False
+        slack = bound - self.best[0]
+        return slack <= max(self.gap * abs(self.best[0]), self.abs_gap or 0.0)
+
+    def maybe_stop(self, event: Any) -> None:
+        """Interrupt the round once the best full plan is within the gap of its bound."""
+        self.stopped = self.stopped or self.closed(float(event.data_out.mip_dual_bound))
+        if self.stopped:
+            event.interrupt()

@@ -1,0 +1,144 @@
+"""Repairing a lazy round's plan agent by agent: a plan of the full problem, the same optimum."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import pytest
+from pyomo.environ import value
+
+from stlplan.mission.problem import Problem
+from stlplan.planner.clock import Clock
+from stlplan.planner.encoding.model import build_model
+from stlplan.planner.in_turn import InTurn, agents_of, hold_agents, release
+from stlplan.planner.options import PlanOptions
+from stlplan.planner.session import HighsSession
+from stlplan.planner.watch import pending_violations
+from stlplan.result import PlanStatus
+from tests.test_lazy import accepted, mission, solve
+
+
+def crossing_problem(inter_sample: bool = True) -> Problem:
+    # four agents trade places across the middle of a square: their straight plans all meet
+    # near (1, 1) at step 2; each must reach its goal at step 4
+    corners = {
+        "a": ((0, 0), (2, 2)),
+        "b": ((2, 2), (0, 0)),
+        "c": ((0, 2), (2, 0)),
+        "d": ((2, 0), (0, 2)),
+    }
+    agents = [
+        {"name": n, "dynamics": "si", "initial_state": list(s)} for n, (s, _) in corners.items()
+    ]
+    regions = {
+        f"G{n}": {"box": [[x - 0.1, x + 0.1], [y - 0.1, y + 0.1]]}
+        for n, (_, (x, y)) in corners.items()
+    }
+    tasks = {
+        f"to_{n}": {"formula": f"F[4,4] in(p, G{n})", "roles": {"p": {"agent": n}}} for n in corners
+    }
+    return mission(
+        safety={"inter_sample": inter_sample},
+        horizon=4,
+        agents=agents,
+        regions=regions,
+        tasks=tasks,
+        separation=0.3,
+        objective={"beta": 1.0, "effort": "l1"},
+    )
+
+
+def _first_round(problem: Problem) -> tuple[Any, HighsSession]:
+    options = PlanOptions(time_limit=60)
+    pm = build_model(problem, options.encoding, lazy=True)
+    session = HighsSession(pm.model, options, Clock(0.0, None), "step1")
+    assert session.solve(30).results.incumbent_objective is not None
+    return pm, session
+
+
+def test_a_round_repaired_in_turn_meets_every_requirement(monkeypatch: pytest.MonkeyPatch) -> None:
+    problem = crossing_problem()
+    pm, session = _first_round(problem)
+    bad = pending_violations(pm)
+    assert bad and agents_of(pm, bad) >= {"a", "b"}  # the relaxed plan drives through others
+    bounds = {id(v): v.bounds for v in pm.model.x.values()}
+    freed: list[set[str]] = []
+    solve_free = InTurn._solve_free
+
+    def spy(self: InTurn, free: set[str], done: set[str], seconds: float) -> set[str]:
+        freed.append(set(free))
+        return solve_free(self, free, done, seconds)
+
+    monkeypatch.setattr(InTurn, "_solve_free", spy)
+    repaired = InTurn(pm, session, PlanOptions(), pending_violations).run(bad, 30.0)
+    assert repaired
+    assert {"a"} in freed  # the first agent is solved alone
+    assert pending_violations(pm) == []  # a plan of the full problem
+    # the trial settings and the held bounds are given back
+    assert not session.trial and session.solver.config.rel_gap == PlanOptions().gap
+    assert {id(v): v.bounds for v in pm.model.x.values()} == bounds
+
+
+def test_held_agents_keep_their_plan_and_are_released() -> None:
+    pm, _ = _first_round(crossing_problem())
+    before = {key: v.bounds for key, v in pm.model.x.items()}
+    held = hold_agents(pm, ["a"])
+    for (name, _, _), v in pm.model.x.items():
+        if name == "a" and not v.fixed:
+            lo, hi = v.bounds
+            assert lo is not None and hi is not None and hi - lo <= 2.1e-4
+            assert lo <= v.value <= hi
+    release(held)
+    assert {key: v.bounds for key, v in pm.model.x.items()} == before
+
+
+@pytest.mark.parametrize("inter_sample", [True, False])
+def test_repairing_in_turn_keeps_the_optimum(inter_sample: bool) -> None:
+    problem = crossing_problem(inter_sample)
+    with_turns, rounds = solve(problem, in_turn_after=0.0)
+    without, _ = solve(problem, in_turn_after=None)
+    up_front, _ = solve(problem, lazy=False, floors=False)
+    assert rounds >= 2
+    assert with_turns.status is without.status is up_front.status is PlanStatus.OPTIMAL
+    assert with_turns.objective is not None and up_front.objective is not None
+    assert with_turns.objective == pytest.approx(up_front.objective, rel=2e-4)
+    assert without.objective == pytest.approx(up_front.objective, rel=2e-4)
+    assert accepted(problem, with_turns) and accepted(problem, without)
+
+
+def test_a_turn_that_fails_frees_the_agents_it_could_not_avoid() -> None:
+    # _solve_free stubbed: b alone cannot avoid a (returns a); b with a finds a plan
+    calls: list[set[str]] = []
+
+    def solve_free(free: set[str], done: set[str], seconds: float) -> set[str]:
+        calls.append(set(free))
+        return {"a", "b"} if free == {"b"} else set()
+
+    turn = InTurn.__new__(InTurn)
+    turn._solve_free = solve_free  # type: ignore[method-assign]
+    deadline = time.perf_counter() + 60
+    assert turn._turn({"b"}, {"a"}, deadline, 1) == {"a", "b"}
+    assert calls == [{"b"}, {"a", "b"}]
+    # no agent to free with it: no plan
+    turn._solve_free = lambda free, done, seconds: set(free)  # type: ignore[method-assign]
+    assert turn._turn({"b"}, {"a"}, deadline, 1) is None
+
+
+def test_the_second_turns_never_make_the_repaired_plan_worse(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    problem = crossing_problem()
+    scores = []
+    for improve in (False, True):
+        pm, session = _first_round(problem)
+        if not improve:
+            monkeypatch.setattr(InTurn, "_improve", lambda self, turns, everyone, deadline: None)
+        assert InTurn(pm, session, PlanOptions(), pending_violations).run(
+            pending_violations(pm), 30
+        )
+        assert pending_violations(pm) == []
+        scores.append(value(pm.model.step1))
+        monkeypatch.undo()
+    repaired, improved = scores
+    assert improved >= repaired - 1e-7
