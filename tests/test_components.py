@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import numpy as np
@@ -238,3 +239,25 @@ def test_only_requirements_between_parts_are_crossings() -> None:
     _place(owner["c"], {"c": (0.0, 0.0)})  # now c (another part) too
     linked = components._crossing(full, parts)
     assert linked and all({"c"} < set(r.binding.values()) for r in linked)
+
+
+def test_parts_are_solved_smallest_first_in_shares_with_a_reserve(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # each stub part uses its whole share; the first solves leave MERGE_RESERVE of the time
+    asked: list[tuple[tuple[str, ...], float]] = []
+    start = time.perf_counter()
+
+    def solve_part(part: Part, options: PlanOptions, deadline: float) -> Step1:
+        asked.append((part.agents, deadline - time.perf_counter()))
+        monkeypatch.setattr(time, "perf_counter", lambda: deadline)  # the share is spent
+        return _step(1.0, 1.0)
+
+    parts = [Part(agents, None, None) for agents in (("a", "b", "c"), ("d",), ("e", "f"))]  # type: ignore[arg-type]
+    monkeypatch.setattr(components, "_solve_part", solve_part)
+    monkeypatch.setattr(time, "perf_counter", lambda: start)
+    components._solve_in_shares(parts, PlanOptions(), start + 100.0)
+    assert [agents for agents, _ in asked] == [("d",), ("e", "f"), ("a", "b", "c")]
+    usable = 100.0 * (1 - components.MERGE_RESERVE)
+    assert [share for _, share in asked] == pytest.approx([usable / 3] * 3)
+    assert all(p.step1 is not None for p in parts)

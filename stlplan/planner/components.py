@@ -53,6 +53,9 @@ from stlplan.result import PlanStatus
 REPAIR_SHARE = 0.25
 """Share of the time left that the repair of a merged part may take."""
 
+MERGE_RESERVE = 0.1
+"""Share of the time left that the parts' first solves leave for merging parts that collide."""
+
 ASSEMBLY_LIMIT = 60.0
 """Time limit of the assembly solve, seconds (a finishing solve: also within the run's budget
 and grace, :class:`stlplan.planner.session.Clock`)."""
@@ -225,13 +228,15 @@ def _hold(full: PlanModel, parts: Sequence[Part], free: frozenset[str] = frozens
 
 def _solve_in_shares(parts: Sequence[Part], options: PlanOptions, deadline: float) -> None:
     """Solve the parts not solved yet, the smallest first, each within an equal share of the
-    time left (what one leaves goes to the next); :func:`_tighten` spends what is left at
-    the end on the part furthest from its bound."""
+    time left but :data:`MERGE_RESERVE` (what one leaves goes to the next); the reserve is for
+    merging parts whose plans collide, and :func:`_tighten` spends what is left at the end on
+    the part furthest from its bound."""
     waiting = sorted((p for p in parts if p.step1 is None), key=lambda p: len(p.agents))
+    end = deadline - MERGE_RESERVE * (deadline - time.perf_counter())
     for i, part in enumerate(waiting):
         if stops.requested():
             return
-        share = (deadline - time.perf_counter()) / (len(waiting) - i)
+        share = (end - time.perf_counter()) / (len(waiting) - i)
         part.step1 = _solve_part(part, options, time.perf_counter() + share)
 
 
