@@ -11,8 +11,11 @@ landed: the nearest plan meeting every enforced predicate, found by an LP
 (:func:`stlplan.planner.encoding.continuous.landing_model`). HiGHS's active-set QP solver does
 this routinely on step 2's ``l2`` effort: rows whose right-hand sides differ by ``EPSILON`` from a
 degenerate vertex make it claim optimality and then fail its own check by about ``1e-6`` ("Solve
-error"). A point that lands within :data:`LANDING_LIMIT` of where it was (``sum |u - u_QP|``)
-counts as step 2 done (the message says so); one that moves further lands as a reported fallback.
+error"). A point that lands within :data:`LANDING_LIMIT` of where it was (``sum |u - u_QP|``),
+or whose ``sum u^2`` is within the relative gap of that at HiGHS's point (step 2's ``l2``
+effort: HiGHS's point is its optimum up to those tolerances, so the landed plan is within the
+gap of the optimum too), counts as step 2 done (the message says so); one that moves further
+lands as a reported fallback.
 Only when the landing fails too is the step-1 plan kept, and the monitor judges it like any other.
 """
 
@@ -112,6 +115,16 @@ def _target(session: HighsSession, model: Any) -> dict[Any, float] | None:
     return {key: float(point[columns[id(u)]]) for key, u in model.u.items()}
 
 
+def effort_kept(pm: PlanModel, target: dict[Any, float], gap: float) -> bool:
+    """For step 2's ``l2`` effort: whether the inputs loaded in ``pm`` have a ``sum u^2`` within
+    the relative ``gap`` of that of ``target`` (HiGHS's point, by key of ``u``)."""
+    if pm.problem.mission.objective.effort != "l2":
+        return False
+    at_target = sum(u * u for u in target.values())
+    landed = sum(float(pm.model.u[key].value) ** 2 for key in target)
+    return landed - at_target <= gap * max(at_target, 1e-9)
+
+
 def _land(
     pm: PlanModel,
     enforced: list[Enforced],
@@ -160,7 +173,8 @@ def finish(pm: PlanModel, options: PlanOptions, clock: Clock) -> Finish:
     moved = None if target is None else _land(pm, enforced, target, options, clock, phase)
     if moved is None:
         return Finish(failed)
-    if moved <= LANDING_LIMIT:
+    close = target is not None and options.two_step and effort_kept(pm, target, options.gap)
+    if moved <= LANDING_LIMIT or close:
         return Finish(
             note=f"HiGHS's solve ended {ended}; its point landed {moved:.1g} away by an LP"
         )
