@@ -71,7 +71,7 @@ def test_a_round_repaired_in_turn_meets_every_requirement(monkeypatch: pytest.Mo
         return solve_free(self, free, done, seconds)
 
     monkeypatch.setattr(InTurn, "_solve_free", spy)
-    repaired = InTurn(pm, session, PlanOptions(), pending_violations).run(bad, 30.0)
+    repaired = InTurn(pm, session, PlanOptions()).run(bad, 30.0)
     assert repaired
     assert {"a"} in freed  # the first agent is solved alone
     assert pending_violations(pm) == []  # a plan of the full problem
@@ -134,9 +134,7 @@ def test_the_second_turns_never_make_the_repaired_plan_worse(
         pm, session = _first_round(problem)
         if not improve:
             monkeypatch.setattr(InTurn, "_improve", lambda self, turns, everyone, deadline: None)
-        assert InTurn(pm, session, PlanOptions(), pending_violations).run(
-            pending_violations(pm), 30
-        )
+        assert InTurn(pm, session, PlanOptions()).run(pending_violations(pm), 30)
         assert pending_violations(pm) == []
         scores.append(value(pm.model.step1))
         monkeypatch.undo()

@@ -171,10 +171,9 @@ def finish(pm: PlanModel, options: PlanOptions, clock: Clock) -> Finish:
         return Finish(failed, True)
     target = _target(session, small)
     moved = None if target is None else _land(pm, enforced, target, options, clock, phase)
-    if moved is None:
+    if target is None or moved is None:
         return Finish(failed)
-    close = target is not None and options.two_step and effort_kept(pm, target, options.gap)
-    if moved <= LANDING_LIMIT or close:
+    if moved <= LANDING_LIMIT or (options.two_step and effort_kept(pm, target, options.gap)):
         return Finish(
             note=f"HiGHS's solve ended {ended}; its point landed {moved:.1g} away by an LP"
         )

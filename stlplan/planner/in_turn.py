@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -35,6 +35,7 @@ from stlplan.planner.encoding.deferred import neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.options import PlanOptions
 from stlplan.planner.session import MIN_SOLVE_SECONDS, HighsSession, has_solution
+from stlplan.planner.watch import pending_violations
 
 _log = logging.getLogger(__name__)
 
@@ -69,7 +70,7 @@ def hold_near(var: Any, value: float, held: Held) -> None:
     var.setub(high if lo is None else max(high, lo))
 
 
-def release(held: Sequence[tuple[Any, Any, Any]]) -> None:
+def release(held: Held) -> None:
     """Restore the bounds :func:`hold_near` changed."""
     for var, lo, hi in held:
         var.setlb(lo)
@@ -100,18 +101,10 @@ class InTurn:
     ----------
     pm, session, options
         The lazy model, its HiGHS session and the run's options.
-    pending
-        Lazy requirements not in the model that the loaded plan violates.
     """
 
-    def __init__(
-        self,
-        pm: PlanModel,
-        session: HighsSession,
-        options: PlanOptions,
-        pending: Callable[[PlanModel], list[int]],
-    ) -> None:
-        self.pm, self.session, self.options, self.pending = pm, session, options, pending
+    def __init__(self, pm: PlanModel, session: HighsSession, options: PlanOptions) -> None:
+        self.pm, self.session, self.options = pm, session, options
 
     def run(self, bad: Sequence[int], seconds: float) -> bool:
         """Repair the agents ``bad`` names within ``seconds``; whether every turn found a plan."""
@@ -195,7 +188,9 @@ class InTurn:
                 solved = self.session.solve(max(left, MIN_SOLVE_SECONDS))
                 if solved.stopped or not has_solution(solved.results):
                     return partners
-                mine = [n for n in self.pending(self.pm) if agents_of(self.pm, [n]) <= done | free]
+                mine = [
+                    n for n in pending_violations(self.pm) if agents_of(self.pm, [n]) <= done | free
+                ]
                 _log.debug(
                     "turn of %s: %.1f s, %d violated", sorted(free), solved.seconds, len(mine)
                 )

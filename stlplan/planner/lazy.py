@@ -204,7 +204,7 @@ class LazySolver:
         near = near_violations(pm, options.lazy_margin) if options.lazy_margin > 0 else []
         after = options.in_turn_after
         if after is not None and seconds >= after and watch.best is None:
-            InTurn(pm, self.session, options, pending_violations).run(bad, TURN_SHARE * left)
+            InTurn(pm, self.session, options).run(bad, TURN_SHARE * left)
         add_requirements(pm, neighbours(pm.deferral.lazy, bad, options.lazy_window) + near)
         return watch.closed(watch.ceiling)
 
