@@ -4,7 +4,8 @@ Each farm case (``missions/<case>.yaml``) is solved from random initial states d
 draws them (:func:`stlplan.sweep.initial.draw_positions` with a fixed seed, runs ``0..n-1``):
 uniform in the initial area, at rest, pairwise at least ``d_col`` apart. A mission of the suite
 (``missions/stl/``, cases ``stl/<name>``, all of them by ``--cases suite``) has no initial area: it
-is solved once per formulation, as written. Every run is solved with the default
+is solved once per formulation, as written; so is a farm whose agents start at depots
+(``scale/farm-x2-depot``, ``scale/farm-depot-small``). Every run is solved with the default
 formulation (the planner's defaults: lazy obstacle and collision rows, effort floors) and the first
 few runs of each case also with the straightforward formulation (every row up front, no floors)
 under a generous time limit, so the two can be compared on the same states. Every plan goes
@@ -37,6 +38,9 @@ from stlplan.examples import missions_dir
 CASES = ("farm", "farm-case2", "farm-case3")
 SCALE_CASES = ("scale/farm-x2", "scale/farm-x3", "scale/farm-x4")
 """Case I's map and tasks with the team replicated 2, 3 and 4 times (16, 24, 32 agents)."""
+DEPOT_CASES = ("scale/farm-x2-depot", "scale/farm-depot-small")
+"""Farms whose agents of one capability share a depot, no separation: classes of interchangeable
+agents (``--formulations no-symmetry symmetry``); solved once, as written, like the suite."""
 SUITE = tuple(f"stl/{p.stem}" for p in sorted((missions_dir() / "stl").glob("*.yaml")))
 """The general-STL suite: single- and multi-agent missions, some infeasible, solved as written."""
 NO_PLAN = ("infeasible", "no_plan")
@@ -47,6 +51,8 @@ FORMULATIONS: dict[str, tuple[tuple[str, Any], ...]] = {
     "sampled": (("inter_sample", False),),
     "straightforward": (("lazy", False), ("floors", False)),
     "no-floors": (("floors", False),),
+    "symmetry": (("symmetry", True),),
+    "no-symmetry": (("symmetry", False),),
     "no-in-turn": (("in_turn_after", None),),
     "in-turn-always": (("in_turn_after", 0.0),),
     "no-parts": (("decompose", False),),
@@ -159,7 +165,7 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
 def plan_jobs(args: argparse.Namespace) -> Iterator[Job]:
     """Every run with each formulation, then the first runs with the comparison ones."""
     for case in args.cases:
-        runs = 1 if case in SUITE else args.runs  # a suite mission has one initial state
+        runs = 1 if case in SUITE + DEPOT_CASES else args.runs  # one initial state, as written
         for run in range(args.first_run, args.first_run + runs):
             for name in args.formulations:
                 yield Job(case, run, name, args.time_limit)
@@ -292,9 +298,9 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog="python -m stlplan.bench", description=__doc__.split(
         "\n\n")[0])  # fmt: skip
     parser.add_argument("--cases", nargs="+", default=list(CASES),
-                        choices=(*CASES, *SCALE_CASES, *SUITE, "suite"),
-                        help="farm cases, scaled farms (scale/farm-xK), suite missions (stl/NAME), "
-                        "or 'suite' for all of them")  # fmt: skip
+                        choices=(*CASES, *SCALE_CASES, *DEPOT_CASES, *SUITE, "suite"),
+                        help="farm cases, scaled farms (scale/farm-xK), farms with depots, suite "
+                        "missions (stl/NAME), or 'suite' for all of them")  # fmt: skip
     parser.add_argument("--runs", type=int, default=30, help="initial states per case")
     parser.add_argument("--first-run", type=int, default=0, help="index of the first state")
     parser.add_argument("--seed", type=int, default=0, help="seed of the initial states")

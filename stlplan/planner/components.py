@@ -100,6 +100,7 @@ def _part(
             floors=options.floors,
             floors_deadline=clock.share(FLOORS_SHARE),
             task_encoding=options.tasks,
+            symmetry=options.symmetry,
         )
     assert pm.deferral is not None
     add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
@@ -306,7 +307,12 @@ def solve_parts(
     deadline = min(tick + options.time_limit, clock.deadline)
     with clock.building():
         full = build_model(
-            problem, options.encoding, lazy=True, floors=False, task_encoding=options.tasks
+            problem,
+            options.encoding,
+            lazy=True,
+            floors=False,
+            task_encoding=options.tasks,
+            symmetry=options.symmetry,
         )
     parts = [_part(problem, agents, options, clock) for agents in names]
     while True:

@@ -54,6 +54,10 @@ class PlanOptions:
         first plan where the next round finds none.
     floors
         Add the effort floors of :mod:`stlplan.planner.encoding.floors` (valid inequalities).
+    symmetry
+        With tasks by selection: for each class of interchangeable agents (same capabilities,
+        dynamics and initial state, named nowhere), order their shares of one task
+        (:mod:`stlplan.planner.encoding.symmetry`; valid rows that keep an optimal plan).
     highs_options
         Extra HiGHS options, ``(name, value)`` pairs, for experiments.
     """
@@ -71,6 +75,7 @@ class PlanOptions:
     decompose: bool = True
     in_turn_after: float | None = 8.0
     floors: bool = True
+    symmetry: bool = False
     highs_options: tuple[tuple[str, Any], ...] = ()
 
     @classmethod

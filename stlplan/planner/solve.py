@@ -97,6 +97,7 @@ def _step1(problem: Problem, options: PlanOptions, clock: Clock) -> tuple[PlanMo
             floors=options.floors,
             floors_deadline=clock.share(FLOORS_SHARE),
             task_encoding=options.tasks,
+            symmetry=options.symmetry,
         )
     return pm, solve_step1(pm, options, clock)
 

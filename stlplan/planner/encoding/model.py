@@ -49,6 +49,7 @@ from stlplan.planner.encoding.selection import (
 )
 from stlplan.planner.encoding.sos1 import Encoding, gray_code, sos1_block
 from stlplan.planner.encoding.stl import Ledger, StlContext, margin_ceiling, require
+from stlplan.planner.encoding.symmetry import order_classes
 from stlplan.planner.encoding.tasks import (
     SyncEncoding,
     TaskEncoding,
@@ -244,12 +245,16 @@ def add_objective(
 
 
 def encode_tasks(
-    ctx: StlContext, problem: Problem, task_encoding: TaskForm
+    ctx: StlContext, problem: Problem, task_encoding: TaskForm, symmetry: bool = False
 ) -> tuple[tuple[TaskChoice, ...], tuple[SyncChoice, ...]]:
-    """Every task and synchronous task, by groups or by selection."""
+    """Every task and synchronous task, by groups or by selection; with ``symmetry`` (selection
+    only), one chain of ordering rows per class of interchangeable agents
+    (:mod:`stlplan.planner.encoding.symmetry`)."""
     if task_encoding == "selection":
         plain = tuple(select_task(ctx, problem, t) for t in problem.tasks if t.sync is None)
         sync = tuple(select_synchronous(ctx, problem, t) for t in problem.tasks if t.sync)
+        if symmetry:
+            order_classes(ctx, problem, plain + sync)
         return plain, sync
     plain_g = tuple(encode_task(ctx, problem, t) for t in problem.tasks if t.sync is None)
     sync_g = tuple(encode_synchronous(ctx, problem, t) for t in problem.tasks if t.sync)
@@ -263,6 +268,7 @@ def build_model(
     floors: bool = False,
     floors_deadline: float = math.inf,
     task_encoding: TaskForm = "groups",
+    symmetry: bool = False,
 ) -> PlanModel:
     """Encode ``problem`` as the MILP of step 1.
 
@@ -283,6 +289,9 @@ def build_model(
     task_encoding
         Tasks by enumerating groups (``"groups"``, the paper's) or by selecting elements
         (``"selection"``, :mod:`stlplan.planner.encoding.selection`).
+    symmetry
+        With selection: order the task shares of interchangeable agents
+        (:mod:`stlplan.planner.encoding.symmetry`, valid rows that keep an optimal plan).
     """
     model = ConcreteModel(name=problem.mission.name)
     boxes = reachable_boxes(problem)
@@ -299,7 +308,7 @@ def build_model(
         margin_ceiling=ceiling,
         encoding=encoding,
     )
-    tasks, synchronous = encode_tasks(ctx, problem, task_encoding)
+    tasks, synchronous = encode_tasks(ctx, problem, task_encoding, symmetry)
     deferral = None
     if lazy:
         deferral = defer(problem, boxes, ceiling)
