@@ -60,6 +60,7 @@ FORMULATIONS: dict[str, tuple[tuple[str, Any], ...]] = {
     "pair-window": (("lazy_window", None),),
     "window1": (("lazy_window", 1),),
     "near-0.1": (("lazy_margin", 0.1),),
+    "near-0.2": (("lazy_margin", 0.2),),
     "log": (("encoding", "log"),),
     "groups": (("tasks", "groups"),),
     "standard": (("encoding", "standard"),),
