@@ -109,18 +109,12 @@ def share(selection: Selection, agent: str) -> Any:
     return sum(x for x, e in zip(selection.chosen, elements, strict=True) if agent in e)
 
 
-def order_classes(
-    ctx: StlContext, problem: Problem, selections: Sequence[Selection]
-) -> list[tuple[tuple[str, ...], str]]:
-    """``s_T(p_i) >= s_T(p_i+1)`` for each class (module docstring); returns ``(class, task)``
-    for each chain added."""
+def order_classes(ctx: StlContext, problem: Problem, selections: Sequence[Selection]) -> None:
+    """``s_T(p_i) >= s_T(p_i+1)`` for each class (module docstring)."""
     by_name = {s.task.name: s for s in selections}
-    chains = []
     for members in agent_classes(problem):
         selection = chain_task(problem, members, by_name)
         if selection is None:
             continue
         for first, second in zip(members, members[1:], strict=False):
             ctx.block.rows.add(share(selection, first) >= share(selection, second))
-        chains.append((members, selection.task.name))
-    return chains
