@@ -36,8 +36,9 @@ from stlplan.errors import StlplanError
 from stlplan.examples import missions_dir
 
 CASES = ("farm", "farm-case2", "farm-case3")
-SCALE_CASES = ("scale/farm-x2", "scale/farm-x3", "scale/farm-x4")
-"""Case I's map and tasks with the team replicated 2, 3 and 4 times (16, 24, 32 agents)."""
+SCALE_CASES = ("scale/farm-x2", "scale/farm-x2-same", "scale/farm-x3", "scale/farm-x4")
+"""Case I's map and tasks with the team replicated 2, 3 and 4 times (16, 24, 32 agents), crops B
+and C's counts multiplied alike; ``farm-x2-same`` keeps Case I's counts for 16 agents."""
 DEPOT_CASES = ("scale/farm-x2-depot", "scale/farm-depot-small")
 """Farms whose agents of one capability share a depot, no separation: classes of interchangeable
 agents (``--formulations no-symmetry symmetry``); solved once, as written, like the suite."""

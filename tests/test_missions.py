@@ -101,6 +101,19 @@ def test_scaled_farms_replicate_case_one(k: int) -> None:
         assert np.max(np.abs(a.initial_state[:2] - b.initial_state[:2])) >= scaled.separation
 
 
+def test_the_same_tasks_farm_is_farm_x2_with_case_one_counts() -> None:
+    double, same = (
+        load_problem(MISSIONS / "scale" / f"{n}.yaml") for n in ("farm-x2", "farm-x2-same")
+    )
+    assert [a.name for a in same.agents] == [a.name for a in double.agents]
+    assert all(np.array_equal(a.initial_state, b.initial_state)
+               for a, b in zip(same.agents, double.agents, strict=True))  # fmt: skip
+    assert {t.name: t.count for t in same.tasks} == {t.name: t.count for t in _load("farm").tasks}
+    assert [t.formula for t in same.tasks] == [t.formula for t in double.tasks]
+    assert same.mission.regions == double.mission.regions
+    assert same.separation == double.separation
+
+
 def test_farm_cases_differ_from_case_one_only_where_the_paper_says() -> None:
     base = _load("farm").mission
     for name in ("farm-case2", "farm-case3"):
