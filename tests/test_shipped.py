@@ -6,6 +6,7 @@ import pytest
 
 from stlplan import api
 from stlplan.api import Overrides
+from stlplan.monitor.verdicts import check
 from stlplan.result import PlanStatus
 from tests.conftest import MISSIONS
 
@@ -37,3 +38,20 @@ def test_one_step_and_two_step_share_decisions_and_step_two_lowers_effort() -> N
     assert one.objective == pytest.approx(two.objective, abs=1e-6)
     assert two.effort is not None and one.effort is not None
     assert two.effort <= one.effort + 1e-6
+
+
+def test_warehouse_plan_stays_clear_of_the_wall_between_steps() -> None:
+    # The sampled plan keeps every step 0.2 from the L-shaped wall yet drives through it between
+    # steps; with the default safety between steps the whole path keeps the margin.
+    problem, safe = api.plan(MISSIONS / "warehouse.yaml")
+    assert safe.status is PlanStatus.OPTIMAL
+    assert safe.report is not None and safe.report.satisfied
+    for name in ("avoid_wall_v", "avoid_wall_h"):
+        assert safe.report.verdict(name).robustness >= 0.2 - 1e-6
+    _, sampled = api.plan(MISSIONS / "warehouse.yaml", overrides=Overrides(inter_sample=False))
+    assert sampled.status is PlanStatus.OPTIMAL and sampled.trajectory is not None
+    assert sampled.objective is not None and safe.objective is not None
+    assert sampled.objective >= safe.objective - 1e-6
+    judged = check(problem, sampled.trajectory)
+    crossed = [v for v in judged.verdicts if not v.satisfied]
+    assert crossed and all("on the segment" in v.detail for v in crossed)
