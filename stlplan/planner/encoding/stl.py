@@ -17,6 +17,7 @@ separate requirements, a disjunction needs no "off" slot, and a predicate needs 
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -34,6 +35,7 @@ from stlplan.formula.tree import (
     Predicate,
     Until,
     atoms,
+    roles,
 )
 from stlplan.planner.encoding.sos1 import Encoding, sos1
 
@@ -260,13 +262,21 @@ ENCODERS: dict[type, Callable[[Any, int, StlContext], Any]] = {
 }
 
 
+@functools.lru_cache(maxsize=4096)
+def _roles_read(node: Formula) -> frozenset[str]:
+    return frozenset(roles(node))
+
+
 def encode(node: Formula, k: int, ctx: StlContext) -> Any:
     """Indicator ``z`` of the lowered ``node`` at step ``k``: ``z = 1`` enforces ``(S, k) |= node``.
 
-    Memoized on ``(node, k, binding)``, so a subformula shared by several parents (or by several
-    groups holding the same element) is encoded once.
+    Memoized on ``(node, k)`` and the agents bound to the roles ``node`` reads, so a subformula
+    shared by several parents, by several groups holding the same element, or by several
+    elements that give its roles the same agents (``in(p, B)`` in every element with ``p = uv1``)
+    is encoded once.
     """
-    key = (node, k, tuple(sorted(ctx.binding.items())))
+    used = _roles_read(node)
+    key = (node, k, tuple(sorted((r, a) for r, a in ctx.binding.items() if r in used)))
     found = ctx.memo.get(key)
     if found is not None:
         return found
