@@ -69,7 +69,7 @@ def test_one_agent_serving_two_far_tasks_tightens_the_relaxation(
     # two agents at the origin, three tasks far apart: one agent serves two of them
     problem = tasks_apart([0.0, 0.5], [[-3.0, 1.0], [2.0, 1.0], [-0.5, -3.0]], late=5)
     with_cuts = lp_bound(problem)
-    monkeypatch.setattr(floors, "_service_floors", lambda *args: 0)
+    monkeypatch.setattr(floors, "_service_floors", lambda *args: (0, set()))
     without = lp_bound(problem)
     assert with_cuts < without - 1.0  # a maximization: the bound is lower by the way between
     exact = plan(problem, PlanOptions(time_limit=60, gap=1e-6, lazy=False, floors=False))
@@ -139,3 +139,59 @@ def test_a_formation_of_agents_far_apart_tightens_the_relaxation(
 def test_team_floors_keep_the_optimum(starts: list[tuple[float, float]], goal: int) -> None:
     problem = formations(starts, float(goal))
     assert_floors_keep_the_optimum(problem)
+
+
+def formations_to_choose(starts: list[tuple[float, float]], goal: float, count: int) -> Any:
+    """Three P and three Q agents at ``starts``; ``count`` P+Q formations must meet within 0.5
+    and then be in the band ``goal <= y <= goal + 1`` together; one P agent must visit the box
+    ``Far`` at step 5 or 6 (a formation in a low band cannot be there too)."""
+    names = ["p1", "p2", "p3", "q1", "q2", "q3"]
+    agents = [
+        {"name": n, "dynamics": "si", "capabilities": [n[0].upper()], "initial_state": list(xy)}
+        for n, xy in zip(names, starts, strict=True)
+    ]
+    return mission(
+        horizon=6,
+        agents=agents,
+        regions={
+            "Goal": {"box": [[-4, 4], [goal, goal + 1]]},
+            "Far": {"box": [[-4, -3.5], [4, 5]]},
+        },
+        tasks={
+            "pair": {
+                "formula": "G[3,4] dist(p, q) <= 0.5 & F[5,6] (in(p, Goal) & in(q, Goal))",
+                "count": count,
+                "roles": {"p": "P", "q": "Q"},
+            },
+            "far": {"formula": "F[5,6] in(p, Far)", "roles": {"p": "P"}},
+        },
+        objective={"beta": 1.0, "effort": "l1"},
+    )
+
+
+def test_shares_bound_a_fractional_choice_of_formations(monkeypatch: pytest.MonkeyPatch) -> None:
+    # every P is far from every Q: whichever two formations are chosen, four agents cross the
+    # gap; split across the nine elements, the element rows alone let each agent pay a ninth
+    problem = formations_to_choose(
+        [(-3.0, 3.0), (-3.0, 0.0), (-3.0, -3.0), (3.0, 3.0), (3.0, 0.0), (3.0, -3.0)], 0.0, 2
+    )
+    with_shares = lp_bound(problem)
+    monkeypatch.setattr(team_floors, "shared_tasks", lambda ledger: {})
+    without = lp_bound(problem)
+    assert with_shares < without - 1.0
+    exact = plan(problem, PlanOptions(time_limit=60, gap=1e-6, lazy=False, floors=False))
+    assert exact.objective is not None and exact.objective <= with_shares + 1e-6
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    starts=st.lists(
+        st.tuples(st.integers(-4, 4), st.integers(-4, 4)).map(lambda t: (float(t[0]), float(t[1]))),
+        min_size=6,
+        max_size=6,
+    ),
+    goal=st.integers(-3, 2),
+    count=st.integers(1, 2),
+)
+def test_shares_keep_the_optimum(starts: list[tuple[float, float]], goal: int, count: int) -> None:
+    assert_floors_keep_the_optimum(formations_to_choose(starts, float(goal), count))

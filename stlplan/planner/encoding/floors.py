@@ -175,9 +175,13 @@ def add_effort_floors(
                 count += 1
     for z in impossible.values():
         model.effort_floors.add(z <= 0)
-    count += _service_floors(model, graph, ledger.services)
-    apart = {id(h): sum(graph.floor(h).values()) for _, h, _ in ledger.elements}
-    count += add_team_floors(model, ledger, lps, apart, deadline)
+    added, exclusive = _service_floors(model, graph, ledger.services)
+    own = {id(h): graph.floor(h) for _, h, _ in ledger.elements}
+    solo = {
+        (task, agent): list(zip(_weights(graph, agent, h), x, strict=True))
+        for task, agent, h, x in ledger.services
+    }
+    count += added + add_team_floors(model, ledger, lps, own, solo, exclusive, deadline)
     # the LPs sized HiGHS's process-wide thread pool; let the MILP size it afresh
     highspy.Highs.resetGlobalScheduler(True)
     return count + len(impossible)
@@ -209,20 +213,23 @@ def _service_floors(
     model: ConcreteModel,
     graph: FloorGraph,
     services: Sequence[tuple[str, str, list[Any], list[Any]]],
-) -> int:
-    """Add the cuts of two tasks served by one agent (module docstring); returns the count."""
+) -> tuple[int, set[tuple[str, frozenset[str]]]]:
+    """Add the cuts of two tasks served by one agent (module docstring); returns the count and
+    the ``(agent, {task, task})`` that the agent cannot serve both of."""
+    exclusive: set[tuple[str, frozenset[str]]] = set()
     by_agent: dict[str, list[tuple[str, str, list[Any], list[Any]]]] = {}
     for service in services:
         by_agent.setdefault(service[1], []).append(service)
     count = 0
     for agent, mine in by_agent.items():
-        for (_, _, h1, x1), (_, _, h2, x2) in itertools.combinations(mine, 2):
+        for (t1, _, h1, x1), (t2, _, h2, x2) in itertools.combinations(mine, 2):
             joint = _joint_floor(graph, agent, h1, h2)
             if joint <= FLOOR_TOL:
                 continue
             both = sum(x1) + sum(x2)
             if joint == INF:
                 model.effort_floors.add(both <= 1)
+                exclusive.add((agent, frozenset((t1, t2))))
             else:
                 model.effort_floors.add(model.e[agent] >= joint * (both - 1))
             count += 1
@@ -236,7 +243,7 @@ def _service_floors(
                 if terms:
                     model.effort_floors.add(model.e[agent] >= sum(terms))
                     count += 1
-    return count
+    return count, exclusive
 
 
 def _weights(graph: FloorGraph, agent: str, indicators: Sequence[Any]) -> list[float]:

@@ -11,17 +11,31 @@ pairs with whom. For an element ``e`` of several agents ``P_e`` whose formula's 
 
 takes predicates on any of the agents. The floor ``J`` of an indicator is
 
-* predicate or conjunction: with ``S`` every predicate reached through conjunctions alone, the
-  largest of ``E_e(S)`` and, for each other child ``d``, ``min_i E_e(S + S_i)`` over the
-  children ``d_i`` of ``d`` when ``d`` is a disjunction (``S_i`` reached from ``d_i`` likewise),
-  else ``J(d)``;
+* predicate or conjunction: with ``S`` every predicate reached through conjunctions alone and
+  ``d^1..d^m`` the disjunctions reached, ``min E_e(S + S^1_i + ... + S^m_j)`` over one child of
+  each (``S^l_i`` reached from child ``i`` of ``d^l`` likewise) while there are at most
+  :data:`MAX_COMBINATIONS` combinations, else the largest of ``E_e(S)`` and each
+  ``min_i E_e(S + S^l_i)``; any other child ``d`` gives ``J(d)`` too (the largest counts);
 * disjunction: ``min_i J(d_i)``.
 
-The cut ``sum_{p in P_e} e_p >= J(h_e) x_e`` keeps the optimum for the reason the per-agent cuts
-do: at a plan whose indicators are 1 exactly where it needs them, ``x_e = 1`` forces ``h_e = 1``,
-every conjunction below forces its children and every disjunction one child, so the plan meets
-``S`` and some ``S_i``, and its agents' effort is at least the LP's least. A floor infinite
-(no trajectory of the agents meets the element) holds ``x_e = 0``.
+Both keep the optimum for the reason the per-agent cuts do: at a plan whose indicators are 1
+exactly where it needs them, ``x_e = 1`` forces ``h_e = 1``, every conjunction below forces its
+children and every disjunction one child, so the plan meets ``S`` and one child of each, and its
+agents' effort is at least the LP's least. A floor infinite (no trajectory of the agents meets
+the element) holds ``x_e = 0``.
+
+*Shares.* The row ``sum_{p in P_e} e_p >= J(h_e) x_e`` is weak where the choice is fractional:
+with ``x_e = 1/4`` on four elements holding ``p``, each row asks a quarter and one effort
+``e_p`` pays all four. In a task that reuses no agent at most one element holding ``p`` is
+chosen, so the element gets shares ``s_pe >= 0`` (``s_pe = e_p x_e`` in a plan) with
+
+    sum_{p in P_e} s_pe >= J(h_e) x_e,    s_pe >= J_p(h_e) x_e,    e_p >= sum_{e holding p} s_pe,
+
+``J_p`` the agent's own floor: the LP pays the elements' floors in proportion to their choice,
+and summing the rows bounds the task's effort by the least fractional choice of ``c`` elements.
+When an agent can serve at most one of several tasks (their options together admit no
+trajectory of it), its shares of them add up too: ``e_p >= sum_T a_pT``, with ``a_pT`` its
+shares of ``T`` or ``sum_e J_p(h_e) x_e``.
 """
 
 from __future__ import annotations
@@ -34,7 +48,7 @@ from typing import Any
 
 import highspy
 import numpy as np
-from pyomo.environ import ConcreteModel
+from pyomo.environ import ConcreteModel, VarList
 
 from stlplan.formula.tree import Predicate
 from stlplan.planner.encoding.effort_lp import (
@@ -96,6 +110,11 @@ class TeamEffortLp:
         return least_effort(self.highs, self.base_rows, matrix, lo)
 
 
+MAX_COMBINATIONS = 64
+"""Most combinations of one child per disjunction that :meth:`TeamFloors.floor` solves together
+(beyond it, each disjunction is bounded apart)."""
+
+
 @dataclass(eq=False)
 class TeamFloors:
     """The floors ``J`` of the module docstring over a :class:`Ledger` (memoized LPs)."""
@@ -147,35 +166,106 @@ class TeamFloors:
             return 0.0
         held, others = self.closure(z)
         best = self.effort(team, held)
+        choices = list({id(o): o for o in others if id(o) in self.disjunctions}.values())
         for other in others:
-            if id(other) in self.disjunctions:
-                options = [held | self.closure(c)[0] for c in self.disjunctions[id(other)]]
-                best = max(best, min(self.effort(team, s) for s in options))
-            else:
+            if id(other) not in self.disjunctions:
                 best = max(best, self.floor(team, other))
+        if math.prod(len(self.disjunctions[id(d)]) for d in choices) <= MAX_COMBINATIONS:
+            return max(best, self._combined(team, held, choices))
+        for other in choices:
+            options = [held | self.closure(c)[0] for c in self.disjunctions[id(other)]]
+            best = max(best, min(self.effort(team, s) for s in options))
         return best
+
+    def _combined(
+        self, team: tuple[str, ...], held: frozenset[TeamPredicate], choices: Sequence[Any]
+    ) -> float:
+        """``min E_e(S + S_i + S_j + ...)`` over one child of each disjunction in ``choices``."""
+        unions = [held]
+        for choice in choices:
+            children = [self.closure(c)[0] for c in self.disjunctions[id(choice)]]
+            unions = [u | c for u in unions for c in children]
+        return min(self.effort(team, u) for u in unions)
 
 
 def add_team_floors(
     model: ConcreteModel,
     ledger: Ledger,
     lps: Mapping[str, EffortLp],
-    apart: Mapping[int, float],
+    own: Mapping[int, Mapping[str, float]],
+    solo: Mapping[tuple[str, str], Sequence[tuple[float, Any]]],
+    exclusive: set[tuple[str, frozenset[str]]],
     deadline: float = math.inf,
 ) -> int:
-    """Add ``sum_{p in P_e} e_p >= J(h_e) x_e`` for every element of several agents whose floor
-    exceeds ``apart[id(h_e)]`` (its agents' own floors added up); returns the count."""
+    """Add the team floor of every element of several agents whose floor exceeds its agents'
+    own floors (``own[id(h_e)]``) added up: by shares in a task that reuses no agent, else
+    ``sum_{p in P_e} e_p >= J(h_e) x_e`` (module docstring). ``solo`` holds each agent's own
+    floors per task, ``(J_p(h_e), x_e)``, and ``exclusive`` the ``(agent, {task, task})`` it
+    cannot serve both of. Returns the count."""
     floors = TeamFloors(ledger, lps, deadline)
+    task_of = shared_tasks(ledger)
+    model.team_shares = VarList(bounds=(0.0, None))
+    shares: dict[tuple[str, str], list[Any]] = {}
     count = 0
     for x, h_e, agents in ledger.elements:
         if len(agents) < 2:
             continue
         joint = floors.floor(tuple(sorted(agents)), h_e)
+        alone = own.get(id(h_e), {})
         if joint == INF:
             model.effort_floors.add(x <= 0)
-        elif joint > apart.get(id(h_e), 0.0) + FLOOR_TOL:
-            model.effort_floors.add(sum(model.e[p] for p in agents) >= joint * x)
-        else:
+        elif joint <= sum(alone.values()) + FLOOR_TOL:
             continue
+        elif id(x) in task_of:
+            for p, share in _element_shares(model, x, joint, agents, alone).items():
+                shares.setdefault((task_of[id(x)], p), []).append(share)
+        else:
+            model.effort_floors.add(sum(model.e[p] for p in agents) >= joint * x)
+        count += 1
+    for (_, p), mine in shares.items():
+        model.effort_floors.add(model.e[p] >= sum(mine))
+    return count + _across_tasks(model, shares, solo, exclusive)
+
+
+def shared_tasks(ledger: Ledger) -> dict[int, str]:
+    """``id(x_e)`` to the task of every element whose task reuses no agent (its floor is paid
+    by shares)."""
+    return {id(x): task for task, _, _, xs in ledger.services for x in xs}
+
+
+def _element_shares(
+    model: ConcreteModel, x: Any, joint: float, agents: Sequence[str], alone: Mapping[str, float]
+) -> dict[str, Any]:
+    """Shares ``s_pe`` with ``sum_p s_pe >= J x_e`` and ``s_pe >= J_p x_e``, by agent."""
+    mine = {p: model.team_shares.add() for p in agents}
+    model.effort_floors.add(sum(mine.values()) >= joint * x)
+    for p, share in mine.items():
+        if FLOOR_TOL < alone.get(p, 0.0) < INF:
+            model.effort_floors.add(share >= alone[p] * x)
+    return mine
+
+
+def _across_tasks(
+    model: ConcreteModel,
+    shares: Mapping[tuple[str, str], list[Any]],
+    solo: Mapping[tuple[str, str], Sequence[tuple[float, Any]]],
+    exclusive: set[tuple[str, frozenset[str]]],
+) -> int:
+    """``e_p >= sum_T a_pT`` over tasks ``T`` that agent ``p`` can serve at most one of, with
+    ``a_pT`` its shares of ``T`` (or, without shares, ``sum_e floor_p(h_e) x_e``); returns the
+    count. At most one ``a_pT`` is nonzero in a plan, so the row holds; one row per task with
+    shares, over a greedy set of tasks pairwise exclusive with it."""
+    count = 0
+    for task, p in shares:
+        others = [t for t, q in solo if q == p and (p, frozenset((task, t))) in exclusive]
+        chosen = [task]
+        for other in others:
+            if all((p, frozenset((other, t))) in exclusive for t in chosen):
+                chosen.append(other)
+        if len(chosen) < 2:
+            continue
+        terms = [v for t in chosen for v in shares.get((t, p), [])]
+        terms += [w * x for t in chosen if (t, p) not in shares for w, x in solo[(t, p)]]
+        model.effort_floors.add(model.e[p] >= sum(terms))
         count += 1
     return count
