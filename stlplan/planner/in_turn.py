@@ -52,6 +52,12 @@ TURN_SHARE = 0.25
 TURN_SOLVES = 10
 """Solves of one agent's turn at most (each after adding what the last plan violated)."""
 
+TURN_WINDOW: int | None = None
+"""Steps of a violated requirement's family (the same pair or agent and constraint) a turn adds
+with it: all of them. A turn solves one agent's plan around held ones, so a few more rows cost
+little, where adding one step at a time took more than :data:`TURN_SOLVES` solves for an agent
+threading a crowded strip (the 24-agent farm)."""
+
 TURN_GAP = 0.01
 """Relative gap of a turn's solves: the repair looks for a plan, the rounds prove."""
 
@@ -199,7 +205,7 @@ class InTurn:
                 partners |= agents_of(self.pm, mine)
                 if left < MIN_SOLVE_SECONDS:
                     return partners
-                add_requirements(self.pm, neighbours(lazy, mine, self.options.lazy_window))
+                add_requirements(self.pm, neighbours(lazy, mine, TURN_WINDOW))
             return partners
         finally:
             release(held)
