@@ -140,3 +140,14 @@ def test_the_second_turns_never_make_the_repaired_plan_worse(
         monkeypatch.undo()
     repaired, improved = scores
     assert improved >= repaired - 1e-7
+
+
+def test_a_turn_adds_every_step_of_a_pair_it_crosses() -> None:
+    problem = crossing_problem()
+    pm, session = _first_round(problem)
+    assert pm.deferral is not None
+    InTurn(pm, session, PlanOptions()).run(pending_violations(pm), 30.0)
+    lazy = pm.deferral.lazy
+    families = {lazy[n].family for n in pm.added}
+    assert families  # the turns crossed held agents and added what they crossed
+    assert all(n in pm.added for n, r in enumerate(lazy) if r.family in families)
