@@ -127,13 +127,15 @@ def test_a_formation_of_agents_far_apart_tightens_the_relaxation(
     assert exact.objective is not None and exact.objective <= with_cuts + 1e-6
 
 
+def grid_points(n: int) -> st.SearchStrategy[list[tuple[float, float]]]:
+    """``n`` points with integer coordinates in ``[-4, 4]^2``."""
+    point = st.tuples(st.integers(-4, 4), st.integers(-4, 4))
+    return st.lists(point.map(lambda t: (float(t[0]), float(t[1]))), min_size=n, max_size=n)
+
+
 @settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
-    starts=st.lists(
-        st.tuples(st.integers(-4, 4), st.integers(-4, 4)).map(lambda t: (float(t[0]), float(t[1]))),
-        min_size=4,
-        max_size=4,
-    ),
+    starts=grid_points(4),
     goal=st.integers(-3, 2),
 )
 def test_team_floors_keep_the_optimum(starts: list[tuple[float, float]], goal: int) -> None:
@@ -185,11 +187,7 @@ def test_shares_bound_a_fractional_choice_of_formations(monkeypatch: pytest.Monk
 
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
-    starts=st.lists(
-        st.tuples(st.integers(-4, 4), st.integers(-4, 4)).map(lambda t: (float(t[0]), float(t[1]))),
-        min_size=6,
-        max_size=6,
-    ),
+    starts=grid_points(6),
     goal=st.integers(-3, 2),
     count=st.integers(1, 2),
 )
