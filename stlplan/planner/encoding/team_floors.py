@@ -252,7 +252,7 @@ def _across_tasks(
     exclusive: set[tuple[str, frozenset[str]]],
 ) -> int:
     """``e_p >= sum_T a_pT`` over tasks ``T`` that agent ``p`` can serve at most one of, with
-    ``a_pT`` its shares of ``T`` (or, without shares, ``sum_e floor_p(h_e) x_e``); returns the
+    ``a_pT`` its shares of ``T`` (or, without shares, ``sum_e J_p(h_e) x_e``); returns the
     count. At most one ``a_pT`` is nonzero in a plan, so the row holds; one row per task with
     shares, over a greedy set of tasks pairwise exclusive with it."""
     count = 0
