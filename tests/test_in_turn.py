@@ -97,7 +97,7 @@ def test_held_agents_keep_their_plan_and_are_released() -> None:
 def test_repairing_in_turn_keeps_the_optimum(inter_sample: bool) -> None:
     problem = crossing_problem(inter_sample)
     with_turns, rounds = solve(problem, in_turn_after=0.0)
-    without, _ = solve(problem, in_turn_after=None)
+    without, _ = solve(problem, in_turn_after=None, in_turn_agents=None)
     up_front, _ = solve(problem, lazy=False, floors=False)
     assert rounds >= 2
     assert with_turns.status is without.status is up_front.status is PlanStatus.OPTIMAL
@@ -105,6 +105,26 @@ def test_repairing_in_turn_keeps_the_optimum(inter_sample: bool) -> None:
     assert with_turns.objective == pytest.approx(up_front.objective, rel=2e-4)
     assert without.objective == pytest.approx(up_front.objective, rel=2e-4)
     assert accepted(problem, with_turns) and accepted(problem, without)
+
+
+@pytest.mark.parametrize(("crowd", "repairs"), [(4, True), (5, False)])
+def test_a_crowded_round_is_repaired_however_short(
+    crowd: int, repairs: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the four agents' relaxed plans all meet in the middle: a crowd of four, in a short round
+    problem = crossing_problem()
+    runs: list[set[str]] = []
+    run = InTurn.run
+
+    def spy(self: InTurn, bad: Any, seconds: float) -> bool:
+        runs.append(agents_of(self.pm, bad))
+        return run(self, bad, seconds)
+
+    monkeypatch.setattr(InTurn, "run", spy)
+    result, _ = solve(problem, in_turn_after=1e6, in_turn_agents=crowd)
+    assert result.status is PlanStatus.OPTIMAL and accepted(problem, result)
+    assert bool(runs) is repairs
+    assert all(len(agents) >= crowd for agents in runs)
 
 
 def test_a_turn_that_fails_frees_the_agents_it_could_not_avoid() -> None:

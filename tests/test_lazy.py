@@ -122,7 +122,9 @@ def test_collision_binds_and_lazy_matches_up_front(encoding: str) -> None:
 def test_obstacle_binds_and_lazy_matches_up_front(window: int | None) -> None:
     problem = detour_problem(with_obstacle=True)
     free, _ = solve(detour_problem(with_obstacle=False))
-    lazy, rounds = solve(problem, lazy=True, lazy_window=window, in_turn_after=None)
+    lazy, rounds = solve(
+        problem, lazy=True, lazy_window=window, in_turn_after=None, in_turn_agents=None
+    )
     repaired, _ = solve(problem, lazy=True, lazy_window=window, in_turn_after=0.0)
     up_front, _ = solve(problem, lazy=False, floors=False)
     assert lazy.status is repaired.status is up_front.status is PlanStatus.OPTIMAL

@@ -37,7 +37,7 @@ from pyomo.environ import Var
 from stlplan.planner.clock import Clock
 from stlplan.planner.encoding.deferred import best_side, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
-from stlplan.planner.in_turn import TURN_SHARE, InTurn
+from stlplan.planner.in_turn import TURN_SHARE, InTurn, agents_of
 from stlplan.planner.session import (
     MIN_SOLVE_SECONDS,
     TC,
@@ -197,16 +197,23 @@ class LazySolver:
 
     def _between_rounds(self, bad: list[int], left: float, seconds: float) -> bool:
         """Add the requirements the round's plan violates (``bad``), first repairing that plan
-        in turn while no plan meets every requirement and the round took ``seconds`` of at least
-        ``in_turn_after``; whether the best plan closes the gap."""
+        in turn while no plan meets every requirement and the round (of ``seconds``) was long or
+        crowded (:meth:`_crowded`); whether the best plan closes the gap."""
         pm, options, watch = self.pm, self.options, self.watch
         assert pm.deferral is not None and watch is not None
         near = near_violations(pm, options.lazy_margin) if options.lazy_margin > 0 else []
-        after = options.in_turn_after
-        if after is not None and seconds >= after and watch.best is None:
+        if watch.best is None and self._crowded(bad, seconds):
             InTurn(pm, self.session, options).run(bad, TURN_SHARE * left)
         add_requirements(pm, neighbours(pm.deferral.lazy, bad, options.lazy_window) + near)
         return watch.closed(watch.ceiling)
+
+    def _crowded(self, bad: list[int], seconds: float) -> bool:
+        """Whether a round of ``seconds`` whose plan violates ``bad`` is to be repaired in turn
+        (``in_turn_after``, ``in_turn_agents``)."""
+        after, crowd = self.options.in_turn_after, self.options.in_turn_agents
+        if after is not None and seconds >= after:
+            return True
+        return crowd is not None and len(agents_of(self.pm, bad)) >= crowd
 
     def _last(self, last: Solved, tick: float, rounds: int) -> Step1:
         """The loop ends short of the optimum (time, a stop request, infeasible, an error).

@@ -52,6 +52,11 @@ class PlanOptions:
         repair after short rounds adds requirements that slow the later rounds more than its
         early plan saves; after long rounds (a large team packed in a start area) it gives the
         first plan where the next round finds none.
+    in_turn_agents
+        With ``lazy``: while no plan meets every requirement, a round whose plan violates
+        requirements naming at least this many agents is repaired too, however short it was;
+        None repairs by duration alone. A crowd that large collides again in the next rounds'
+        plans, which may then find no plan at all.
     floors
         Add the effort floors of :mod:`stlplan.planner.encoding.floors` (valid inequalities).
     symmetry
@@ -76,6 +81,7 @@ class PlanOptions:
     lazy_margin: float = 0.0
     decompose: bool = True
     in_turn_after: float | None = 8.0
+    in_turn_agents: int | None = 7
     floors: bool = True
     symmetry: bool = True
     highs_options: tuple[tuple[str, Any], ...] = ()
