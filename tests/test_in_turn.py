@@ -9,13 +9,18 @@ import pytest
 from pyomo.environ import value
 
 from stlplan.mission.problem import Problem
+from stlplan.planner import components
 from stlplan.planner.clock import Clock
+from stlplan.planner.components import Part, solve_parts
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.in_turn import InTurn, agents_of, hold_agents, release
+from stlplan.planner.lazy import Step1
 from stlplan.planner.options import PlanOptions
 from stlplan.planner.session import HighsSession
+from stlplan.planner.solve import plan
 from stlplan.planner.watch import pending_violations
 from stlplan.result import PlanStatus
+from tests.test_components import detour_for_free
 from tests.test_lazy import accepted, mission, solve
 
 
@@ -171,3 +176,37 @@ def test_a_turn_adds_every_step_of_a_pair_it_crosses() -> None:
     families = {lazy[n].family for n in pm.added}
     assert families  # the turns crossed held agents and added what they crossed
     assert all(n in pm.added for n, r in enumerate(lazy) if r.family in families)
+
+
+@pytest.mark.parametrize("crowd, in_turn", [(2, True), (3, False)])
+def test_a_merged_part_colliding_in_a_crowd_is_repaired_in_turn(
+    crowd: int, in_turn: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a's plan crosses the idle e (another part): a crowd of two merges them
+    problem = detour_for_free()
+    turns: list[set[str]] = []
+    repairs: list[Step1 | None] = []
+    run, repair = InTurn.run, components._repair
+
+    def spy_run(self: InTurn, bad: Any, seconds: float) -> bool:
+        turns.append(agents_of(self.pm, bad))
+        return run(self, bad, seconds)
+
+    def spy_repair(part: Part, options: PlanOptions, deadline: float) -> Step1 | None:
+        assert part.pm.deferral is not None
+        seeded = {part.pm.deferral.lazy[n].source for n in part.pm.added}
+        assert ("separation" in seeded) is not in_turn  # the crossing is left to the turns
+        repairs.append(repair(part, options, deadline))
+        return repairs[-1]
+
+    monkeypatch.setattr(InTurn, "run", spy_run)
+    monkeypatch.setattr(components, "_repair", spy_repair)
+    options = PlanOptions(time_limit=60, gap=1e-6, in_turn_agents=crowd)
+    found = solve_parts(problem, options, Clock(0.0, None))
+    assert found is not None and found[1].status is PlanStatus.OPTIMAL
+    assert turns == ([{"a", "e"}] if in_turn else [])
+    repaired = repairs[0]
+    assert repaired is not None and (repaired.stop == "repaired") is in_turn
+    whole = plan(problem, PlanOptions(time_limit=60, gap=1e-6, lazy=False, floors=False))
+    assert found[1].objective == pytest.approx(whole.objective, abs=1e-5)
+    assert accepted(problem, plan(problem, options))

@@ -16,9 +16,13 @@ lazy loop. Parts are linked by
 
 A merged part's optimum is at most ``U_m``, the sum of its parts' bounds (merging only adds
 requirements). It is first *repaired*: solved with every agent but those of the colliding pairs
-held near the parts' plans, a small problem. A repaired plan within the gap of ``U_m`` is the
-merged part's optimum; otherwise it is the first plan of the merged part's own solve, which
-stops as soon as a plan is within the gap of ``U_m`` or of its own bound.
+held near the parts' plans, a small problem. When the collisions name ``in_turn_agents`` or
+more agents, that problem is not small: the parts' plans are then first repaired agent by agent
+(:mod:`stlplan.planner.in_turn`), and the crossing requirements are left out of the merged model
+until a turn's plan violates them (a turn needs a model that the plan it starts from meets). A
+repaired plan within the gap of ``U_m`` is the merged part's optimum; otherwise it is the first
+plan of the merged part's own solve, which stops as soon as a plan is within the gap of ``U_m``
+or of its own bound.
 
 With no such violation left, the union of the parts' plans is feasible for the full problem and its
 objective is the sum ``F = sum_c F_c``, while ``U = sum_c U_c`` bounds the full optimum. A part is
@@ -42,7 +46,7 @@ from stlplan.planner import stops
 from stlplan.planner.clock import FLOORS_SHARE, Clock
 from stlplan.planner.encoding.deferred import Requirement, violated
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
-from stlplan.planner.in_turn import Held, hold_near, release
+from stlplan.planner.in_turn import Held, InTurn, hold_near, release
 from stlplan.planner.lazy import LazySolver, Step1, relative_gap
 from stlplan.planner.options import PlanOptions
 from stlplan.planner.parts import agent_parts, sub_problem
@@ -52,6 +56,10 @@ from stlplan.result import PlanStatus
 
 REPAIR_SHARE = 0.25
 """Share of the time left that the repair of a merged part may take."""
+
+CROWD_REPAIR_SHARE = 0.75
+"""Share of the time left that the repair in turn of a merged part may take: the merge of a
+crowd comes last, with little time, and without a repaired plan there is often none."""
 
 MERGE_RESERVE = 0.1
 """Share of the time left that the parts' first solves leave for merging parts that collide."""
@@ -258,18 +266,46 @@ def _solve_part(part: Part, options: PlanOptions, deadline: float) -> Step1:
 
 
 def _repair(part: Part, options: PlanOptions, deadline: float) -> Step1 | None:
-    """Solve a merged part with only the agents of its colliding pairs free; then tighten the
-    bounds of the parts it was merged from towards the repaired plan (None: no plan)."""
-    held = _hold(part.pm, part.merged_from, part.free)
-    limit = max(MIN_SOLVE_SECONDS, REPAIR_SHARE * (deadline - time.perf_counter()))
-    try:
-        repaired = part.solver.run(limit, trial=True)
-    finally:
-        release(held)
+    """Repair the parts' plans together (module docstring); then tighten the bounds of the
+    parts the merged part comes from towards the repaired plan (None: no plan)."""
+    tick = time.perf_counter()
+    repaired = None
+    crowd_limit = CROWD_REPAIR_SHARE * (deadline - tick)
+    if _crowded(part.free, options) and _in_turn(part, options, crowd_limit):
+        repaired = part.solver.kept(time.perf_counter() - tick)
+    if repaired is None:
+        limit = max(MIN_SOLVE_SECONDS, REPAIR_SHARE * (deadline - time.perf_counter()))
+        held = _hold(part.pm, part.merged_from, part.free)
+        try:
+            repaired = part.solver.run(limit, trial=True)
+        finally:
+            release(held)
     if repaired.objective is None:
         return None
     _tighten(part.merged_from, options, deadline, plan=repaired.objective)
     return repaired
+
+
+def _crowded(free: frozenset[str], options: PlanOptions) -> bool:
+    """Whether a merged part whose collisions name the agents ``free`` is repaired in turn."""
+    return options.in_turn_agents is not None and len(free) >= options.in_turn_agents
+
+
+def _in_turn(part: Part, options: PlanOptions, seconds: float) -> bool:
+    """Load the plans of the parts a merged part comes from and repair their collisions agent
+    by agent (:class:`stlplan.planner.in_turn.InTurn`); whether that found a plan."""
+    pm = part.pm
+    assert pm.deferral is not None and part.solver.watch is not None
+    for source in part.merged_from:
+        for name in ("x", "u"):
+            target = getattr(pm.model, name)
+            for key, var in getattr(source.pm.model, name).items():
+                if var.value is not None and not target[key].fixed:
+                    target[key].set_value(float(var.value), skip_validation=True)
+    margin = pm.margin if isinstance(pm.margin, float) else float(pm.margin.lb)
+    bad = violated(pm.deferral.lazy, trajectory_states(pm), margin, VIOLATION_TOL)
+    InTurn(pm, part.solver.session, options).run(bad, seconds)
+    return part.solver.watch.best is not None
 
 
 def assemble(
@@ -353,12 +389,14 @@ def _merged(
     out = list(parts)
     for group in _merge(parts, [set(r.binding.values()) for r in crossing]):
         agents = {a for p in group for a in p.agents}
+        free = frozenset(a for r in crossing for a in r.binding.values()) & agents
         seed = set().union(*(p.added_keys() for p in group))
-        seed |= {requirement_key(r) for r in crossing if set(r.binding.values()) <= agents}
+        if not _crowded(free, options):  # (a repair in turn adds them as its plans cross)
+            seed |= {requirement_key(r) for r in crossing if set(r.binding.values()) <= agents}
         order = [a.name for a in problem.agents if a.name in agents]
         out = [p for p in out if p not in group]
         merged = _part(problem, order, options, clock, seed)
         merged.merged_from = tuple(group)
-        merged.free = frozenset(a for r in crossing for a in r.binding.values()) & agents
+        merged.free = free
         out.append(merged)
     return out

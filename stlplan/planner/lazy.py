@@ -242,6 +242,31 @@ class LazySolver:
         Requirements added after the plan was found get the side the plan meets best
         (:func:`stlplan.planner.encoding.model.assign_side`), so every indicator and binary agrees.
         """
+        objective = self._load_best()
+        bound = last.results.objective_bound
+        return Step1(
+            status=status,
+            objective=objective,
+            bound=bound,
+            gap=relative_gap(objective, bound),
+            seconds=time.perf_counter() - tick,
+            rounds=rounds,
+            added=len(self.pm.added),
+            stop=last.results.termination_condition.name,
+        )
+
+    def kept(self, seconds: float) -> Step1 | None:
+        """The best plan feasible for the full problem found so far (by a repair between runs),
+        loaded into ``pm``, as a result without a bound; None without one."""
+        if self.watch is None or self.watch.best is None:
+            return None
+        objective = self._load_best()
+        return Step1(PlanStatus.FEASIBLE, objective, None, None, seconds, 0, len(self.pm.added),
+                     "repaired")  # fmt: skip
+
+    def _load_best(self) -> float:
+        """Load the watch's best plan; requirements added after it was found get the side the
+        plan meets best. Returns its objective."""
         pm, watch = self.pm, self.watch
         assert watch is not None and watch.best is not None and pm.deferral is not None
         objective, x, added_then = watch.best
@@ -253,17 +278,7 @@ class LazySolver:
         states = trajectory_states(pm)
         for n in pm.added - added_then:
             assign_side(pm, n, best_side(pm.deferral.lazy[n], states))
-        bound = last.results.objective_bound
-        return Step1(
-            status=status,
-            objective=objective,
-            bound=bound,
-            gap=relative_gap(objective, bound),
-            seconds=time.perf_counter() - tick,
-            rounds=rounds,
-            added=len(pm.added),
-            stop=last.results.termination_condition.name,
-        )
+        return objective
 
 
 def solve_step1(pm: PlanModel, options: PlanOptions, clock: Clock) -> Step1:
