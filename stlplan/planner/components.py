@@ -30,7 +30,7 @@ solved again with an absolute gap while ``(U - F) / |F|`` exceeds the gap, so th
 full problem's optimum to the same tolerance as one solve. Finally the parts' requirements are
 encoded in one model of the full problem, its states held near the parts' plans, and one small
 solve sets every indicator (its objective, a point of the full problem, is the one reported);
-step 2 runs on that model as usual.
+step 2 runs on that model as usual (:mod:`stlplan.planner.assembly`).
 """
 
 from __future__ import annotations
@@ -43,14 +43,15 @@ from typing import Any
 
 from stlplan.mission.problem import Problem
 from stlplan.planner import stops
+from stlplan.planner.assembly import assemble, hold_plans, plan_values
 from stlplan.planner.clock import FLOORS_SHARE, Clock
-from stlplan.planner.encoding.deferred import Requirement, violated
+from stlplan.planner.encoding.deferred import Requirement, requirement_key, violated
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
-from stlplan.planner.in_turn import Held, InTurn, hold_near, release
+from stlplan.planner.in_turn import InTurn, release
 from stlplan.planner.lazy import LazySolver, Step1, relative_gap
 from stlplan.planner.options import PlanOptions
 from stlplan.planner.parts import agent_parts, sub_problem
-from stlplan.planner.session import MIN_SOLVE_SECONDS, HighsSession
+from stlplan.planner.session import MIN_SOLVE_SECONDS
 from stlplan.planner.watch import VIOLATION_TOL, trajectory_states
 from stlplan.result import PlanStatus
 
@@ -63,15 +64,6 @@ crowd comes last, with little time, and without a repaired plan there is often n
 
 MERGE_RESERVE = 0.1
 """Share of the time left that the parts' first solves leave for merging parts that collide."""
-
-ASSEMBLY_LIMIT = 60.0
-"""Time limit of the assembly solve, seconds (a finishing solve: also within the run's budget
-and grace, :class:`stlplan.planner.session.Clock`)."""
-
-
-def requirement_key(req: Requirement) -> tuple[Any, ...]:
-    """What identifies a requirement across models of the same mission."""
-    return req.source, tuple(sorted(req.binding.items())), req.k, req.span, req.formula
 
 
 @dataclass(eq=False)
@@ -127,11 +119,14 @@ def _crossing(full: PlanModel, parts: Sequence[Part]) -> list[Requirement]:
     states, owner = {}, {a: i for i, part in enumerate(parts) for a in part.agents}
     for part in parts:
         states.update(trajectory_states(part.pm))
-    margin = full.margin if isinstance(full.margin, float) else float(full.margin.lb)
-    bad = [
-        full.deferral.lazy[n] for n in violated(full.deferral.lazy, states, margin, VIOLATION_TOL)
-    ]
+    found = violated(full.deferral.lazy, states, _margin(full), VIOLATION_TOL)
+    bad = [full.deferral.lazy[n] for n in found]
     return [r for r in bad if len({owner[a] for a in r.binding.values()}) > 1]
+
+
+def _margin(pm: PlanModel) -> float:
+    """The spatial margin ``r`` of ``pm`` (its lower bound when the margin is maximized)."""
+    return pm.margin if isinstance(pm.margin, float) else float(pm.margin.lb)
 
 
 def _merge(parts: list[Part], linked: list[set[str]]) -> list[list[Part]]:
@@ -221,20 +216,6 @@ def _combined(parts: Sequence[Part], options: PlanOptions, seconds: float, round
     )
 
 
-def _hold(full: PlanModel, parts: Sequence[Part], free: frozenset[str] = frozenset()) -> Held:
-    """Bound ``x`` and ``u`` of ``full`` to within :data:`stlplan.planner.in_turn.HOLD` of the
-    parts' plans (but those of the agents in ``free``); returns what :func:`release` restores."""
-    held: Held = []
-    for part in parts:
-        for name in ("x", "u"):
-            source, target = getattr(part.pm.model, name), getattr(full.model, name)
-            for key, var in source.items():
-                goal = target[key]
-                if not (goal.fixed or var.value is None or key[0] in free):
-                    hold_near(goal, float(var.value), held)
-    return held
-
-
 def _solve_in_shares(parts: Sequence[Part], options: PlanOptions, deadline: float) -> None:
     """Solve the parts not solved yet, the smallest first, each within an equal share of the
     time left but :data:`MERGE_RESERVE` (what one leaves goes to the next); the reserve is for
@@ -275,7 +256,7 @@ def _repair(part: Part, options: PlanOptions, deadline: float) -> Step1 | None:
         repaired = part.solver.kept(time.perf_counter() - tick)
     if repaired is None:
         limit = max(MIN_SOLVE_SECONDS, REPAIR_SHARE * (deadline - time.perf_counter()))
-        held = _hold(part.pm, part.merged_from, part.free)
+        held = hold_plans(part.pm, part.merged_from, part.free)
         try:
             repaired = part.solver.run(limit, trial=True)
         finally:
@@ -296,37 +277,11 @@ def _in_turn(part: Part, options: PlanOptions, seconds: float) -> bool:
     by agent (:class:`stlplan.planner.in_turn.InTurn`); whether that found a plan."""
     pm = part.pm
     assert pm.deferral is not None and part.solver.watch is not None
-    for source in part.merged_from:
-        for name in ("x", "u"):
-            target = getattr(pm.model, name)
-            for key, var in getattr(source.pm.model, name).items():
-                if var.value is not None and not target[key].fixed:
-                    target[key].set_value(float(var.value), skip_validation=True)
-    margin = pm.margin if isinstance(pm.margin, float) else float(pm.margin.lb)
-    bad = violated(pm.deferral.lazy, trajectory_states(pm), margin, VIOLATION_TOL)
+    for var, planned in plan_values(pm, part.merged_from):
+        var.set_value(planned, skip_validation=True)
+    bad = violated(pm.deferral.lazy, trajectory_states(pm), _margin(pm), VIOLATION_TOL)
     InTurn(pm, part.solver.session, options).run(bad, seconds)
     return part.solver.watch.best is not None
-
-
-def assemble(
-    full: PlanModel, parts: Sequence[Part], options: PlanOptions, clock: Clock
-) -> float | None:
-    """Load the parts' plans into ``full`` with every indicator set; returns its objective.
-
-    The parts' requirements are encoded in ``full``, its states and inputs held near the parts'
-    plans (:func:`_hold`), and one solve chooses the indicators and binaries. None on failure.
-    """
-    assert full.deferral is not None
-    index = {requirement_key(r): n for n, r in enumerate(full.deferral.lazy)}
-    keys = set().union(*(p.added_keys() for p in parts))
-    add_requirements(full, [index[k] for k in keys if k in index])
-    held = _hold(full, parts)
-    with stops.finishing():  # the plan is found: a stop request lets this solve end
-        session = HighsSession(full.model, options, clock, "step1")
-        solved = session.solve(ASSEMBLY_LIMIT, finishing=True)
-    release(held)
-    objective = solved.results.incumbent_objective
-    return None if objective is None else float(objective)
 
 
 def solve_parts(

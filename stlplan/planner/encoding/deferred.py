@@ -28,6 +28,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -232,6 +233,11 @@ def violated(
         for n, req in enumerate(requirements)
         if float(alpha_values(req, states).max()) - margin < -tolerance
     ]
+
+
+def requirement_key(req: Requirement) -> tuple[Any, ...]:
+    """What identifies a requirement across models of the same mission."""
+    return req.source, tuple(sorted(req.binding.items())), req.k, req.span, req.formula
 
 
 def best_side(requirement: Requirement, states: Mapping[str, np.ndarray]) -> int:
