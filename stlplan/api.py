@@ -22,7 +22,7 @@ from stlplan.outputs.summary import summary_dict
 from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
 from stlplan.pipeline import plan
 from stlplan.planner import stops
-from stlplan.planner.options import Overrides, PlanOptions
+from stlplan.planner.config import Overrides, PlannerConfig
 from stlplan.planner.size import check_size
 from stlplan.result import MonitorReport, PlanResult
 
@@ -155,10 +155,10 @@ def solve(
     """
     # a bad mission leaves no output folder behind
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
-    options = PlanOptions.from_mission(problem.mission, overrides)
-    if options.tasks == "groups":
+    config = PlannerConfig.from_mission(problem.mission, (overrides or Overrides()).dotted())
+    if config.model.tasks == "groups":
         check_enumerable(problem)
-    check_size(problem, options.time_limit, options.tasks)
+    check_size(problem, config.solver.time_limit, config.model.tasks)
     created = out is not None and not Path(out).exists()
     if out is not None:
         prepare_directory(Path(out))

@@ -47,30 +47,29 @@ SUITE = tuple(f"stl/{p.stem}" for p in sorted((missions_dir() / "stl").glob("*.y
 NO_PLAN = ("infeasible", "no_plan")
 """Statuses of a solve that ends without a plan for the monitor to judge."""
 
-FORMULATIONS: dict[str, tuple[tuple[str, Any], ...]] = {
-    "default": (),
-    "sampled": (("inter_sample", False),),
-    "straightforward": (("lazy", False), ("floors", False)),
-    "no-floors": (("floors", False),),
-    "symmetry": (("symmetry", True),),
-    "no-symmetry": (("symmetry", False),),
-    "no-in-turn": (("in_turn_after", None), ("in_turn_agents", None)),
-    "in-turn-by-time": (("in_turn_agents", None),),
-    "in-turn-always": (("in_turn_after", 0.0),),
-    "no-parts": (("decompose", False),),
-    "lazy-only": (("decompose", False), ("floors", False)),
-    "pair-window": (("lazy_window", None),),
-    "window1": (("lazy_window", 1),),
-    "near-0.1": (("lazy_margin", 0.1),),
-    "near-0.2": (("lazy_margin", 0.2),),
-    "log": (("encoding", "log"),),
-    "groups": (("tasks", "groups"),),
-    "standard": (("encoding", "standard"),),
-    "heuristics-0.01": (("highs_options", (("mip_heuristic_effort", 0.01),)),),
-    "heuristics-0.2": (("highs_options", (("mip_heuristic_effort", 0.2),)),),
+FORMULATIONS: dict[str, dict[str, Any]] = {
+    "default": {},
+    "sampled": {"inter_sample": False},
+    "straightforward": {"lazy.enabled": False, "model.floors": False},
+    "no-floors": {"model.floors": False},
+    "symmetry": {"model.symmetry": True},
+    "no-symmetry": {"model.symmetry": False},
+    "no-in-turn": {"repair.after_round_seconds": None, "repair.crowd_agents": None},
+    "in-turn-by-time": {"repair.crowd_agents": None},
+    "in-turn-always": {"repair.after_round_seconds": 0.0},
+    "no-parts": {"parts.enabled": False},
+    "lazy-only": {"parts.enabled": False, "model.floors": False},
+    "pair-window": {"lazy.window": None},
+    "window1": {"lazy.window": 1},
+    "log": {"model.encoding": "log"},
+    "groups": {"model.tasks": "groups"},
+    "standard": {"model.encoding": "standard"},
+    "heuristics-0.01": {"solver.highs_options": {"mip_heuristic_effort": 0.01}},
+    "heuristics-0.2": {"solver.highs_options": {"mip_heuristic_effort": 0.2}},
 }
-"""Formulation name to :class:`stlplan.planner.solve.PlanOptions` overrides (``inter_sample`` goes to the
-problem: ``sampled`` is the paper's semantics, safety judged at the steps only)."""
+"""Formulation name to dotted :class:`stlplan.planner.config.PlannerConfig` overrides
+(``inter_sample`` goes to the problem: ``sampled`` is the paper's semantics, safety judged at the
+steps only)."""
 
 GAP = 1e-4
 """The missions' relative gap: two optimal objectives of one state agree within it."""
@@ -115,7 +114,7 @@ def _overrides(job: Job, threads: int | None) -> Any:
         time_limit=job.time_limit,
         threads=threads,
         inter_sample=inter_sample,
-        tuning=tuple(chosen.items()),
+        config=chosen,
     )
 
 

@@ -18,9 +18,9 @@ from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.planner import stops
+from stlplan.planner.config import Overrides, PlannerConfig, describe
 from stlplan.planner.diagnose import cheap_diagnosis, cheap_reasons, diagnose
 from stlplan.planner.figures import reported
-from stlplan.planner.options import Overrides, PlanOptions
 from stlplan.planner.size import check_size
 from stlplan.result import PlanResult, PlanStatus
 
@@ -60,7 +60,7 @@ def plan(
     """Solve a mission and verify the plan with the monitor.
 
     ``overrides`` change the mission's settings for this run (:class:`Overrides`: time limit,
-    gap, threads, seed, encoding, two steps, inter-sample safety, tuning). The time limit bounds
+    gap, threads, seed, encoding, two steps, inter-sample safety, any planner knob). The time limit bounds
     the whole call, diagnosis included. An infeasible mission comes back with a
     :class:`~stlplan.result.Diagnosis` (cheap reasons found before solving, or a minimal
     conflict found by feasibility solves).
@@ -74,40 +74,40 @@ def plan(
     overrides = overrides or Overrides()
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
     problem = problem.with_inter_sample(overrides.inter_sample)
-    options = PlanOptions.from_mission(problem.mission, overrides)
-    if options.tasks == "groups":
+    config = PlannerConfig.from_mission(problem.mission, overrides.dotted())
+    if config.model.tasks == "groups":
         check_enumerable(problem)
-    deadline = time.perf_counter() + options.time_limit
-    check_size(problem, options.time_limit, options.tasks)
+    deadline = time.perf_counter() + config.solver.time_limit
+    check_size(problem, config.solver.time_limit, config.model.tasks)
+    used: dict[str, Any] = {"config": config.model_dump(), "strategy": describe(config)}
     reasons = cheap_reasons(problem)
     if reasons:
         diagnosis = cheap_diagnosis(problem, reasons)
         message = f"infeasible before solving: {len(reasons)} requirement(s) cannot be met"
-        return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis)
+        return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis, **used)
     with stops.stop_on_signals(), _quiet_pyomo():
-        result = solve_plan(problem, options, progress=progress, deadline=deadline)
+        result = solve_plan(problem, config, progress=progress, deadline=deadline)
         if result.status is PlanStatus.INFEASIBLE and diagnose_infeasible:
-            result = _diagnosed(problem, options, result, deadline)
-        return problem, _verified(problem, result, options.gap)
+            result = _diagnosed(problem, config, result, deadline)
+        result = dataclasses.replace(result, **used)
+        return problem, _verified(problem, result, config.solver.gap)
 
 
 class _DiagnosisStopped(Exception):
     """A stop request ended the diagnosis."""
 
 
-PROBE_LIMIT, DIAGNOSIS_LIMIT = 30.0, 120.0
-"""Time limit of one feasibility solve of the diagnosis, and of the whole diagnosis, seconds
-(both within what is left of the run's time limit)."""
-
-
 def _diagnosed(
-    problem: Problem, options: PlanOptions, result: PlanResult, deadline: float
+    problem: Problem, config: PlannerConfig, result: PlanResult, deadline: float
 ) -> PlanResult:
     """``result`` with a minimal conflict found by feasibility solves (deletion filter), each
     infeasible verdict confirmed (recorded as a diagnosis probe), all before ``deadline``."""
     from stlplan.planner.solve import plan as solve_plan
 
-    probe = dataclasses.replace(options, time_limit=PROBE_LIMIT, two_step=False)
+    limits = config.diagnosis
+    probe = config.with_overrides(
+        {"solver.time_limit": limits.probe_seconds, "continuous.two_step": False}
+    )
     confirmations = list(result.confirmations)
 
     def feasibility(subset: Problem) -> PlanStatus:
@@ -119,7 +119,7 @@ def _diagnosed(
             raise _DiagnosisStopped
         return found.status
 
-    budget = max(0.0, min(DIAGNOSIS_LIMIT, deadline - time.perf_counter()))
+    budget = max(0.0, min(limits.seconds, deadline - time.perf_counter()))
     try:
         diagnosis = diagnose(problem, feasibility, budget)
         out = dataclasses.replace(result, diagnosis=diagnosis)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -242,3 +242,7 @@ class PlanResult:
     """The solver's own objective, margin and rho_s, kept beside the reported ones."""
     fallback: Fallback | None = None
     """A step that failed, why, and what keeping the earlier plan costs."""
+    config: Mapping[str, Any] = field(default_factory=dict)
+    """The planner's whole configuration for this run, by section and knob."""
+    strategy: str = ""
+    """The composed strategy of the run in one line."""

@@ -12,13 +12,14 @@ from stlplan.formula.boundary import EPSILON
 from stlplan.planner import components
 from stlplan.planner.clock import Clock
 from stlplan.planner.components import Part, _tighten, solve_parts
+from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.lazy import Step1
-from stlplan.planner.options import PlanOptions
 from stlplan.planner.parts import agent_parts, sub_problem
 from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
+from tests.helpers.configs import UP_FRONT, paper_model
 from tests.test_lazy import accepted, mission, swap_problem
 
 
@@ -73,10 +74,13 @@ def test_parts_give_the_up_front_optimum() -> None:
     # proven to a gap of 1e-6 (4e-6 at this objective of about -4), so that two optima must
     # agree within the tolerance 1e-5
     problem = two_teams()
-    options = PlanOptions(time_limit=60, gap=1e-6)
+    options = PlannerConfig().with_overrides({"solver.time_limit": 60.0, "solver.gap": 1e-6})
     by_parts = solve_parts(problem, options, Clock(0.0, None))
     assert by_parts is not None
-    whole = plan(problem, PlanOptions(time_limit=60, gap=1e-6, lazy=False, floors=False))
+    whole = plan(
+        problem,
+        UP_FRONT,
+    )
     parted = plan(problem, options)
     assert by_parts[1].status is PlanStatus.OPTIMAL
     assert by_parts[1].objective == pytest.approx(whole.objective, abs=1e-5)
@@ -87,7 +91,9 @@ def test_parts_give_the_up_front_optimum() -> None:
 def test_a_collision_between_parts_merges_them() -> None:
     # a and b are separate parts whose straight plans collide at step 1
     problem = swap_problem(separation=0.5)
-    found = solve_parts(problem, PlanOptions(time_limit=60), Clock(0.0, None))
+    found = solve_parts(
+        problem, PlannerConfig().with_overrides({"solver.time_limit": 60.0}), Clock(0.0, None)
+    )
     assert found is not None
     full, step1 = found
     assert step1.status is PlanStatus.OPTIMAL
@@ -95,7 +101,7 @@ def test_a_collision_between_parts_merges_them() -> None:
     assert step1.objective == pytest.approx(-(2 * 1.9 + 2 * 0.4 + 6 * EPSILON), abs=1e-9)
     assert full.deferral is not None
     assert any(full.deferral.lazy[n].source == "separation" for n in full.added)
-    result = plan(problem, PlanOptions(time_limit=60))
+    result = plan(problem, PlannerConfig().with_overrides({"solver.time_limit": 60.0}))
     assert accepted(problem, result)
 
 
@@ -123,7 +129,7 @@ def test_tighten_solves_the_loosest_part_again_with_an_absolute_gap() -> None:
         Part(("v",), None, loose, _step(4.0, 4.0004)),  # type: ignore[arg-type]
         Part(("u",), None, exact, _step(-0.3, -0.29999)),  # type: ignore[arg-type]
     ]
-    _tighten(parts, PlanOptions(gap=1e-4), deadline=1e9)
+    _tighten(parts, PlannerConfig().with_overrides({"solver.gap": 1e-4}), deadline=1e9)
     assert exact.asked == []
     assert loose.asked == [pytest.approx(1e-4 * 3.7 - 1e-5)]
     assert parts[0].step1 is not None and parts[0].step1.bound == 4.0002
@@ -154,19 +160,22 @@ def test_a_merged_part_is_repaired_with_only_the_colliding_agents_free(
     repairs: list[tuple[frozenset[str], Step1 | None]] = []
     repair = components._repair
 
-    def spy(part: Part, options: PlanOptions, deadline: float) -> Step1 | None:
-        repaired = repair(part, options, deadline)
+    def spy(part: Part, config: PlannerConfig, deadline: float) -> Step1 | None:
+        repaired = repair(part, config, deadline)
         repairs.append((part.free, repaired))
         return repaired
 
     monkeypatch.setattr(components, "_repair", spy)
     problem = detour_for_free()
     assert agent_parts(problem) == [("a", "b"), ("e",)]
-    options = PlanOptions(time_limit=60, gap=1e-6)
+    options = PlannerConfig().with_overrides({"solver.time_limit": 60.0, "solver.gap": 1e-6})
     found = solve_parts(problem, options, Clock(0.0, None))
     assert found is not None
     _, step1 = found
-    whole = plan(problem, PlanOptions(time_limit=60, gap=1e-6, lazy=False, floors=False))
+    whole = plan(
+        problem,
+        UP_FRONT,
+    )
     assert [free for free, _ in repairs] == [frozenset({"a", "e"})]  # b was held
     repaired = repairs[0][1]
     assert repaired is not None and repaired.objective is not None
@@ -185,23 +194,26 @@ def test_tighten_towards_a_plan_below_the_parts_sum() -> None:
         Part(("v",), None, loose, _step(4.0, 4.0004)),  # type: ignore[arg-type]
         Part(("u",), None, exact, _step(-0.3, -0.29999)),  # type: ignore[arg-type]
     ]
-    _tighten(parts, PlanOptions(gap=1e-4), deadline=1e9, plan=3.6999)
+    _tighten(parts, PlannerConfig().with_overrides({"solver.gap": 1e-4}), deadline=1e9, plan=3.6999)
     assert loose.asked == [pytest.approx(1e-4 * 3.6999 - 1e-4 - 1e-5)]
     # a plan that lost more than the gap cannot be helped by tighter parts: nothing is solved
     costly = _Solver(_step(4.0, 4.0))
     parts[0] = Part(("v",), None, costly, _step(4.0, 4.0004))  # type: ignore[arg-type]
-    _tighten(parts, PlanOptions(gap=1e-4), deadline=1e9, plan=3.6)
+    _tighten(parts, PlannerConfig().with_overrides({"solver.gap": 1e-4}), deadline=1e9, plan=3.6)
     assert costly.asked == []
 
 
 def test_a_solve_starts_from_a_given_plan() -> None:
     # HiGHS stops at its first improving plan: without a start that is a poor one here
-    pm = build_model(detour_for_free(), "standard", lazy=False, floors=False)
-    exact = HighsSession(pm.model, PlanOptions(), Clock(0.0, None), "step1")
+    pm = build_model(
+        detour_for_free(),
+        paper_model(model__encoding="standard"),
+    )
+    exact = HighsSession(pm.model, PlannerConfig(), Clock(0.0, None), "step1")
     optimum = exact.solve(60).results.incumbent_objective
     plan_x = np.array(exact.highs.getSolution().col_value)
-    first = PlanOptions(
-        highs_options=(("mip_max_improving_sols", 1), ("mip_heuristic_effort", 0.0))
+    first = PlannerConfig().with_overrides(
+        {"solver.highs_options": {"mip_max_improving_sols": 1, "mip_heuristic_effort": 0.0}}
     )
     found = []
     for start in (None, plan_x):
@@ -226,8 +238,11 @@ def test_only_requirements_between_parts_are_crossings() -> None:
     # such a requirement is no crossing: merging parts could not change it, and the loop of
     # solve_parts would merge nothing and check again, forever
     problem = two_teams()
-    options, clock = PlanOptions(time_limit=60), Clock(0.0, None)
-    full = build_model(problem, options.encoding, lazy=True, floors=False)
+    options, clock = PlannerConfig().with_overrides({"solver.time_limit": 60.0}), Clock(0.0, None)
+    full = build_model(
+        problem,
+        paper_model(lazy__enabled=True, model__encoding=options.model.encoding),
+    )
     parts = [components._part(problem, names, options, clock) for names in agent_parts(problem)]
     spread = {"a": (0.0, 0.0), "b": (1.0, 0.0), "c": (2.0, 0.0), "d": (3.0, 0.0), "e": (4.0, 0.0)}
     for part in parts:
@@ -244,11 +259,11 @@ def test_only_requirements_between_parts_are_crossings() -> None:
 def test_parts_are_solved_smallest_first_in_shares_with_a_reserve(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    # each stub part uses its whole share; the first solves leave MERGE_RESERVE of the time
+    # each stub part uses its whole share; the first solves leave parts.merge_reserve of the time
     asked: list[tuple[tuple[str, ...], float]] = []
     start = time.perf_counter()
 
-    def solve_part(part: Part, options: PlanOptions, deadline: float) -> Step1:
+    def solve_part(part: Part, config: PlannerConfig, deadline: float) -> Step1:
         asked.append((part.agents, deadline - time.perf_counter()))
         monkeypatch.setattr(time, "perf_counter", lambda: deadline)  # the share is spent
         return _step(1.0, 1.0)
@@ -256,8 +271,8 @@ def test_parts_are_solved_smallest_first_in_shares_with_a_reserve(
     parts = [Part(agents, None, None) for agents in (("a", "b", "c"), ("d",), ("e", "f"))]  # type: ignore[arg-type]
     monkeypatch.setattr(components, "_solve_part", solve_part)
     monkeypatch.setattr(time, "perf_counter", lambda: start)
-    components._solve_in_shares(parts, PlanOptions(), start + 100.0)
+    components._solve_in_shares(parts, PlannerConfig(), start + 100.0)
     assert [agents for agents, _ in asked] == [("d",), ("e", "f"), ("a", "b", "c")]
-    usable = 100.0 * (1 - components.MERGE_RESERVE)
+    usable = 100.0 * (1 - PlannerConfig().parts.merge_reserve)
     assert [share for _, share in asked] == pytest.approx([usable / 3] * 3)
     assert all(p.step1 is not None for p in parts)

@@ -14,7 +14,7 @@ from stlplan.mission.problem import Problem
 from stlplan.monitor.crossings import crossing_segments, segment_floor, separation_segments
 from stlplan.monitor.verdicts import check
 from stlplan.outputs.plots import plan_figure
-from stlplan.planner.options import PlanOptions
+from stlplan.planner.config import PlannerConfig
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
 from tests.test_lazy import mission, swap_problem
@@ -110,7 +110,7 @@ def corner_problem(horizon: int, inter_sample: bool) -> Problem:
 
 
 def test_a_sampled_plan_cuts_the_corner_a_safe_one_goes_around() -> None:
-    options = PlanOptions(time_limit=60)
+    options = PlannerConfig().with_overrides({"solver.time_limit": 60.0})
     # in two steps the middle one must sit above Obs with x near 1: the way there cuts the corner
     sampled = plan(corner_problem(2, inter_sample=False), options)
     assert sampled.status is PlanStatus.OPTIMAL and sampled.trajectory is not None
@@ -118,7 +118,10 @@ def test_a_sampled_plan_cuts_the_corner_a_safe_one_goes_around() -> None:
     assert not verdict.satisfied and "on the segment 0 -> 1" in verdict.detail
     assert plan(corner_problem(2, inter_sample=True), options).status is PlanStatus.INFEASIBLE
     for lazy in (True, False):
-        safe = plan(corner_problem(3, inter_sample=True), PlanOptions(time_limit=60, lazy=lazy))
+        safe = plan(
+            corner_problem(3, inter_sample=True),
+            PlannerConfig().with_overrides({"solver.time_limit": 60.0, "lazy.enabled": lazy}),
+        )
         assert safe.status is PlanStatus.OPTIMAL and safe.trajectory is not None
         assert check(corner_problem(3, inter_sample=True), safe.trajectory).satisfied
 
@@ -126,11 +129,19 @@ def test_a_sampled_plan_cuts_the_corner_a_safe_one_goes_around() -> None:
 @pytest.mark.parametrize("lazy", [True, False])
 def test_the_planner_keeps_agents_apart_between_steps(lazy: bool) -> None:
     problem = swap_problem(separation=0.5, horizon=4, inter_sample=True)
-    result = plan(problem, PlanOptions(time_limit=60, lazy=lazy, floors=False))
+    result = plan(
+        problem,
+        PlannerConfig().with_overrides(
+            {"solver.time_limit": 60.0, "lazy.enabled": lazy, "model.floors": False}
+        ),
+    )
     assert result.status is PlanStatus.OPTIMAL
     assert result.trajectory is not None
     assert check(problem, result.trajectory).satisfied
-    sampled = plan(problem.with_inter_sample(False), PlanOptions(time_limit=60, lazy=lazy))
+    sampled = plan(
+        problem.with_inter_sample(False),
+        PlannerConfig().with_overrides({"solver.time_limit": 60.0, "lazy.enabled": lazy}),
+    )
     assert sampled.objective is not None and result.objective is not None
     assert sampled.objective >= result.objective - 1e-6
 

@@ -37,6 +37,7 @@ from stlplan.planner.encoding.stl import (
     encode,
     predicate_range,
 )
+from tests.helpers.configs import paper_model
 
 ENCODINGS = ["log", "standard"]
 
@@ -276,7 +277,10 @@ def test_shared_elements_are_encoded_once() -> None:
     )
     task = problem.tasks[0]
     assert len(task.elements) == 4 and len(task.groups) == 6
-    pm = build_model(problem, "log")
+    pm = build_model(
+        problem,
+        paper_model(model__encoding="log"),
+    )
     # F over 3 steps per element: 3 steps x 4 half-planes predicates, one per element and step
     predicates = [r for r in pm.model.spec.rows.values() if "x[" in str(r.body)]
     assert len(predicates) == 4 * 3 * 4
@@ -285,7 +289,10 @@ def test_shared_elements_are_encoded_once() -> None:
 @pytest.mark.parametrize("encoding", ENCODINGS)
 def test_log_encoding_uses_fewer_binaries(encoding) -> None:
     task = {"formula": "F[0,8] in(p, B) | F[0,8] in(p, A)", "roles": {"p": {"agent": "a1"}}}
-    pm = build_model(_line_mission(8, REGIONS, tasks={"t": task}), encoding)
+    pm = build_model(
+        _line_mission(8, REGIONS, tasks={"t": task}),
+        paper_model(model__encoding=encoding),
+    )
     binaries = [v for v in pm.model.component_data_objects(Var) if v.is_binary()]
     # required Or of 2 F's: SOS1 over 2 entries; each F[0,8]: SOS1 over {1 - z, 9 entries}
     expected = {"log": 1 + 2 * 4, "standard": 2 + 2 * 10}[encoding]

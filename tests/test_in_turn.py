@@ -12,14 +12,15 @@ from stlplan.mission.problem import Problem
 from stlplan.planner import components
 from stlplan.planner.clock import Clock
 from stlplan.planner.components import Part, solve_parts
+from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.in_turn import InTurn, agents_of, hold_agents, release
 from stlplan.planner.lazy import Step1
-from stlplan.planner.options import PlanOptions
 from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
 from stlplan.planner.watch import pending_violations
 from stlplan.result import PlanStatus
+from tests.helpers.configs import UP_FRONT, paper_model
 from tests.test_components import detour_for_free
 from tests.test_lazy import accepted, mission, solve
 
@@ -55,8 +56,11 @@ def crossing_problem(inter_sample: bool = True) -> Problem:
 
 
 def _first_round(problem: Problem) -> tuple[Any, HighsSession]:
-    options = PlanOptions(time_limit=60)
-    pm = build_model(problem, options.encoding, lazy=True)
+    options = PlannerConfig().with_overrides({"solver.time_limit": 60.0})
+    pm = build_model(
+        problem,
+        paper_model(lazy__enabled=True, model__encoding=options.model.encoding),
+    )
     session = HighsSession(pm.model, options, Clock(0.0, None), "step1")
     assert session.solve(30).results.incumbent_objective is not None
     return pm, session
@@ -76,19 +80,19 @@ def test_a_round_repaired_in_turn_meets_every_requirement(monkeypatch: pytest.Mo
         return solve_free(self, free, done, seconds)
 
     monkeypatch.setattr(InTurn, "_solve_free", spy)
-    repaired = InTurn(pm, session, PlanOptions()).run(bad, 30.0)
+    repaired = InTurn(pm, session, PlannerConfig()).run(bad, 30.0)
     assert repaired
     assert {"a"} in freed  # the first agent is solved alone
     assert pending_violations(pm) == []  # a plan of the full problem
     # the trial settings and the held bounds are given back
-    assert not session.trial and session.solver.config.rel_gap == PlanOptions().gap
+    assert not session.trial and session.solver.config.rel_gap == PlannerConfig().solver.gap
     assert {id(v): v.bounds for v in pm.model.x.values()} == bounds
 
 
 def test_held_agents_keep_their_plan_and_are_released() -> None:
     pm, _ = _first_round(crossing_problem())
     before = {key: v.bounds for key, v in pm.model.x.items()}
-    held = hold_agents(pm, ["a"])
+    held = hold_agents(pm, ["a"], PlannerConfig().repair.hold)
     for (name, _, _), v in pm.model.x.items():
         if name == "a" and not v.fixed:
             lo, hi = v.bounds
@@ -101,9 +105,9 @@ def test_held_agents_keep_their_plan_and_are_released() -> None:
 @pytest.mark.parametrize("inter_sample", [True, False])
 def test_repairing_in_turn_keeps_the_optimum(inter_sample: bool) -> None:
     problem = crossing_problem(inter_sample)
-    with_turns, rounds = solve(problem, in_turn_after=0.0)
-    without, _ = solve(problem, in_turn_after=None, in_turn_agents=None)
-    up_front, _ = solve(problem, lazy=False, floors=False)
+    with_turns, rounds = solve(problem, {"repair.after_round_seconds": 0.0})
+    without, _ = solve(problem, {"repair.after_round_seconds": None, "repair.crowd_agents": None})
+    up_front, _ = solve(problem, {"lazy.enabled": False, "model.floors": False})
     assert rounds >= 2
     assert with_turns.status is without.status is up_front.status is PlanStatus.OPTIMAL
     assert with_turns.objective is not None and up_front.objective is not None
@@ -126,7 +130,7 @@ def test_a_crowded_round_is_repaired_however_short(
         return run(self, bad, seconds)
 
     monkeypatch.setattr(InTurn, "run", spy)
-    result, _ = solve(problem, in_turn_after=1e6, in_turn_agents=crowd)
+    result, _ = solve(problem, {"repair.after_round_seconds": 1e6, "repair.crowd_agents": crowd})
     assert result.status is PlanStatus.OPTIMAL and accepted(problem, result)
     assert bool(runs) is repairs
     assert all(len(agents) >= crowd for agents in runs)
@@ -141,6 +145,7 @@ def test_a_turn_that_fails_frees_the_agents_it_could_not_avoid() -> None:
         return {"a", "b"} if free == {"b"} else set()
 
     turn = InTurn.__new__(InTurn)
+    turn.min_solve = PlannerConfig().budget.min_solve_seconds
     turn._solve_free = solve_free  # type: ignore[method-assign]
     deadline = time.perf_counter() + 60
     assert turn._turn({"b"}, {"a"}, deadline, 1) == {"a", "b"}
@@ -159,7 +164,7 @@ def test_the_second_turns_never_make_the_repaired_plan_worse(
         pm, session = _first_round(problem)
         if not improve:
             monkeypatch.setattr(InTurn, "_improve", lambda self, turns, everyone, deadline: None)
-        assert InTurn(pm, session, PlanOptions()).run(pending_violations(pm), 30)
+        assert InTurn(pm, session, PlannerConfig()).run(pending_violations(pm), 30)
         assert pending_violations(pm) == []
         scores.append(value(pm.model.step1))
         monkeypatch.undo()
@@ -171,7 +176,7 @@ def test_a_turn_adds_every_step_of_a_pair_it_crosses() -> None:
     problem = crossing_problem()
     pm, session = _first_round(problem)
     assert pm.deferral is not None
-    InTurn(pm, session, PlanOptions()).run(pending_violations(pm), 30.0)
+    InTurn(pm, session, PlannerConfig()).run(pending_violations(pm), 30.0)
     lazy = pm.deferral.lazy
     families = {lazy[n].family for n in pm.added}
     assert families  # the turns crossed held agents and added what they crossed
@@ -192,21 +197,26 @@ def test_a_merged_part_colliding_in_a_crowd_is_repaired_in_turn(
         turns.append(agents_of(self.pm, bad))
         return run(self, bad, seconds)
 
-    def spy_repair(part: Part, options: PlanOptions, deadline: float) -> Step1 | None:
+    def spy_repair(part: Part, config: PlannerConfig, deadline: float) -> Step1 | None:
         assert part.pm.deferral is not None
         seeded = {part.pm.deferral.lazy[n].source for n in part.pm.added}
         assert ("separation" in seeded) is not in_turn  # the crossing is left to the turns
-        repairs.append(repair(part, options, deadline))
+        repairs.append(repair(part, config, deadline))
         return repairs[-1]
 
     monkeypatch.setattr(InTurn, "run", spy_run)
     monkeypatch.setattr(components, "_repair", spy_repair)
-    options = PlanOptions(time_limit=60, gap=1e-6, in_turn_agents=crowd)
+    options = PlannerConfig().with_overrides(
+        {"solver.time_limit": 60.0, "solver.gap": 1e-6, "repair.crowd_agents": crowd}
+    )
     found = solve_parts(problem, options, Clock(0.0, None))
     assert found is not None and found[1].status is PlanStatus.OPTIMAL
     assert turns == ([{"a", "e"}] if in_turn else [])
     repaired = repairs[0]
     assert repaired is not None and (repaired.stop == "repaired") is in_turn
-    whole = plan(problem, PlanOptions(time_limit=60, gap=1e-6, lazy=False, floors=False))
+    whole = plan(
+        problem,
+        UP_FRONT,
+    )
     assert found[1].objective == pytest.approx(whole.objective, abs=1e-5)
     assert accepted(problem, plan(problem, options))

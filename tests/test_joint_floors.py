@@ -11,12 +11,13 @@ from hypothesis import strategies as st
 from pyomo.environ import Reals, Var
 
 from stlplan.planner.clock import Clock
+from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding import floors, team_floors
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.options import PlanOptions
 from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
+from tests.helpers.configs import UP_FRONT, paper_model
 from tests.test_lazy import mission
 
 
@@ -41,9 +42,12 @@ def tasks_apart(starts: list[float], corners: list[list[float]], late: int) -> A
 
 def assert_floors_keep_the_optimum(problem: Any) -> None:
     """Proven to 1e-7, with and without every floor: the same status and optimum."""
-    exact = {"time_limit": 60, "gap": 1e-7, "lazy": False, "two_step": False}
-    floored = plan(problem, PlanOptions(**exact, floors=True))
-    plain = plan(problem, PlanOptions(**exact, floors=False))
+    exact = PlannerConfig().with_overrides(
+        {"solver.time_limit": 60.0, "solver.gap": 1e-7, "lazy.enabled": False,
+         "continuous.two_step": False}
+    )  # fmt: skip
+    floored = plan(problem, exact.with_overrides({"model.floors": True}))
+    plain = plan(problem, exact.with_overrides({"model.floors": False}))
     assert floored.status == plain.status
     if plain.status is PlanStatus.OPTIMAL:
         assert floored.objective == pytest.approx(plain.objective, abs=1e-5)
@@ -51,13 +55,16 @@ def assert_floors_keep_the_optimum(problem: Any) -> None:
 
 def lp_bound(problem: Any) -> float:
     """The LP relaxation's optimum of problem (step1)."""
-    pm = build_model(problem, "standard", lazy=False, floors=True, task_encoding="selection")
+    pm = build_model(
+        problem,
+        paper_model(model__floors=True, model__tasks="selection", model__encoding="standard"),
+    )
     for v in pm.model.component_data_objects(Var):
         if v.is_binary():
             v.domain = Reals
             v.setlb(0)
             v.setub(1)
-    solved = HighsSession(pm.model, PlanOptions(), Clock(0.0, None), "step1", mip=False).solve(60)
+    solved = HighsSession(pm.model, PlannerConfig(), Clock(0.0, None), "step1", mip=False).solve(60)
     objective = solved.results.incumbent_objective
     assert objective is not None
     return float(objective)
@@ -72,7 +79,10 @@ def test_one_agent_serving_two_far_tasks_tightens_the_relaxation(
     monkeypatch.setattr(floors, "_service_floors", lambda *args: (0, set()))
     without = lp_bound(problem)
     assert with_cuts < without - 1.0  # a maximization: the bound is lower by the way between
-    exact = plan(problem, PlanOptions(time_limit=60, gap=1e-6, lazy=False, floors=False))
+    exact = plan(
+        problem,
+        UP_FRONT,
+    )
     assert exact.objective is not None and exact.objective <= with_cuts + 1e-6
 
 
@@ -123,7 +133,10 @@ def test_a_formation_of_agents_far_apart_tightens_the_relaxation(
     monkeypatch.setattr(floors, "add_team_floors", lambda *args: 0)
     without = lp_bound(problem)
     assert with_cuts < without - 0.5  # (-3.87 against -3.00)
-    exact = plan(problem, PlanOptions(time_limit=60, gap=1e-6, lazy=False, floors=False))
+    exact = plan(
+        problem,
+        UP_FRONT,
+    )
     assert exact.objective is not None and exact.objective <= with_cuts + 1e-6
 
 
@@ -181,7 +194,10 @@ def test_shares_bound_a_fractional_choice_of_formations(monkeypatch: pytest.Monk
     monkeypatch.setattr(team_floors, "shared_tasks", lambda ledger: {})
     without = lp_bound(problem)
     assert with_shares < without - 1.0
-    exact = plan(problem, PlanOptions(time_limit=60, gap=1e-6, lazy=False, floors=False))
+    exact = plan(
+        problem,
+        UP_FRONT,
+    )
     assert exact.objective is not None and exact.objective <= with_shares + 1e-6
 
 

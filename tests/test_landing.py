@@ -6,6 +6,7 @@ import pytest
 
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.finish import effort_kept
+from tests.helpers.configs import paper_model
 from tests.test_lazy import mission
 
 
@@ -17,7 +18,10 @@ def _model(effort: str):  # type: ignore[no-untyped-def]
         tasks={"reach": {"formula": "F[2,2] in(p, R)", "roles": {"p": {"agent": "a"}}}},
         objective={"beta": 1.0, "effort": effort},
     )
-    return build_model(problem, "standard", lazy=True)
+    return build_model(
+        problem,
+        paper_model(lazy__enabled=True, model__encoding="standard"),
+    )
 
 
 @pytest.mark.parametrize(

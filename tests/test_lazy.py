@@ -14,12 +14,13 @@ from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
 from stlplan.monitor.verdicts import check
 from stlplan.planner.clock import Progress
+from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import SEPARATION, defer, neighbours, violated
 from stlplan.planner.encoding.model import build_model, reachable_boxes
-from stlplan.planner.options import PlanOptions
 from stlplan.planner.solve import plan
 from stlplan.planner.watch import Watch, lowest
 from stlplan.result import PlanResult, PlanStatus
+from tests.helpers.configs import paper_model
 
 SINGLE_INTEGRATOR = {
     "A": [[1, 0], [0, 1]],
@@ -85,14 +86,15 @@ def detour_problem(with_obstacle: bool, inter_sample: bool = True) -> Problem:
     )
 
 
-def solve(problem: Problem, **options: Any) -> tuple[PlanResult, int]:
-    """Plan with ``options``; returns the result and the number of lazy rounds."""
+def solve(problem: Problem, config: dict[str, Any] | None = None) -> tuple[PlanResult, int]:
+    """Plan with the dotted ``config`` overrides; returns the result and the lazy rounds."""
     rounds = [0]
 
     def seen(progress: Progress) -> None:
         rounds[0] = max(rounds[0], progress.round or 0)
 
-    result = plan(problem, PlanOptions(time_limit=60, **options), progress=seen)
+    settings = PlannerConfig().with_overrides({"solver.time_limit": 60.0, **(config or {})})
+    result = plan(problem, settings, progress=seen)
     return result, rounds[0]
 
 
@@ -104,9 +106,11 @@ def accepted(problem: Problem, result: PlanResult) -> bool:
 @pytest.mark.parametrize("encoding", ["standard", "log"])
 def test_collision_binds_and_lazy_matches_up_front(encoding: str) -> None:
     problem = swap_problem(separation=0.5)
-    free, _ = solve(swap_problem(separation=None), encoding=encoding)
-    lazy, rounds = solve(problem, encoding=encoding, lazy=True)
-    up_front, _ = solve(problem, encoding=encoding, lazy=False, floors=False)
+    free, _ = solve(swap_problem(separation=None), {"model.encoding": encoding})
+    lazy, rounds = solve(problem, {"model.encoding": encoding, "lazy.enabled": True})
+    up_front, _ = solve(
+        problem, {"model.encoding": encoding, "lazy.enabled": False, "model.floors": False}
+    )
     assert lazy.status is up_front.status is PlanStatus.OPTIMAL
     assert lazy.objective is not None and up_front.objective is not None
     assert free.objective is not None and free.objective > up_front.objective + 0.1  # it binds
@@ -123,10 +127,18 @@ def test_obstacle_binds_and_lazy_matches_up_front(window: int | None) -> None:
     problem = detour_problem(with_obstacle=True)
     free, _ = solve(detour_problem(with_obstacle=False))
     lazy, rounds = solve(
-        problem, lazy=True, lazy_window=window, in_turn_after=None, in_turn_agents=None
+        problem,
+        {
+            "lazy.enabled": True,
+            "lazy.window": window,
+            "repair.after_round_seconds": None,
+            "repair.crowd_agents": None,
+        },
     )
-    repaired, _ = solve(problem, lazy=True, lazy_window=window, in_turn_after=0.0)
-    up_front, _ = solve(problem, lazy=False, floors=False)
+    repaired, _ = solve(
+        problem, {"lazy.enabled": True, "lazy.window": window, "repair.after_round_seconds": 0.0}
+    )
+    up_front, _ = solve(problem, {"lazy.enabled": False, "model.floors": False})
     assert lazy.status is repaired.status is up_front.status is PlanStatus.OPTIMAL
     assert lazy.objective is not None and up_front.objective is not None
     assert free.objective is not None and free.objective > up_front.objective + 0.1
@@ -141,15 +153,21 @@ def test_obstacle_binds_and_lazy_matches_up_front(window: int | None) -> None:
 @pytest.mark.parametrize("lazy", [True, False])
 def test_effort_floors_keep_the_optimum(lazy: bool) -> None:
     problem = swap_problem(separation=0.5)
-    with_floors, _ = solve(problem, lazy=lazy, floors=True)
-    without, _ = solve(problem, lazy=lazy, floors=False)
+    with_floors, _ = solve(problem, {"lazy.enabled": lazy, "model.floors": True})
+    without, _ = solve(problem, {"lazy.enabled": lazy, "model.floors": False})
     assert with_floors.objective == pytest.approx(without.objective, abs=1e-6)
 
 
 def test_floors_add_rows_and_fix_unreachable_indicators() -> None:
     problem = swap_problem(separation=0.5)
-    plain = build_model(problem, "standard", floors=False)
-    floored = build_model(problem, "standard", floors=True)
+    plain = build_model(
+        problem,
+        paper_model(model__encoding="standard"),
+    )
+    floored = build_model(
+        problem,
+        paper_model(model__floors=True, model__encoding="standard"),
+    )
     assert not hasattr(plain.model, "effort_floors")
     assert len(floored.model.effort_floors) > len(problem.agents)  # e_p rows and cuts
     # East is 2 away from a: unreachable at step 1 with |u| <= 1, so that disjunct is fixed off

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from stlplan import api
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
-from stlplan.planner.options import Overrides
+from stlplan.planner.config import Overrides
 from stlplan.result import PlanResult, PlanStatus
 from tests.conftest import MISSIONS
 

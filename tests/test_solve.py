@@ -16,9 +16,10 @@ from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
 from stlplan.planner.clock import Progress
-from stlplan.planner.options import Overrides, PlanOptions
+from stlplan.planner.config import ConfigError, Overrides, PlannerConfig
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
+from tests.helpers.configs import paper_model
 
 ENCODINGS = ["log", "standard"]
 FARM = Path(__file__).resolve().parents[1] / "missions" / "farm.yaml"
@@ -85,7 +86,10 @@ def sync_problem(gamma: float = 8) -> Problem:
 @pytest.mark.parametrize("encoding", ENCODINGS)
 def test_reach_minimal_l1_effort(encoding: str) -> None:
     # reach at k=1 costs |u0| = 2; at k=2: min |u0| + |u1| s.t. 1.5 u0 + 0.5 u1 >= 1 is 2/3
-    result = plan(reach_problem(), PlanOptions(encoding=encoding, time_limit=30))
+    result = plan(
+        reach_problem(),
+        PlannerConfig().with_overrides({"model.encoding": encoding, "solver.time_limit": 30.0}),
+    )
     assert result.status is PlanStatus.OPTIMAL
     assert result.objective == pytest.approx(-2 / 3, abs=1e-6)
     assert result.effort == pytest.approx(2 / 3, abs=1e-6)
@@ -96,12 +100,17 @@ def test_reach_minimal_l1_effort(encoding: str) -> None:
 
 def test_step2_minimizes_l2_effort_with_step1_decisions() -> None:
     # step 1 picks k=2; step 2: min u0^2 + u1^2 s.t. 1.5 u0 + 0.5 u1 >= 1 -> u = (0.6, 0.2)
-    result = plan(reach_problem(effort="l2"), PlanOptions(time_limit=30))
+    result = plan(
+        reach_problem(effort="l2"), PlannerConfig().with_overrides({"solver.time_limit": 30.0})
+    )
     assert result.status is PlanStatus.OPTIMAL and result.steps == 2
     assert result.effort == pytest.approx(math.sqrt(0.4), abs=1e-5)
     assert result.trajectory is not None
     np.testing.assert_allclose(result.trajectory.inputs["a"][:, 0], [0.6, 0.2], atol=1e-5)
-    one_step = plan(reach_problem(effort="l2"), PlanOptions(time_limit=30, two_step=False))
+    one_step = plan(
+        reach_problem(effort="l2"),
+        PlannerConfig().with_overrides({"solver.time_limit": 30.0, "continuous.two_step": False}),
+    )
     assert one_step.steps == 1
     assert one_step.effort == pytest.approx(2 / 3, abs=1e-6)  # l2 of (2/3, 0)
     assert one_step.effort > result.effort
@@ -119,7 +128,10 @@ def test_maximized_margin(encoding: str) -> None:
         tasks={"reach": {"formula": "G[1,1] in(p, Goal)", "roles": {"p": {"agent": "a"}}}},
         objective={"beta": 0.1, "effort": "l1", "margin": {"maximize": True}},
     )
-    result = plan(problem, PlanOptions(encoding=encoding, time_limit=30))
+    result = plan(
+        problem,
+        PlannerConfig().with_overrides({"model.encoding": encoding, "solver.time_limit": 30.0}),
+    )
     assert result.status is PlanStatus.OPTIMAL
     assert result.objective == pytest.approx(0.8, abs=1e-6)
     assert result.margin == pytest.approx(1.0, abs=1e-6)
@@ -130,7 +142,10 @@ def test_maximized_margin(encoding: str) -> None:
 def test_synchronous_robustness_by_hand(encoding: str) -> None:
     # best pair (v1, v2): both in C on steps 3..6, run 4, rho_s = 4 - 1 - d = 2;
     # effort: v1 moves 1.5 + e, v2 moves 2.5 + e -> objective 2 - 0.05 * (4 + 2e)
-    result = plan(sync_problem(), PlanOptions(encoding=encoding, time_limit=60))
+    result = plan(
+        sync_problem(),
+        PlannerConfig().with_overrides({"model.encoding": encoding, "solver.time_limit": 60.0}),
+    )
     assert result.status is PlanStatus.OPTIMAL
     assert result.objective == pytest.approx(2 - 0.05 * (4 + 2 * EPSILON), abs=5e-8)
     assert result.rho_s == {"watch": pytest.approx(2.0)}
@@ -142,7 +157,9 @@ def test_synchronous_robustness_by_hand(encoding: str) -> None:
 
 def test_gamma_caps_synchronous_robustness() -> None:
     # rho_s <= gamma = 1 needs a run of 3 (v1, v2 from step 3): effort still 4 + 2e
-    result = plan(sync_problem(gamma=1), PlanOptions(time_limit=60))
+    result = plan(
+        sync_problem(gamma=1), PlannerConfig().with_overrides({"solver.time_limit": 60.0})
+    )
     assert result.status is PlanStatus.OPTIMAL
     assert result.objective == pytest.approx(1 - 0.05 * (4 + 2 * EPSILON), abs=5e-8)
 
@@ -151,7 +168,10 @@ def test_solver_robustness_equals_monitor() -> None:
     from stlplan.monitor.verdicts import check
 
     problem = sync_problem()
-    result = plan(problem, PlanOptions(time_limit=60, two_step=False))
+    result = plan(
+        problem,
+        PlannerConfig().with_overrides({"solver.time_limit": 60.0, "continuous.two_step": False}),
+    )
     assert result.trajectory is not None
     report = check(problem, result.trajectory)
     assert report.satisfied
@@ -162,14 +182,20 @@ def test_solver_robustness_equals_monitor() -> None:
 
 def test_unreachable_goal_is_infeasible() -> None:
     # px(2) <= 1.5 * 2 + 0.5 * 2 = 4 < 4.5
-    result = plan(reach_problem(goal_x=(4.5, 5)), PlanOptions(time_limit=30))
+    result = plan(
+        reach_problem(goal_x=(4.5, 5)), PlannerConfig().with_overrides({"solver.time_limit": 30.0})
+    )
     assert result.status is PlanStatus.INFEASIBLE
     assert result.trajectory is None and not result.status.has_plan
 
 
 def test_progress_reports_phases_in_order() -> None:
     seen: list[Progress] = []
-    plan(reach_problem(), PlanOptions(time_limit=30), progress=seen.append)
+    plan(
+        reach_problem(),
+        PlannerConfig().with_overrides({"solver.time_limit": 30.0}),
+        progress=seen.append,
+    )
     phases = [p.phase for p in seen]
     assert phases[0] == "build" and phases[-1] == "done"
     assert phases.index("step1") < phases.index("step2")
@@ -181,20 +207,25 @@ def test_progress_errors_are_raised() -> None:
         raise RuntimeError("bar broke")
 
     with pytest.raises(RuntimeError, match="bar broke"):
-        plan(reach_problem(), PlanOptions(time_limit=30), progress=broken)
+        plan(
+            reach_problem(),
+            PlannerConfig().with_overrides({"solver.time_limit": 30.0}),
+            progress=broken,
+        )
 
 
-def test_options_from_mission_with_overrides() -> None:
+def test_config_from_mission_with_overrides() -> None:
     problem = load_problem(FARM)
-    overrides = Overrides(time_limit=12.5, threads=None, seed=3, tuning=(("lazy", False),))
-    options = PlanOptions.from_mission(problem.mission, overrides)
-    assert options.time_limit == 12.5 and options.seed == 3 and options.lazy is False
-    assert options.threads == problem.mission.solver.threads
-    assert options.gap == problem.mission.solver.gap
-    assert options.two_step is problem.mission.objective.two_step
-    assert overrides.given() == {"time_limit": 12.5, "seed": 3, "lazy": False}
-    with pytest.raises(TypeError, match="colour"):
-        PlanOptions.from_mission(problem.mission, Overrides(tuning=(("colour", "red"),)))
+    overrides = Overrides(time_limit=12.5, threads=None, seed=3, config={"lazy.enabled": False})
+    config = PlannerConfig.from_mission(problem.mission, overrides.dotted())
+    assert config.solver.time_limit == 12.5 and config.solver.seed == 3
+    assert config.lazy.enabled is False
+    assert config.solver.threads == problem.mission.solver.threads
+    assert config.solver.gap == problem.mission.solver.gap
+    assert config.continuous.two_step is problem.mission.objective.two_step
+    assert overrides.given() == {"time_limit": 12.5, "seed": 3, "lazy.enabled": False}
+    with pytest.raises(ConfigError, match="colour"):
+        PlannerConfig.from_mission(problem.mission, {"model.colour": "red"})
 
 
 @pytest.mark.slow
@@ -205,8 +236,8 @@ def test_farm_case_one(encoding: str) -> None:
     problem = load_problem(FARM)
     result = plan(
         problem,
-        PlanOptions.from_mission(
-            problem.mission, Overrides(encoding=encoding, time_limit=300, threads=2)
+        PlannerConfig.from_mission(
+            problem.mission, Overrides(encoding=encoding, time_limit=300, threads=2).dotted()
         ),
     )
     assert result.status.has_plan
@@ -247,7 +278,12 @@ def test_plans_pass_the_monitor(encoding: str, effort: str, two_step: bool) -> N
     from stlplan.monitor.verdicts import check
 
     problem = swap_problem(effort)
-    result = plan(problem, PlanOptions(encoding=encoding, two_step=two_step, time_limit=60))
+    result = plan(
+        problem,
+        PlannerConfig().with_overrides(
+            {"model.encoding": encoding, "continuous.two_step": two_step, "solver.time_limit": 60.0}
+        ),
+    )
     assert result.status is PlanStatus.OPTIMAL
     assert result.steps == (2 if two_step else 1)
     assert result.trajectory is not None
@@ -264,8 +300,11 @@ def test_fixed_decisions_enforce_exactly_the_chosen_disjunct() -> None:
     from stlplan.planner.session import solve_once
     from stlplan.planner.solve import enforced_predicates, fix_decisions
 
-    pm = build_model(reach_problem(), "log")
-    options = PlanOptions(time_limit=30)
+    pm = build_model(
+        reach_problem(),
+        paper_model(model__encoding="log"),
+    )
+    options = PlannerConfig().with_overrides({"solver.time_limit": 30.0})
     clock = Clock(0.0, None)
     solve_once(pm.model, options, clock, "step1")
     fix_decisions(pm)
@@ -278,7 +317,10 @@ def test_fixed_decisions_enforce_exactly_the_chosen_disjunct() -> None:
 def test_thread_count_can_change_between_plans() -> None:
     # HiGHS keeps one thread pool per process; a new count must not fail the next solve
     for threads in (None, 2, 1):
-        result = plan(reach_problem(), PlanOptions(time_limit=30, threads=threads))
+        result = plan(
+            reach_problem(),
+            PlannerConfig().with_overrides({"solver.time_limit": 30.0, "solver.threads": threads}),
+        )
         assert result.status is PlanStatus.OPTIMAL, (threads, result.message)
 
 
@@ -296,7 +338,9 @@ def test_the_strict_until_needs_no_left_where_right_holds(op: str, status: PlanS
         tasks={"t": {"formula": f"in(p, A) {op}[0,2] in(p, B)", "roles": {"p": {"agent": "a"}}}},
         objective={"beta": 1.0, "effort": "l1"},
     )
-    result = plan(problem, PlanOptions(time_limit=30, threads=1))
+    result = plan(
+        problem, PlannerConfig().with_overrides({"solver.time_limit": 30.0, "solver.threads": 1})
+    )
     assert result.status is status
     if status is PlanStatus.OPTIMAL:
         assert result.effort == pytest.approx(0.0, abs=1e-9)

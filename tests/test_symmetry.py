@@ -13,12 +13,14 @@ from stlplan import api
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
+from stlplan.planner.config import TaskForm
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.encoding.selection import Selection, TaskForm
+from stlplan.planner.encoding.selection import Selection
 from stlplan.planner.encoding.symmetry import agent_classes, chain_task
 from stlplan.planner.solve import model_size
 from stlplan.result import PlanStatus
 from tests.conftest import MISSIONS
+from tests.helpers.configs import paper_model
 
 SMALL = MISSIONS / "scale" / "farm-depot-small.yaml"
 DEPOT = MISSIONS / "scale" / "farm-x2-depot.yaml"
@@ -137,7 +139,10 @@ def test_rows_only_with_the_option_and_with_selection(path: Any) -> None:
     forms: tuple[TaskForm, ...] = ("selection", "groups")
     for tasks in forms:
         for on in (False, True):
-            pm = build_model(problem, lazy=True, task_encoding=tasks, symmetry=on)
+            pm = build_model(
+                problem,
+                paper_model(lazy__enabled=True, model__tasks=tasks, model__symmetry=on),
+            )
             sizes[tasks, on] = model_size(pm.model)
     rows = sizes["selection", True].constraints - sizes["selection", False].constraints
     assert rows == chains == (2 if path == SMALL else 0)
@@ -148,7 +153,7 @@ def test_rows_only_with_the_option_and_with_selection(path: Any) -> None:
 def test_same_optimum_with_and_without_the_rows() -> None:
     objectives, groups = [], {}
     for on in (False, True):
-        overrides = api.Overrides(threads=1, gap=1e-6, tuning=(("symmetry", on),))
+        overrides = api.Overrides(threads=1, gap=1e-6, config={"model.symmetry": on})
         _, result = api.plan(SMALL, overrides)
         assert result.status is PlanStatus.OPTIMAL, result.message
         assert result.report is not None and result.report.satisfied, result.message

@@ -87,6 +87,8 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "inter_sample": problem.inter_sample,
         "solver": solver_dict(result.solver),
         "steps": result.steps,
+        "strategy": result.strategy,
+        "config": dict(result.config),
         "fallback": fallback_dict(result.fallback),
         "assignments": [
             {

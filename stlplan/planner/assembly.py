@@ -14,18 +14,14 @@ from typing import TYPE_CHECKING, Any
 
 from stlplan.planner import stops
 from stlplan.planner.clock import Clock
+from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import requirement_key
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.in_turn import Held, hold_near, release
-from stlplan.planner.options import PlanOptions
 from stlplan.planner.session import HighsSession
 
 if TYPE_CHECKING:
     from stlplan.planner.components import Part
-
-ASSEMBLY_LIMIT = 60.0
-"""Time limit of the assembly solve, seconds (a finishing solve: also within the run's budget
-and grace, :class:`stlplan.planner.session.Clock`)."""
 
 
 def plan_values(
@@ -42,19 +38,18 @@ def plan_values(
 
 
 def hold_plans(
-    target: PlanModel, parts: Sequence[Part], free: frozenset[str] = frozenset()
+    target: PlanModel, parts: Sequence[Part], width: float, free: frozenset[str] = frozenset()
 ) -> Held:
-    """Bound ``x`` and ``u`` of ``target`` to within :data:`stlplan.planner.in_turn.HOLD` of
-    the parts' plans (but those of the agents in ``free``); returns what :func:`release`
-    restores."""
+    """Bound ``x`` and ``u`` of ``target`` to within ``width`` (``repair.hold``) of the parts'
+    plans (but those of the agents in ``free``); returns what :func:`release` restores."""
     held: Held = []
     for var, planned in plan_values(target, parts, free):
-        hold_near(var, planned, held)
+        hold_near(var, planned, held, width)
     return held
 
 
 def assemble(
-    full: PlanModel, parts: Sequence[Part], options: PlanOptions, clock: Clock
+    full: PlanModel, parts: Sequence[Part], config: PlannerConfig, clock: Clock
 ) -> float | None:
     """Load the parts' plans into ``full`` with every indicator set; returns its objective.
 
@@ -66,10 +61,10 @@ def assemble(
     index = {requirement_key(r): n for n, r in enumerate(full.deferral.lazy)}
     keys = set().union(*(p.added_keys() for p in parts))
     add_requirements(full, [index[k] for k in keys if k in index])
-    held = hold_plans(full, parts)
+    held = hold_plans(full, parts, config.repair.hold)
     with stops.finishing():  # the plan is found: a stop request lets this solve end
-        session = HighsSession(full.model, options, clock, "step1")
-        solved = session.solve(ASSEMBLY_LIMIT, finishing=True)
+        session = HighsSession(full.model, config, clock, "step1")
+        solved = session.solve(config.parts.assembly_seconds, finishing=True)
     release(held)
     objective = solved.results.incumbent_objective
     return None if objective is None else float(objective)

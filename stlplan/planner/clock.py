@@ -2,8 +2,8 @@
 
 The time limit bounds the whole run. :class:`Clock` holds its deadline; every solve asks it what
 is left (:meth:`Clock.remaining`), the finishing solves (step 2, a completion, the assembly of
-parts) with a small grace, and the effort floors of a model stop at a share of it
-(:data:`FLOORS_SHARE`). The clock also sums the time spent building models and keeps every
+parts) with a small grace (``budget.grace_share``, ``budget.grace_max_seconds``), and the effort
+floors of a model stop at a share of it (``model.floors_share``). The clock also sums the time spent building models and keeps every
 confirmation of an infeasible verdict (:mod:`stlplan.planner.confirm`).
 """
 
@@ -16,6 +16,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Literal
 
+from stlplan.planner.config import PlannerConfig
 from stlplan.result import Confirmation
 
 Phase = Literal["build", "step1", "step2", "polish", "done"]
@@ -48,15 +49,6 @@ class Progress:
 ProgressCallback = Callable[[Progress], None]
 
 
-FLOORS_SHARE = 0.25
-"""Share of the remaining budget the effort floors of a model may take while it is built."""
-
-GRACE_SHARE, GRACE_MAX = 0.1, 10.0
-"""Finishing solves (step 2, a completion, the assembly of parts) may run past the deadline by
-this share of the time limit, at most ``GRACE_MAX`` seconds: they turn a plan already found
-into the one written."""
-
-
 @dataclass
 class Clock:
     """One run's time budget and records.
@@ -77,12 +69,14 @@ class Clock:
 
     @classmethod
     def started(
-        cls, time_limit: float, progress: ProgressCallback | None, deadline: float | None = None
+        cls, config: PlannerConfig, progress: ProgressCallback | None, deadline: float | None = None
     ) -> Clock:
-        """A clock started now whose budget ends after ``time_limit`` s (or at ``deadline``)."""
-        now = time.perf_counter()
-        end = now + time_limit if deadline is None else min(deadline, now + time_limit)
-        return cls(now, progress, deadline=end, grace=min(GRACE_MAX, GRACE_SHARE * time_limit))
+        """A clock started now whose budget ends after ``solver.time_limit`` s (or at
+        ``deadline``), with the grace of ``budget``."""
+        now, limit, budget = time.perf_counter(), config.solver.time_limit, config.budget
+        end = now + limit if deadline is None else min(deadline, now + limit)
+        grace = min(budget.grace_max_seconds, budget.grace_share * limit)
+        return cls(now, progress, deadline=end, grace=grace)
 
     def elapsed(self) -> float:
         """Seconds since planning started."""

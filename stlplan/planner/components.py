@@ -44,26 +44,15 @@ from typing import Any
 from stlplan.mission.problem import Problem
 from stlplan.planner import stops
 from stlplan.planner.assembly import assemble, hold_plans, plan_values
-from stlplan.planner.clock import FLOORS_SHARE, Clock
+from stlplan.planner.clock import Clock
+from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import Requirement, requirement_key, violated
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
 from stlplan.planner.in_turn import InTurn, release
 from stlplan.planner.lazy import LazySolver, Step1, relative_gap
-from stlplan.planner.options import PlanOptions
 from stlplan.planner.parts import agent_parts, sub_problem
-from stlplan.planner.session import MIN_SOLVE_SECONDS
 from stlplan.planner.watch import VIOLATION_TOL, trajectory_states
 from stlplan.result import PlanStatus
-
-REPAIR_SHARE = 0.25
-"""Share of the time left that the repair of a merged part may take."""
-
-CROWD_REPAIR_SHARE = 0.75
-"""Share of the time left that the repair in turn of a merged part may take: the merge of a
-crowd comes last, with little time, and without a repaired plan there is often none."""
-
-MERGE_RESERVE = 0.1
-"""Share of the time left that the parts' first solves leave for merging parts that collide."""
 
 
 @dataclass(eq=False)
@@ -86,25 +75,17 @@ class Part:
 def _part(
     problem: Problem,
     agents: Sequence[str],
-    options: PlanOptions,
+    config: PlannerConfig,
     clock: Clock,
     seed: set[tuple[Any, ...]] = frozenset(),  # type: ignore[assignment]
 ) -> Part:
     """Build (and seed with known requirements) the lazy model of one part."""
     sub = sub_problem(problem, agents)
     with clock.building():
-        pm = build_model(
-            sub,
-            options.encoding,
-            lazy=True,
-            floors=options.floors,
-            floors_deadline=clock.share(FLOORS_SHARE),
-            task_encoding=options.tasks,
-            symmetry=options.symmetry,
-        )
+        pm = build_model(sub, config, clock.share(config.model.floors_share))
     assert pm.deferral is not None
     add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
-    return Part(tuple(agents), pm, LazySolver(pm, options, clock))
+    return Part(tuple(agents), pm, LazySolver(pm, config, clock))
 
 
 def _crossing(full: PlanModel, parts: Sequence[Part]) -> list[Requirement]:
@@ -159,34 +140,34 @@ def _slack(part: Part) -> float:
 
 
 def _tighten(
-    parts: Sequence[Part], options: PlanOptions, deadline: float, plan: float | None = None
+    parts: Sequence[Part], config: PlannerConfig, deadline: float, plan: float | None = None
 ) -> None:
     """Solve parts again with absolute gaps until ``(U - P) / |P|`` meets the gap (while at
-    least :data:`stlplan.planner.session.MIN_SOLVE_SECONDS` of the budget is left).
+    least ``budget.min_solve_seconds`` of the budget is left).
 
     ``P`` is ``plan``, the objective of a plan of the parts together, or the sum ``F`` of the
     parts' objectives; the parts' slacks must then fit in ``gap |P| - (F - P)``.
     """
     for _ in range(len(parts)):
-        if deadline - time.perf_counter() < MIN_SOLVE_SECONDS:
+        if deadline - time.perf_counter() < config.budget.min_solve_seconds:
             return
         objective, bound = _totals(parts)
         if objective is None or bound is None:
             return
         reached = objective if plan is None else plan
         gap = relative_gap(reached, bound)
-        if gap is None or gap <= options.gap:
+        if gap is None or gap <= config.solver.gap:
             return
         worst = max(parts, key=_slack)
         others = sum(_slack(p) for p in parts if p is not worst)
-        allowed = options.gap * abs(reached) - (objective - reached) - others
+        allowed = config.solver.gap * abs(reached) - (objective - reached) - others
         if plan is not None and allowed <= 1e-9:
             return
         remaining = deadline - time.perf_counter()
         worst.step1 = worst.solver.run(remaining, abs_gap=max(allowed, 1e-9))
 
 
-def _combined(parts: Sequence[Part], options: PlanOptions, seconds: float, rounds: int) -> Step1:
+def _combined(parts: Sequence[Part], config: PlannerConfig, seconds: float, rounds: int) -> Step1:
     """The parts' results as one :class:`Step1` of the full problem."""
     steps = [p.step1 for p in parts if p.step1 is not None]
     failed = [s for s in steps if not s.status.has_plan]
@@ -199,7 +180,7 @@ def _combined(parts: Sequence[Part], options: PlanOptions, seconds: float, round
     objective, bound = _totals(parts)
     gap = relative_gap(objective, bound)
     optimal = all(s.status is PlanStatus.OPTIMAL for s in steps)
-    optimal = optimal and gap is not None and gap <= options.gap * (1 + 1e-9)
+    optimal = optimal and gap is not None and gap <= config.solver.gap * (1 + 1e-9)
     status = PlanStatus.OPTIMAL if optimal else PlanStatus.FEASIBLE
     if stops.requested() and not optimal:
         status = PlanStatus.INTERRUPTED
@@ -216,63 +197,64 @@ def _combined(parts: Sequence[Part], options: PlanOptions, seconds: float, round
     )
 
 
-def _solve_in_shares(parts: Sequence[Part], options: PlanOptions, deadline: float) -> None:
+def _solve_in_shares(parts: Sequence[Part], config: PlannerConfig, deadline: float) -> None:
     """Solve the parts not solved yet, the smallest first, each within an equal share of the
-    time left but :data:`MERGE_RESERVE` (what one leaves goes to the next); the reserve is for
+    time left but ``parts.merge_reserve`` (what one leaves goes to the next); the reserve is for
     merging parts whose plans collide, and :func:`_tighten` spends what is left at the end on
     the part furthest from its bound."""
     waiting = sorted((p for p in parts if p.step1 is None), key=lambda p: len(p.agents))
-    end = deadline - MERGE_RESERVE * (deadline - time.perf_counter())
+    end = deadline - config.parts.merge_reserve * (deadline - time.perf_counter())
     for i, part in enumerate(waiting):
         if stops.requested():
             return
         share = (end - time.perf_counter()) / (len(waiting) - i)
-        part.step1 = _solve_part(part, options, time.perf_counter() + share)
+        part.step1 = _solve_part(part, config, time.perf_counter() + share)
 
 
-def _solve_part(part: Part, options: PlanOptions, deadline: float) -> Step1:
+def _solve_part(part: Part, config: PlannerConfig, deadline: float) -> Step1:
     """A part's first solve; a merged part is repaired first (module docstring)."""
     if not part.merged_from:
         return part.solver.run(deadline - time.perf_counter())
-    repaired = _repair(part, options, deadline)
+    repaired = _repair(part, config, deadline)
     _, ceiling = _totals(part.merged_from)
     assert part.solver.watch is not None
     part.solver.watch.ceiling = ceiling
     if repaired is not None and repaired.objective is not None and ceiling is not None:
         objective = repaired.objective
-        if ceiling - objective <= options.gap * abs(objective):
+        if ceiling - objective <= config.solver.gap * abs(objective):
             gap = relative_gap(objective, ceiling)
             return dataclasses.replace(repaired, status=PlanStatus.OPTIMAL, bound=ceiling, gap=gap)
     return part.solver.run(deadline - time.perf_counter())
 
 
-def _repair(part: Part, options: PlanOptions, deadline: float) -> Step1 | None:
+def _repair(part: Part, config: PlannerConfig, deadline: float) -> Step1 | None:
     """Repair the parts' plans together (module docstring); then tighten the bounds of the
     parts the merged part comes from towards the repaired plan (None: no plan)."""
     tick = time.perf_counter()
     repaired = None
-    crowd_limit = CROWD_REPAIR_SHARE * (deadline - tick)
-    if _crowded(part.free, options) and _in_turn(part, options, crowd_limit):
+    crowd_limit = config.parts.crowd_repair_share * (deadline - tick)
+    if _crowded(part.free, config) and _in_turn(part, config, crowd_limit):
         repaired = part.solver.kept(time.perf_counter() - tick)
     if repaired is None:
-        limit = max(MIN_SOLVE_SECONDS, REPAIR_SHARE * (deadline - time.perf_counter()))
-        held = hold_plans(part.pm, part.merged_from, part.free)
+        share = config.parts.held_repair_share * (deadline - time.perf_counter())
+        limit = max(config.budget.min_solve_seconds, share)
+        held = hold_plans(part.pm, part.merged_from, config.repair.hold, part.free)
         try:
             repaired = part.solver.run(limit, trial=True)
         finally:
             release(held)
     if repaired.objective is None:
         return None
-    _tighten(part.merged_from, options, deadline, plan=repaired.objective)
+    _tighten(part.merged_from, config, deadline, plan=repaired.objective)
     return repaired
 
 
-def _crowded(free: frozenset[str], options: PlanOptions) -> bool:
+def _crowded(free: frozenset[str], config: PlannerConfig) -> bool:
     """Whether a merged part whose collisions name the agents ``free`` is repaired in turn."""
-    return options.in_turn_agents is not None and len(free) >= options.in_turn_agents
+    return config.repair.crowd_agents is not None and len(free) >= config.repair.crowd_agents
 
 
-def _in_turn(part: Part, options: PlanOptions, seconds: float) -> bool:
+def _in_turn(part: Part, config: PlannerConfig, seconds: float) -> bool:
     """Load the plans of the parts a merged part comes from and repair their collisions agent
     by agent (:class:`stlplan.planner.in_turn.InTurn`); whether that found a plan."""
     pm = part.pm
@@ -280,12 +262,12 @@ def _in_turn(part: Part, options: PlanOptions, seconds: float) -> bool:
     for var, planned in plan_values(pm, part.merged_from):
         var.set_value(planned, skip_validation=True)
     bad = violated(pm.deferral.lazy, trajectory_states(pm), _margin(pm), VIOLATION_TOL)
-    InTurn(pm, part.solver.session, options).run(bad, seconds)
+    InTurn(pm, part.solver.session, config).run(bad, seconds)
     return part.solver.watch.best is not None
 
 
 def solve_parts(
-    problem: Problem, options: PlanOptions, clock: Clock
+    problem: Problem, config: PlannerConfig, clock: Clock
 ) -> tuple[PlanModel, Step1] | None:
     """Solve step 1 part by part (module docstring); None when the problem has one part.
 
@@ -295,20 +277,13 @@ def solve_parts(
     if len(names) < 2:
         return None
     tick = time.perf_counter()
-    deadline = min(tick + options.time_limit, clock.deadline)
+    deadline = min(tick + config.solver.time_limit, clock.deadline)
     with clock.building():
-        full = build_model(
-            problem,
-            options.encoding,
-            lazy=True,
-            floors=False,
-            task_encoding=options.tasks,
-            symmetry=options.symmetry,
-        )
-    parts = [_part(problem, agents, options, clock) for agents in names]
+        full = build_model(problem, config.with_overrides({"model.floors": False}))
+    parts = [_part(problem, agents, config, clock) for agents in names]
     while True:
-        _solve_in_shares(parts, options, deadline)
-        done = _combined(parts, options, time.perf_counter() - tick, clock.round or 1)
+        _solve_in_shares(parts, config, deadline)
+        done = _combined(parts, config, time.perf_counter() - tick, clock.round or 1)
         if not done.status.has_plan:
             return full, done
         crossing = _crossing(full, parts)
@@ -316,17 +291,17 @@ def solve_parts(
             break
         if stops.requested():  # the parts' plans collide: no plan of the full problem
             return full, dataclasses.replace(done, status=PlanStatus.INTERRUPTED_NO_PLAN)
-        parts = _merged(problem, parts, crossing, options, clock)
+        parts = _merged(problem, parts, crossing, config, clock)
     if not stops.requested():
-        _tighten(parts, options, deadline)
-    done = _combined(parts, options, time.perf_counter() - tick, clock.round or 1)
-    objective = assemble(full, parts, options, clock)
+        _tighten(parts, config, deadline)
+    done = _combined(parts, config, time.perf_counter() - tick, clock.round or 1)
+    objective = assemble(full, parts, config, clock)
     seconds = time.perf_counter() - tick
     if objective is None:
         return full, dataclasses.replace(done, status=PlanStatus.ERROR, stop="assembly failed")
     gap = relative_gap(objective, done.bound)
     status = done.status
-    if status is PlanStatus.OPTIMAL and (gap is None or gap > options.gap * (1 + 1e-9)):
+    if status is PlanStatus.OPTIMAL and (gap is None or gap > config.solver.gap * (1 + 1e-9)):
         status = PlanStatus.INTERRUPTED if stops.requested() else PlanStatus.FEASIBLE
     return full, dataclasses.replace(
         done, status=status, objective=objective, gap=gap, seconds=seconds
@@ -337,7 +312,7 @@ def _merged(
     problem: Problem,
     parts: list[Part],
     crossing: Sequence[Requirement],
-    options: PlanOptions,
+    config: PlannerConfig,
     clock: Clock,
 ) -> list[Part]:
     """``parts`` with those linked by ``crossing`` merged (seeded with what they had added)."""
@@ -346,11 +321,11 @@ def _merged(
         agents = {a for p in group for a in p.agents}
         free = frozenset(a for r in crossing for a in r.binding.values()) & agents
         seed = set().union(*(p.added_keys() for p in group))
-        if not _crowded(free, options):  # (a repair in turn adds them as its plans cross)
+        if not _crowded(free, config):  # (a repair in turn adds them as its plans cross)
             seed |= {requirement_key(r) for r in crossing if set(r.binding.values()) <= agents}
         order = [a.name for a in problem.agents if a.name in agents]
         out = [p for p in out if p not in group]
-        merged = _part(problem, order, options, clock, seed)
+        merged = _part(problem, order, config, clock, seed)
         merged.merged_from = tuple(group)
         merged.free = free
         out.append(merged)

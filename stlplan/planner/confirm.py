@@ -26,12 +26,10 @@ from typing import Any
 
 import highspy
 
+from stlplan.planner.config import BudgetConfig
 from stlplan.result import Check, Confirmation
 
 Settings = dict[str, Any]
-
-MIN_CHECK_SECONDS = 1.0
-"""Each check may run at least this long, even past the run's time budget."""
 
 _INFEASIBLE = (
     highspy.HighsModelStatus.kInfeasible,
@@ -92,6 +90,7 @@ def confirm(
     seed: int,
     time_left: Callable[[], float],
     where: str = "",
+    min_seconds: float = BudgetConfig().min_check_seconds,
 ) -> Confirmation:
     """Check the infeasible verdict of the solve ``highs`` just ran by the solves of
     :func:`attempts`.
@@ -99,13 +98,13 @@ def confirm(
     ``first`` is that solve's verdict (HiGHS's name) and wall time. ``run(settings, seconds)`` solves the model
     again with the HiGHS options ``settings`` (also set on ``highs`` meanwhile) within
     ``seconds``; ``time_left()`` is what the run's budget still allows (each check gets at least
-    :data:`MIN_CHECK_SECONDS`). On return ``highs`` holds the last check's solve: a plan when
+    ``min_seconds``, even past the run's budget). On return ``highs`` holds the last check's solve: a plan when
     overturned.
     """
     usual = tuple((name, option(highs, name)) for name in attempts(seed)[0])
     checks = [Check(usual, *first)]
     for settings in attempts(seed):
-        seconds = max(MIN_CHECK_SECONDS, time_left())
+        seconds = max(min_seconds, time_left())
         tick = time.perf_counter()
         with applied(highs, settings):
             run(settings, seconds)
@@ -132,7 +131,7 @@ def solve_confirmed(highs: Any, seed: int = 0, time_limit: float = math.inf) -> 
 
     with applied(highs, {"random_seed": seed, "time_limit": limit}):
         tick = time.perf_counter()
-        run({}, max(MIN_CHECK_SECONDS, deadline - tick))
+        run({}, max(BudgetConfig().min_check_seconds, deadline - tick))
         if not says_infeasible(highs):
             return None
         first = (verdict(highs), time.perf_counter() - tick)

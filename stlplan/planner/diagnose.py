@@ -171,7 +171,7 @@ def _subset(problem: Problem, items: list[str]) -> Problem:
 
 
 def minimal_conflict(
-    problem: Problem, feasibility: Feasibility, budget: float = 120.0
+    problem: Problem, feasibility: Feasibility, budget: float
 ) -> tuple[tuple[str, ...], bool]:
     """Deletion filter: a minimal infeasible set of task, constraint and separation names.
 
@@ -193,7 +193,7 @@ def minimal_conflict(
     return tuple(kept), complete
 
 
-def diagnose(problem: Problem, feasibility: Feasibility, budget: float = 120.0) -> Diagnosis:
+def diagnose(problem: Problem, feasibility: Feasibility, budget: float) -> Diagnosis:
     """Cheap reasons, then (when they name nothing) a minimal conflict by feasibility solves."""
     reasons = cheap_reasons(problem)
     if reasons:

@@ -11,7 +11,7 @@ landed: the nearest plan meeting every enforced predicate, found by an LP
 (:func:`stlplan.planner.encoding.continuous.landing_model`). HiGHS's active-set QP solver does
 this routinely on step 2's ``l2`` effort: rows whose right-hand sides differ by ``EPSILON`` from a
 degenerate vertex make it claim optimality and then fail its own check by about ``1e-6`` ("Solve
-error"). A point that lands within :data:`LANDING_LIMIT` of where it was (``sum |u - u_QP|``),
+error"). A point that lands within ``continuous.landing_limit`` of where it was (``sum |u - u_QP|``),
 or whose ``sum u^2`` is within the relative gap of that at HiGHS's point (step 2's ``l2``
 effort: HiGHS's point is its optimum up to those tolerances, so the landed plan is within the
 gap of the optimum too), counts as step 2 done (the message says so); one that moves further
@@ -26,16 +26,13 @@ from typing import Any
 
 from pyomo.environ import Objective, Reals, Var, minimize, value
 
+from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.continuous import continuous_model, copy_plan, landing_model
 from stlplan.planner.encoding.deferred import best_option
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.stl import Enforced
-from stlplan.planner.options import PlanOptions
 from stlplan.planner.session import TC, Clock, HighsSession, Phase, solve_once
 from stlplan.planner.watch import trajectory_states
-
-LANDING_LIMIT = 1e-5
-"""Largest move ``sum |u - u_QP|`` of a landing that completes step 2 without a fallback."""
 
 INFEASIBLE = {TC.provenInfeasible.name, TC.infeasibleOrUnbounded.name}
 """Terminations that mean the fixed decisions admit no plan."""
@@ -73,7 +70,7 @@ def fix_decisions(pm: PlanModel) -> None:
 
 
 def enforced_predicates(
-    pm: PlanModel, options: PlanOptions, clock: Clock, phase: Phase
+    pm: PlanModel, config: PlannerConfig, clock: Clock, phase: Phase
 ) -> tuple[list[Enforced] | None, float, str]:
     """The predicates step 1's fixed decisions enforce, the seconds it took, and how the LP
     ended (HiGHS's termination, by name).
@@ -85,7 +82,7 @@ def enforced_predicates(
     model = pm.model
     model.step1.deactivate()
     model.least = Objective(expr=sum(model.spec.indicators.values()), sense=minimize)
-    results, seconds, _ = solve_once(model, options, clock, phase, mip=False)
+    results, seconds, _ = solve_once(model, config, clock, phase, mip=False)
     model.del_component(model.least)
     model.step1.activate()
     ended = results.termination_condition.name
@@ -129,7 +126,7 @@ def _land(
     pm: PlanModel,
     enforced: list[Enforced],
     target: dict[Any, float],
-    options: PlanOptions,
+    config: PlannerConfig,
     clock: Clock,
     phase: Phase,
 ) -> float | None:
@@ -137,30 +134,30 @@ def _land(
     how far it is (``sum |u - target|``), None when the LP fails."""
     with clock.building():
         landing = landing_model(pm, enforced, target)
-    results, _, _ = solve_once(landing, options, clock, phase, mip=False)
+    results, _, _ = solve_once(landing, config, clock, phase, mip=False)
     if results.termination_condition != TC.convergenceCriteriaSatisfied:
         return None
     copy_plan(landing, pm)
     return float(value(landing.goal))
 
 
-def finish(pm: PlanModel, options: PlanOptions, clock: Clock) -> Finish:
+def finish(pm: PlanModel, config: PlannerConfig, clock: Clock) -> Finish:
     """Step 2 (or the one-step polish) with step 1's decisions fixed, the plan loaded in ``pm``.
 
     On failure the step-1 solution stays loaded in ``pm``, unless a landing succeeded.
     """
     snapshot = [(v, v.value) for v in pm.model.component_data_objects(Var)]
-    phase: Phase = "step2" if options.two_step else "polish"
+    phase: Phase = "step2" if config.continuous.two_step else "polish"
     fix_decisions(pm)
-    enforced, _, ended = enforced_predicates(pm, options, clock, phase)
+    enforced, _, ended = enforced_predicates(pm, config, clock, phase)
     for v, val in snapshot:
         v.set_value(val, skip_validation=True)
     if enforced is None:
         return Finish(f"the LP finding the enforced predicates ended {ended}", ended in INFEASIBLE)
     enforced += kept_sides(pm)
     with clock.building():
-        small = continuous_model(pm, enforced, "effort" if options.two_step else "polish")
-    session = HighsSession(small, options, clock, phase, mip=False)
+        small = continuous_model(pm, enforced, "effort" if phase == "step2" else "polish")
+    session = HighsSession(small, config, clock, phase, mip=False)
     solved = session.solve(finishing=True)
     ended = solved.results.termination_condition.name
     if solved.results.termination_condition == TC.convergenceCriteriaSatisfied:
@@ -170,10 +167,11 @@ def finish(pm: PlanModel, options: PlanOptions, clock: Clock) -> Finish:
     if ended in INFEASIBLE:
         return Finish(failed, True)
     target = _target(session, small)
-    moved = None if target is None else _land(pm, enforced, target, options, clock, phase)
+    moved = None if target is None else _land(pm, enforced, target, config, clock, phase)
     if target is None or moved is None:
         return Finish(failed)
-    if moved <= LANDING_LIMIT or (options.two_step and effort_kept(pm, target, options.gap)):
+    kept = config.continuous.two_step and effort_kept(pm, target, config.solver.gap)
+    if moved <= config.continuous.landing_limit or kept:
         return Finish(
             note=f"HiGHS's solve ended {ended}; its point landed {moved:.1g} away by an LP"
         )

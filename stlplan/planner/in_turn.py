@@ -19,6 +19,11 @@ it violates no requirement left out of the model (a plan of the full problem, so
 bounds the optimum from below). The solves are trials with a loose gap; their bounds bound
 nothing but a held problem and are never recorded. Requirements added on the way stay in the
 model: the full problem has them.
+
+The knobs are the ``repair`` section of :class:`stlplan.planner.config.PlannerConfig`: a turn
+solves one agent's plan around held ones (``repair.hold`` of room each), at most
+``repair.solves_per_turn`` times, adding every step of a violated requirement's family
+(``repair.window``), to the loose ``repair.gap``.
 """
 
 from __future__ import annotations
@@ -31,47 +36,29 @@ from typing import Any
 import numpy as np
 from pyomo.environ import Var
 
+from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements
-from stlplan.planner.options import PlanOptions
-from stlplan.planner.session import MIN_SOLVE_SECONDS, HighsSession, has_solution
+from stlplan.planner.session import HighsSession, has_solution
 from stlplan.planner.watch import pending_violations
 
 _log = logging.getLogger(__name__)
-
-HOLD = 1e-4
-"""How far a held state or input may move from its plan.
-
-HiGHS accepts binaries within 1e-6 of 0 or 1, so a plan may miss an enforced predicate by
-``big-M * 1e-6``; a solve that holds it (an assembly, whose indicators are exact, or a turn)
-needs room to repair that."""
-
-TURN_SHARE = 0.25
-"""Of the time left to the loop, what one repair may spend."""
-
-TURN_SOLVES = 10
-"""Solves of one agent's turn at most (each after adding what the last plan violated)."""
-
-TURN_WINDOW: int | None = None
-"""Steps of a violated requirement's family (the same pair or agent and constraint) a turn adds
-with it: all of them. A turn solves one agent's plan around held ones, so a few more rows cost
-little, where adding one step at a time took more than :data:`TURN_SOLVES` solves for an agent
-threading a crowded strip (the 24-agent farm)."""
-
-TURN_GAP = 0.01
-"""Relative gap of a turn's solves: the repair looks for a plan, the rounds prove."""
 
 Held = list[tuple[Any, Any, Any]]
 """``(variable, lower, upper)`` to restore."""
 
 
-def hold_near(var: Any, value: float, held: Held) -> None:
-    """Bound ``var`` to within :data:`HOLD` of ``value`` (inside its own bounds); record the
-    old bounds in ``held``."""
+def hold_near(var: Any, value: float, held: Held, width: float) -> None:
+    """Bound ``var`` to within ``width`` of ``value`` (inside its own bounds); record the old
+    bounds in ``held``.
+
+    HiGHS accepts binaries within 1e-6 of 0 or 1, so a plan may miss an enforced predicate by
+    ``big-M * 1e-6``; a solve that holds it (an assembly, whose indicators are exact, or a turn)
+    needs room to repair that (``repair.hold``)."""
     lo, hi = var.bounds
     held.append((var, lo, hi))
-    low = value - HOLD if lo is None else max(lo, value - HOLD)
-    high = value + HOLD if hi is None else min(hi, value + HOLD)
+    low = value - width if lo is None else max(lo, value - width)
+    high = value + width if hi is None else min(hi, value + width)
     var.setlb(low if hi is None else min(low, hi))
     var.setub(high if lo is None else max(high, lo))
 
@@ -83,14 +70,15 @@ def release(held: Held) -> None:
         var.setub(hi)
 
 
-def hold_agents(pm: PlanModel, names: Iterable[str]) -> Held:
-    """Hold the states and inputs of the agents ``names`` at their loaded values."""
+def hold_agents(pm: PlanModel, names: Iterable[str], width: float) -> Held:
+    """Hold the states and inputs of the agents ``names`` within ``width`` of their loaded
+    values."""
     names = set(names)
     held: Held = []
     for component in (pm.model.x, pm.model.u):
         for key, var in component.items():
             if key[0] in names and not var.fixed and var.value is not None:
-                hold_near(var, float(var.value), held)
+                hold_near(var, float(var.value), held, width)
     return held
 
 
@@ -105,12 +93,13 @@ class InTurn:
 
     Parameters
     ----------
-    pm, session, options
-        The lazy model, its HiGHS session and the run's options.
+    pm, session, config
+        The lazy model, its HiGHS session and the run's configuration.
     """
 
-    def __init__(self, pm: PlanModel, session: HighsSession, options: PlanOptions) -> None:
-        self.pm, self.session, self.options = pm, session, options
+    def __init__(self, pm: PlanModel, session: HighsSession, config: PlannerConfig) -> None:
+        self.pm, self.session, self.repair = pm, session, config.repair
+        self.min_solve = config.budget.min_solve_seconds
 
     def run(self, bad: Sequence[int], seconds: float) -> bool:
         """Repair the agents ``bad`` names within ``seconds``; whether every turn found a plan."""
@@ -120,7 +109,7 @@ class InTurn:
         done = set(names) - involved
         config, trial = self.session.solver.config, self.session.trial
         gap, self.session.trial = config.rel_gap, True
-        config.rel_gap = max(TURN_GAP, gap or 0.0)
+        config.rel_gap = max(self.repair.gap, gap or 0.0)
         deadline = time.perf_counter() + seconds
         try:
             repaired = self._repair(turns, done, deadline)
@@ -148,7 +137,7 @@ class InTurn:
         Stops at the first solve without a plan (the watch keeps the best plan so far)."""
         for i, name in enumerate(turns):
             share = (deadline - time.perf_counter()) / (len(turns) - i)
-            if share < MIN_SOLVE_SECONDS:
+            if share < self.min_solve:
                 return
             self.session.start_from(self._loaded())  # the plan so far: no turn makes it worse
             if self._solve_free({name}, everyone - {name}, share):
@@ -170,7 +159,7 @@ class InTurn:
         None without a plan."""
         for _ in range(2):
             share = (deadline - time.perf_counter()) / left
-            if share < MIN_SOLVE_SECONDS:
+            if share < self.min_solve:
                 return None
             partners = self._solve_free(free, done, share)
             if not partners:
@@ -187,11 +176,11 @@ class InTurn:
         assert self.pm.deferral is not None
         lazy, deadline, partners = self.pm.deferral.lazy, time.perf_counter() + seconds, set(free)
         others = (a.name for a in self.pm.problem.agents if a.name not in free)
-        held = hold_agents(self.pm, others)
+        held = hold_agents(self.pm, others, self.repair.hold)
         try:
-            for _ in range(TURN_SOLVES):
+            for _ in range(self.repair.solves_per_turn):
                 left = deadline - time.perf_counter()
-                solved = self.session.solve(max(left, MIN_SOLVE_SECONDS))
+                solved = self.session.solve(max(left, self.min_solve))
                 if solved.stopped or not has_solution(solved.results):
                     return partners
                 mine = [
@@ -203,9 +192,9 @@ class InTurn:
                 if not mine:
                     return set()
                 partners |= agents_of(self.pm, mine)
-                if left < MIN_SOLVE_SECONDS:
+                if left < self.min_solve:
                     return partners
-                add_requirements(self.pm, neighbours(lazy, mine, TURN_WINDOW))
+                add_requirements(self.pm, neighbours(lazy, mine, self.repair.window))
             return partners
         finally:
             release(held)

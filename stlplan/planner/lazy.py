@@ -5,7 +5,7 @@ The loop runs around HiGHS, on one model kept loaded
 step requirements (:mod:`stlplan.planner.encoding.deferred`) added so far: a relaxation of the
 full problem, so its dual bound ``U_i`` bounds the full optimum from above, and so does the least
 of them. The requirements its plan violates (found with numpy on the trajectory, with their
-neighbours in time per ``lazy_window``) are then encoded exactly as the up-front formulation
+neighbours in time per ``lazy.window``) are then encoded exactly as the up-front formulation
 encodes them, and the next round starts, given the best plan so far that meets every
 requirement (it meets the new ones too) to start from. Each round adds at least one
 requirement, so the loop ends. While no plan meets every requirement and rounds are long, a
@@ -35,25 +35,12 @@ from dataclasses import dataclass
 from pyomo.environ import Var
 
 from stlplan.planner.clock import Clock
+from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import best_side, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
-from stlplan.planner.in_turn import TURN_SHARE, InTurn, agents_of
-from stlplan.planner.session import (
-    MIN_SOLVE_SECONDS,
-    TC,
-    HighsSession,
-    PlanOptions,
-    Solved,
-    has_solution,
-    plan_status,
-)
-from stlplan.planner.watch import (
-    Watch,
-    lowest,
-    near_violations,
-    pending_violations,
-    trajectory_states,
-)
+from stlplan.planner.in_turn import InTurn, agents_of
+from stlplan.planner.session import TC, HighsSession, Solved, has_solution, plan_status
+from stlplan.planner.watch import Watch, lowest, pending_violations, trajectory_states
 from stlplan.result import PlanStatus
 
 _log = logging.getLogger(__name__)
@@ -106,19 +93,20 @@ class LazySolver:
     ----------
     pm
         A model built with ``lazy=True`` (or without: then a run is one solve).
-    options
-        Time limit, gap, threads, window and margin of the loop.
+    config
+        The run's configuration (solver settings, ``lazy.window``, the repair's triggers).
     clock
         Progress reporting; ``clock.round`` counts the solves.
     """
 
-    def __init__(self, pm: PlanModel, options: PlanOptions, clock: Clock) -> None:
-        self.pm, self.options, self.clock = pm, options, clock
+    def __init__(self, pm: PlanModel, config: PlannerConfig, clock: Clock) -> None:
+        self.pm, self.config, self.clock = pm, config, clock
+        self.min_solve = config.budget.min_solve_seconds
         clock.round = (clock.round or 0) + 1
-        self.session = HighsSession(pm.model, options, clock, "step1")
+        self.session = HighsSession(pm.model, config, clock, "step1")
         self.watch: Watch | None = None
         if pm.deferral is not None:
-            self.watch = Watch(pm, self.session.columns(), options.gap)
+            self.watch = Watch(pm, self.session.columns(), config.solver.gap)
             self.session.highs.cbMipImprovingSolution += self.watch.on_plan
             self.session.highs.cbMipInterrupt += self.watch.maybe_stop
         self.step1: Step1 | None = None
@@ -188,7 +176,7 @@ class LazySolver:
             if converged and not bad:
                 return _ended(solved, seconds, rounds, len(pm.added))
             left = min(time_limit - seconds, clock.remaining())
-            out_of_time = not (converged or watch.stopped) or left < MIN_SOLVE_SECONDS
+            out_of_time = not (converged or watch.stopped) or left < self.min_solve
             if solved.stopped or out_of_time:
                 return self._last(solved, tick, rounds)
             if self._between_rounds(bad, left, solved.seconds):
@@ -199,18 +187,17 @@ class LazySolver:
         """Add the requirements the round's plan violates (``bad``), first repairing that plan
         in turn while no plan meets every requirement and the round (of ``seconds``) was long or
         crowded (:meth:`_crowded`); whether the best plan closes the gap."""
-        pm, options, watch = self.pm, self.options, self.watch
+        pm, config, watch = self.pm, self.config, self.watch
         assert pm.deferral is not None and watch is not None
-        near = near_violations(pm, options.lazy_margin) if options.lazy_margin > 0 else []
         if watch.best is None and self._crowded(bad, seconds):
-            InTurn(pm, self.session, options).run(bad, TURN_SHARE * left)
-        add_requirements(pm, neighbours(pm.deferral.lazy, bad, options.lazy_window) + near)
+            InTurn(pm, self.session, config).run(bad, config.repair.share * left)
+        add_requirements(pm, neighbours(pm.deferral.lazy, bad, config.lazy.window))
         return watch.closed(watch.ceiling)
 
     def _crowded(self, bad: list[int], seconds: float) -> bool:
         """Whether a round of ``seconds`` whose plan violates ``bad`` is to be repaired in turn
-        (``in_turn_after``, ``in_turn_agents``)."""
-        after, crowd = self.options.in_turn_after, self.options.in_turn_agents
+        (``repair.after_round_seconds``, ``repair.crowd_agents``)."""
+        after, crowd = self.config.repair.after_round_seconds, self.config.repair.crowd_agents
         if after is not None and seconds >= after:
             return True
         return crowd is not None and len(agents_of(self.pm, bad)) >= crowd
@@ -281,9 +268,9 @@ class LazySolver:
         return objective
 
 
-def solve_step1(pm: PlanModel, options: PlanOptions, clock: Clock) -> Step1:
+def solve_step1(pm: PlanModel, config: PlannerConfig, clock: Clock) -> Step1:
     """Solve problem (step1) of ``pm``, lazily when ``pm`` was built with ``lazy=True``."""
-    return LazySolver(pm, options, clock).run(options.time_limit)
+    return LazySolver(pm, config, clock).run(config.solver.time_limit)
 
 
 def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Step1:

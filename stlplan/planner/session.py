@@ -29,15 +29,9 @@ from pyomo.contrib.solver.solvers.highs import Highs
 from pyomo.environ import ConcreteModel
 
 from stlplan.planner import confirm, stops
-from stlplan.planner.clock import (
-    Clock,
-    Phase,
-)
-from stlplan.planner.options import PlanOptions
+from stlplan.planner.clock import Clock, Phase
+from stlplan.planner.config import PlannerConfig
 from stlplan.result import PlanStatus
-
-MIN_SOLVE_SECONDS = 1.0
-"""Every solve may run at least this long, even when the budget is spent."""
 
 TC = TerminationCondition
 _STATUS: dict[TerminationCondition, tuple[PlanStatus, PlanStatus]] = {
@@ -131,8 +125,9 @@ class HighsSession:
     ----------
     model
         The model; rows and variables added to it later reach HiGHS at the next solve.
-    options
-        Time limit, gap, threads, seed and extra HiGHS options.
+    config
+        The run's configuration: ``solver`` (time limit, gap, threads, seed, extra HiGHS
+        options) and ``budget`` (the least time of a solve and of a confirmation).
     clock
         Progress reporting.
     phase
@@ -144,31 +139,31 @@ class HighsSession:
     def __init__(
         self,
         model: ConcreteModel,
-        options: PlanOptions,
+        config: PlannerConfig,
         clock: Clock,
         phase: Phase,
         mip: bool = True,
     ) -> None:
-        self.model, self.options, self.clock, self.phase, self.mip = (
-            model, options, clock, phase, mip
+        self.model, self.config, self.clock, self.phase, self.mip = (
+            model, config, clock, phase, mip
         )  # fmt: skip
         self.solver = Highs()
-        config = self.solver.config
-        config.load_solutions = False
-        config.raise_exception_on_nonoptimal_result = False
-        config.threads = options.threads
-        config.solver_options = {
-            "random_seed": options.seed,
+        settings = self.solver.config
+        settings.load_solutions = False
+        settings.raise_exception_on_nonoptimal_result = False
+        settings.threads = config.solver.threads
+        settings.solver_options = {
+            "random_seed": config.solver.seed,
             "output_flag": False,
-            **dict(options.highs_options),
+            **config.solver.highs_options,
         }
         if mip:
-            config.rel_gap = options.gap
+            settings.rel_gap = config.solver.gap
         clock.report(phase)
         # Pyomo warns on HiGHS's "interrupted" status; every interrupt here is on purpose (the
         # lazy loop's, a stop request) and mapped by plan_status.
         logging.getLogger("pyomo.contrib.solver.solvers.highs").setLevel(logging.ERROR)
-        use_threads(options.threads)
+        use_threads(config.solver.threads)
         with clock.building():
             self.solver.set_instance(model)
         self.highs: Any = getattr(self.solver, "_solver_model", None)
@@ -217,13 +212,13 @@ class HighsSession:
         return dict(self.solver._pyomo_var_to_solver_var_map)
 
     def solve(self, time_limit: float | None = None, finishing: bool = False) -> Solved:
-        """Solve (again) within ``time_limit`` seconds (default: the options' limit) and what the
+        """Solve (again) within ``time_limit`` seconds (default: the run's limit) and what the
         run's budget leaves (:meth:`Clock.remaining`, with the grace when ``finishing``).
 
         An infeasible verdict is confirmed (:mod:`stlplan.planner.confirm`) before it is returned; when
         a confirmation solve finds a plan, that solve is the one returned.
         """
-        limit = self.options.time_limit if time_limit is None else time_limit
+        limit = self.config.solver.time_limit if time_limit is None else time_limit
         tick = time.perf_counter()
         results = self._run(min(limit, self.clock.remaining(finishing)))
         infeasible = results.termination_condition in (
@@ -245,12 +240,12 @@ class HighsSession:
         return Solved(results, seconds, gap, stops.should_interrupt())
 
     def _run(self, seconds: float, settings: confirm.Settings | None = None) -> Results:
-        """One HiGHS solve through Pyomo within ``seconds`` (at least :data:`MIN_SOLVE_SECONDS`),
-        with extra options."""
+        """One HiGHS solve through Pyomo within ``seconds`` (at least
+        ``budget.min_solve_seconds``), with extra options."""
         config = self.solver.config
-        config.time_limit = max(MIN_SOLVE_SECONDS, seconds)
+        config.time_limit = max(self.config.budget.min_solve_seconds, seconds)
         self._fresh = True
-        use_threads(self.options.threads)
+        use_threads(self.config.solver.threads)
         usual = config.solver_options
         config.solver_options = {**usual, **(settings or {})}
         try:
@@ -281,22 +276,23 @@ class HighsSession:
             self.highs,
             first,
             run,
-            self.options.seed,
+            self.config.solver.seed,
             lambda: self.clock.remaining(finishing),
             where,
+            self.config.budget.min_check_seconds,
         )
         self.clock.confirmations.append(confirmation)
         return last[0]
 
 
 def solve_once(
-    model: ConcreteModel, options: PlanOptions, clock: Clock, phase: Phase, mip: bool = True
+    model: ConcreteModel, config: PlannerConfig, clock: Clock, phase: Phase, mip: bool = True
 ) -> tuple[Results, float, float | None]:
     """One HiGHS solve of ``model``; returns the results, its wall time and HiGHS's MIP gap.
 
     Step 2 and the polish are finishing solves (:meth:`HighsSession.solve`).
     """
-    solved = HighsSession(model, options, clock, phase, mip).solve(
+    solved = HighsSession(model, config, clock, phase, mip).solve(
         finishing=phase in ("step2", "polish")
     )
     return solved.results, solved.seconds, solved.gap

@@ -25,24 +25,16 @@ from pyomo.environ import ConcreteModel, Constraint, Var
 
 from stlplan.mission.problem import Problem
 from stlplan.planner import stops
-from stlplan.planner.clock import FLOORS_SHARE, Clock, ProgressCallback
+from stlplan.planner.clock import Clock, ProgressCallback
 from stlplan.planner.components import solve_parts
+from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import PlanModel, build_model
 from stlplan.planner.encoding.readout import plan_result
 from stlplan.planner.finish import Finish, enforced_predicates, finish, fix_decisions
 from stlplan.planner.lazy import Step1, solve_step1
-from stlplan.planner.options import PlanOptions
 from stlplan.result import Fallback, ModelSize, PlanResult, PlanStatus
 
 __all__ = ["enforced_predicates", "fix_decisions", "model_size", "plan"]
-
-STRICT_INTEGRALITY = 1e-9
-"""HiGHS's integrality (and MIP feasibility) tolerance when step 1 is solved again strictly."""
-
-STRICT_NOTE = (
-    f" (step 1 solved again with integrality tolerance {STRICT_INTEGRALITY:g}: its first plan met"
-    " its decisions only within HiGHS's default tolerance)"
-)
 
 
 def model_size(model: ConcreteModel) -> ModelSize:
@@ -52,15 +44,23 @@ def model_size(model: ConcreteModel) -> ModelSize:
     return ModelSize(len(free), sum(1 for v in free if v.is_binary()), rows)
 
 
-def strict(options: PlanOptions) -> PlanOptions:
-    """``options`` with HiGHS's integrality tolerance at :data:`STRICT_INTEGRALITY`."""
-    extra = dict(options.highs_options)
-    extra["mip_feasibility_tolerance"] = STRICT_INTEGRALITY
-    return dataclasses.replace(options, highs_options=tuple(extra.items()))
+def strict(config: PlannerConfig) -> PlannerConfig:
+    """``config`` with HiGHS's integrality tolerance at ``solver.strict_integrality``."""
+    extra = dict(config.solver.highs_options)
+    extra["mip_feasibility_tolerance"] = config.solver.strict_integrality
+    return config.with_overrides({"solver.highs_options": extra})
+
+
+def _strict_note(config: PlannerConfig) -> str:
+    tolerance = config.solver.strict_integrality
+    return (
+        f" (step 1 solved again with integrality tolerance {tolerance:g}: its first plan met"
+        " its decisions only within HiGHS's default tolerance)"
+    )
 
 
 def _solved(
-    problem: Problem, options: PlanOptions, clock: Clock
+    problem: Problem, config: PlannerConfig, clock: Clock
 ) -> tuple[PlanModel, Step1, Finish, bool]:
     """Step 1, then the continuous stage: the model with the plan loaded, how step 1 and the
     continuous stage ended, and whether step 1 was solved strictly.
@@ -69,42 +69,35 @@ def _solved(
     integrality tolerance (a binary at ``1e-6`` from 0 or 1 relaxes a big-M row by ``M 1e-6``,
     more than ``EPSILON``): step 1 is solved again with :func:`strict` options.
     """
-    pm, step1 = _step1(problem, options, clock)
+    pm, step1 = _step1(problem, config, clock)
     if not step1.status.has_plan:
         return pm, step1, Finish(), False
     with stops.finishing():  # after a stop request too: step 2 is a quick LP or QP
-        ended = finish(pm, options, clock)
-    if not ended.infeasible or dict(options.highs_options).get("mip_feasibility_tolerance") == (
-        STRICT_INTEGRALITY
-    ):
+        ended = finish(pm, config, clock)
+    tolerance = config.solver.highs_options.get("mip_feasibility_tolerance")
+    if not ended.infeasible or tolerance == config.solver.strict_integrality:
         return pm, step1, ended, False
-    pm, step1, ended, _ = _solved(problem, strict(options), clock)
+    pm, step1, ended, _ = _solved(problem, strict(config), clock)
     return pm, step1, ended, True
 
 
-def _step1(problem: Problem, options: PlanOptions, clock: Clock) -> tuple[PlanModel, Step1]:
+def _step1(problem: Problem, config: PlannerConfig, clock: Clock) -> tuple[PlanModel, Step1]:
     """Build and solve problem (step 1), part by part when it splits; returns the model with
     the plan loaded and how step 1 ended (building is timed on the clock)."""
     clock.report("build")
-    by_parts = solve_parts(problem, options, clock) if options.lazy and options.decompose else None
+    by_parts = None
+    if config.lazy.enabled and config.parts.enabled:
+        by_parts = solve_parts(problem, config, clock)
     if by_parts is not None:
         return by_parts
     with clock.building():
-        pm = build_model(
-            problem,
-            options.encoding,
-            lazy=options.lazy,
-            floors=options.floors,
-            floors_deadline=clock.share(FLOORS_SHARE),
-            task_encoding=options.tasks,
-            symmetry=options.symmetry,
-        )
-    return pm, solve_step1(pm, options, clock)
+        pm = build_model(problem, config, clock.share(config.model.floors_share))
+    return pm, solve_step1(pm, config, clock)
 
 
 def plan(
     problem: Problem,
-    options: PlanOptions | None = None,
+    config: PlannerConfig | None = None,
     progress: ProgressCallback | None = None,
     deadline: float | None = None,
 ) -> PlanResult:
@@ -114,12 +107,12 @@ def plan(
     ----------
     problem
         A checked problem.
-    options
-        Solver options (default: from the mission).
+    config
+        The planner's configuration (default: from the mission).
     progress
         Called with :class:`Progress` at phase changes and while HiGHS works.
     deadline
-        ``time.perf_counter()`` time by which the run must end, when earlier than the options'
+        ``time.perf_counter()`` time by which the run must end, when earlier than the
         time limit from now (a run that shares its budget with other work).
 
     Returns
@@ -128,17 +121,17 @@ def plan(
         Status, trajectory and solver figures; ``report`` is left None for the monitor.
         ``model_size`` is the size of the last MILP step 1 solved (lazy rows included).
     """
-    options = options or PlanOptions.from_mission(problem.mission)
-    clock = Clock.started(options.time_limit, progress, deadline)
-    pm, step1, ended, strictly = _solved(problem, options, clock)
+    config = config or PlannerConfig.from_mission(problem.mission)
+    clock = Clock.started(config, progress, deadline)
+    pm, step1, ended, strictly = _solved(problem, config, clock)
     failed = ended.failed
     size = model_size(pm.model)
-    redone = STRICT_NOTE if strictly else ""
+    redone = _strict_note(config) if strictly else ""
     if not step1.status.has_plan:
         clock.report("done")
         return PlanResult(
             status=step1.status,
-            message=_message(step1, options, clock) + redone,
+            message=_message(step1, config, clock) + redone,
             bound=step1.bound,
             model_size=size,
             build_seconds=clock.build_seconds,
@@ -146,13 +139,13 @@ def plan(
             confirmations=tuple(clock.confirmations),
         )
     clock.report("done", step1.objective, step1.bound, step1.gap)
-    message = _message(step1, options, clock) + redone
+    message = _message(step1, config, clock) + redone
     fallback = None
     if failed is not None:
-        step = "step 2" if options.two_step else "polish"
+        step = "step 2" if config.continuous.two_step else "polish"
         message += f"; the continuous re-solve failed ({failed}), {ended.kept} is kept"
         fallback = Fallback(step, failed, ended.kept)
-    elif options.two_step:
+    elif config.continuous.two_step:
         message += f"; step 2 minimized the {problem.mission.objective.effort} effort"
     if ended.note:
         message += f" ({ended.note})"
@@ -165,12 +158,12 @@ def plan(
         size,
         clock.build_seconds,
         clock.elapsed() - clock.build_seconds,
-        steps=2 if options.two_step and failed is None else 1,
+        steps=2 if config.continuous.two_step and failed is None else 1,
     )
     return dataclasses.replace(result, confirmations=tuple(clock.confirmations), fallback=fallback)
 
 
-def _message(step1: Step1, options: PlanOptions, clock: Clock) -> str:
+def _message(step1: Step1, config: PlannerConfig, clock: Clock) -> str:
     """One line on how step 1 ended (with its lazy rounds)."""
     bound, gap = step1.bound, step1.gap
     known = gap is not None and bound is not None and math.isfinite(bound)
@@ -179,7 +172,7 @@ def _message(step1: Step1, options: PlanOptions, clock: Clock) -> str:
         PlanStatus.OPTIMAL: "optimal plan",
         PlanStatus.FEASIBLE: f"a plan, not proven optimal: HiGHS stopped ({step1.stop}; {where})",
         PlanStatus.INFEASIBLE: "the tasks and constraints cannot be met together",
-        PlanStatus.NO_PLAN: f"no plan found within the time limit of {options.time_limit:g} s",
+        PlanStatus.NO_PLAN: f"no plan found within the time limit of {config.solver.time_limit:g} s",
         PlanStatus.ERROR: f"HiGHS failed: {step1.stop}",
         PlanStatus.INTERRUPTED: f"the best plan found before the stop request ({where})",
         PlanStatus.INTERRUPTED_NO_PLAN: "interrupted before a plan meeting every requirement was found",
@@ -190,7 +183,7 @@ def _message(step1: Step1, options: PlanOptions, clock: Clock) -> str:
         text += f" ({outcomes.count('overturned')} infeasible verdict(s) of HiGHS overturned)"
     if "undecided" in outcomes and not step1.status.has_plan:
         text += " (HiGHS said infeasible, but a confirmation solve ended without a verdict)"
-    if options.lazy and step1.rounds > 1:
+    if config.lazy.enabled and step1.rounds > 1:
         text += f" ({step1.rounds} lazy rounds, {step1.added} requirements added"
         text += _completion_text(step1) + ")"
     return text

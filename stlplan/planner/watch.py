@@ -44,14 +44,6 @@ def pending_violations(pm: PlanModel) -> list[int]:
     return [n for n in found if n not in pm.added]
 
 
-def near_violations(pm: PlanModel, margin: float) -> list[int]:
-    """Lazy requirements not in the model that the loaded plan meets by less than ``margin``."""
-    assert pm.deferral is not None
-    states = trajectory_states(pm)
-    found = violated(pm.deferral.lazy, states, float(value(pm.margin)), -margin)
-    return [n for n in found if n not in pm.added]
-
-
 @dataclass(eq=False)
 class Watch:
     """Checks HiGHS's improving plans against the lazy requirements while a round runs.

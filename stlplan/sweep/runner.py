@@ -21,7 +21,7 @@ from typing import Any
 
 from stlplan.errors import SolverError, StlplanError, UsageError
 from stlplan.planner import stops
-from stlplan.planner.options import Overrides
+from stlplan.planner.config import Overrides
 from stlplan.result import PlanResult
 
 RECORDS = "runs.jsonl"

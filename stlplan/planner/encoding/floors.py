@@ -45,7 +45,7 @@ holds at every plan: serving one task it is a cut above; serving both, its right
 ``F_T1 + J_p - F_T1``. Unlike the cuts above it adds the floors of two tasks up, so it binds when
 the agent's shares of the tasks are fractional too, whenever the way between the tasks costs at
 least the smaller floor. The same with ``T1`` and ``T2`` swapped, and ``e_p >= J_p (a_T1 + a_T2 -
-1)``, which is tight when both shares are 1; ``a_T1 + a_T2 <= 1`` when no union can be met. Pairs with more than :data:`MAX_OPTIONS` unions get no cut.
+1)``, which is tight when both shares are 1; ``a_T1 + a_T2 <= 1`` when no union can be met. Pairs with more than ``model.max_options`` unions get no cut.
 """
 
 from __future__ import annotations
@@ -61,6 +61,7 @@ import highspy
 from pyomo.environ import ConcreteModel, ConstraintList, Var
 
 from stlplan.mission.problem import Problem
+from stlplan.planner.config import ModelConfig
 from stlplan.planner.encoding.effort_lp import FLOOR_TOL, INF, AgentPredicate, EffortLp
 from stlplan.planner.encoding.stl import Ledger, conjunction_leaves
 from stlplan.planner.encoding.team_floors import add_team_floors
@@ -82,6 +83,8 @@ class FloorGraph:
     cache: dict[tuple[str, frozenset[AgentPredicate]], float] = field(default_factory=dict)
     deadline: float = math.inf
     """``time.perf_counter()`` time after which no more LPs run: a floor of 0 (no cut) is valid."""
+    max_options: int = ModelConfig().max_options
+    """Most option unions (LPs) one agent and pair of tasks may take (``model.max_options``)."""
 
     def __post_init__(self) -> None:
         for z, (node, k, binding) in self.ledger.guarded:
@@ -137,6 +140,7 @@ def add_effort_floors(
     problem: Problem,
     ledger: Ledger,
     margin: float,
+    settings: ModelConfig | None = None,
     deadline: float = math.inf,
 ) -> int:
     """Add ``e_p = sum s_p`` and the floor cuts of every conjunction and choice; returns the count.
@@ -144,10 +148,12 @@ def add_effort_floors(
     ``model.s[p, k, j]`` are the absolute inputs; ``margin`` is the smallest admissible ``r``.
     After ``deadline`` (``time.perf_counter()`` time) no more floor LPs run and the remaining
     indicators get no cut (the floors are valid inequalities: fewer of them keep the optimum).
+    ``settings`` bound the work (``model.max_options``, ``model.max_combinations``).
     """
+    settings = settings or ModelConfig()
     names = [a.name for a in problem.agents]
     lps = {a.name: EffortLp(a, problem.horizon, margin) for a in problem.agents}
-    graph = FloorGraph(ledger, lps, deadline=deadline)
+    graph = FloorGraph(ledger, lps, deadline=deadline, max_options=settings.max_options)
     model.e = Var(names, bounds=(0.0, None))
     model.effort_floors = ConstraintList()
     for p in names:
@@ -181,14 +187,12 @@ def add_effort_floors(
         (task, agent): list(zip(_weights(graph, agent, h), x, strict=True))
         for task, agent, h, x in ledger.services
     }
-    count += added + add_team_floors(model, ledger, lps, own, solo, exclusive, deadline)
+    count += added + add_team_floors(
+        model, ledger, lps, own, solo, exclusive, deadline, settings.max_combinations
+    )
     # the LPs sized HiGHS's process-wide thread pool; let the MILP size it afresh
     highspy.Highs.resetGlobalScheduler(True)
     return count + len(impossible)
-
-
-MAX_OPTIONS = 256
-"""Most option unions (LPs) one agent and pair of tasks may take."""
 
 
 def _options(graph: FloorGraph, agent: str, z: Any) -> list[frozenset[AgentPredicate]]:
@@ -204,7 +208,7 @@ def _joint_floor(
     (0 when there are too many options to try)."""
     left = {o for h in first for o in _options(graph, agent, h)}
     right = {o for h in second for o in _options(graph, agent, h)}
-    if len(left) * len(right) > MAX_OPTIONS:
+    if len(left) * len(right) > graph.max_options:
         return 0.0
     return min(graph.effort_floor(agent, a | b) for a, b in itertools.product(left, right))
 

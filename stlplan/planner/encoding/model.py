@@ -38,16 +38,16 @@ from pyomo.environ import (
 
 from stlplan.formula.boundary import required_margin
 from stlplan.mission.problem import AgentModel, Problem
+from stlplan.planner.config import Encoding, PlannerConfig, TaskForm
 from stlplan.planner.encoding.deferred import Deferral, defer, segment_requirements
 from stlplan.planner.encoding.floors import add_effort_floors
 from stlplan.planner.encoding.selection import (
     Selection,
     SyncSelection,
-    TaskForm,
     select_synchronous,
     select_task,
 )
-from stlplan.planner.encoding.sos1 import Encoding, gray_code, sos1_block
+from stlplan.planner.encoding.sos1 import gray_code, sos1_block
 from stlplan.planner.encoding.stl import Ledger, StlContext, margin_ceiling, require
 from stlplan.planner.encoding.symmetry import order_classes
 from stlplan.planner.encoding.tasks import (
@@ -262,37 +262,31 @@ def encode_tasks(
 
 
 def build_model(
-    problem: Problem,
-    encoding: Encoding = "standard",
-    lazy: bool = False,
-    floors: bool = False,
-    floors_deadline: float = math.inf,
-    task_encoding: TaskForm = "groups",
-    symmetry: bool = False,
+    problem: Problem, config: PlannerConfig | None = None, floors_deadline: float = math.inf
 ) -> PlanModel:
-    """Encode ``problem`` as the MILP of step 1.
+    """Encode ``problem`` as the MILP of step 1, as ``config`` (default: the defaults of
+    :class:`~stlplan.planner.config.PlannerConfig`, as planning has them) declares it.
 
     Parameters
     ----------
     problem
         A checked problem (:func:`stlplan.mission.problem.build_problem`).
-    encoding
-        Disjunctions and group choices as a logarithmic SOS1 (``"log"``) or with one binary per
-        entry (``"standard"``).
-    lazy
-        Leave the step requirements of constraints and separation out (see
+    config
+        ``model.encoding``: disjunctions and group choices as a logarithmic SOS1 (``"log"``) or
+        with one binary per entry (``"standard"``). ``lazy.enabled``: leave the step
+        requirements of constraints and separation out (see
         :mod:`stlplan.planner.encoding.deferred`); :func:`add_requirements` adds them on demand.
-    floors
-        Add the effort floors of :mod:`stlplan.planner.encoding.floors` (valid cuts; with ``beta > 0``).
+        ``model.floors``: add the effort floors of :mod:`stlplan.planner.encoding.floors` (valid
+        cuts; with ``beta > 0``). ``model.tasks``: tasks by enumerating groups (``"groups"``,
+        the paper's) or by selecting elements (``"selection"``,
+        :mod:`stlplan.planner.encoding.selection`). ``model.symmetry``: with selection, order
+        the task shares of interchangeable agents (:mod:`stlplan.planner.encoding.symmetry`).
     floors_deadline
         ``time.perf_counter()`` time after which no more floors are computed.
-    task_encoding
-        Tasks by enumerating groups (``"groups"``, the paper's) or by selecting elements
-        (``"selection"``, :mod:`stlplan.planner.encoding.selection`).
-    symmetry
-        With selection: order the task shares of interchangeable agents
-        (:mod:`stlplan.planner.encoding.symmetry`, valid rows that keep an optimal plan).
     """
+    config = config or PlannerConfig()
+    settings = config.model
+    encoding, lazy, floors = settings.encoding, config.lazy.enabled, settings.floors
     model = ConcreteModel(name=problem.mission.name)
     boxes = reachable_boxes(problem)
     add_agents(model, problem, boxes)
@@ -308,7 +302,7 @@ def build_model(
         margin_ceiling=ceiling,
         encoding=encoding,
     )
-    tasks, synchronous = encode_tasks(ctx, problem, task_encoding, symmetry)
+    tasks, synchronous = encode_tasks(ctx, problem, settings.tasks, settings.symmetry)
     deferral = None
     if lazy:
         deferral = defer(problem, boxes, ceiling)
@@ -322,7 +316,7 @@ def build_model(
     t = add_objective(model, problem, synchronous, margin)
     if floors and problem.mission.objective.beta > 0:
         minimum = required_margin(problem.mission.objective.margin.minimum)
-        add_effort_floors(model, problem, ctx.ledger, minimum, floors_deadline)
+        add_effort_floors(model, problem, ctx.ledger, minimum, settings, floors_deadline)
     return PlanModel(
         model, problem, tasks, synchronous, t, margin, encoding, ctx.ledger, ctx, deferral
     )

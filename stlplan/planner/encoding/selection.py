@@ -39,7 +39,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 from pyomo.environ import value
 
@@ -48,7 +48,6 @@ from stlplan.mission.problem import Problem, TaskModel
 from stlplan.planner.encoding.sos1 import sos1
 from stlplan.planner.encoding.stl import StlContext, encode, indicator, require
 
-TaskForm = Literal["groups", "selection"]
 """How tasks choose their elements: the paper's group enumeration, or selection."""
 
 

@@ -25,12 +25,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Any, Literal
+from typing import Any
 
 from pyomo.environ import Binary, Block, ConstraintList, VarList
 
-Encoding = Literal["log", "standard"]
-"""How a disjunction chooses its disjunct: logarithmic SOS1 or one binary per entry."""
+from stlplan.planner.config import Encoding
 
 
 def sos1_block() -> Block:
@@ -104,6 +103,6 @@ SOS1_ENCODERS: dict[str, Callable[[Block, Sequence[Any]], list[Any]]] = {
 }
 
 
-def sos1(block: Block, entries: Sequence[Any], encoding: Encoding = "log") -> list[Any]:
+def sos1(block: Block, entries: Sequence[Any], encoding: Encoding = "standard") -> list[Any]:
     """SOS1 over ``entries`` with the chosen ``encoding``; returns the binaries it added."""
     return SOS1_ENCODERS[encoding](block, entries)

@@ -37,7 +37,8 @@ from stlplan.formula.tree import (
     atoms,
     roles,
 )
-from stlplan.planner.encoding.sos1 import Encoding, sos1
+from stlplan.planner.config import Encoding
+from stlplan.planner.encoding.sos1 import sos1
 
 Boxes = Mapping[str, tuple[np.ndarray, np.ndarray]]
 """Agent name to ``(lo, hi)`` state bounds per step, each of shape (H+1, n)."""
@@ -128,7 +129,7 @@ class StlContext:
     horizon: int
     margin: Any
     margin_ceiling: float
-    encoding: Encoding = "log"
+    encoding: Encoding = "standard"
     binding: Mapping[str, str] = field(default_factory=dict)
     memo: dict[tuple[Any, ...], Any] = field(default_factory=dict)
     ledger: Ledger = field(default_factory=Ledger)

@@ -14,7 +14,7 @@ takes predicates on any of the agents. The floor ``J`` of an indicator is
 * predicate or conjunction: with ``S`` every predicate reached through conjunctions alone and
   ``d^1..d^m`` the disjunctions reached, ``min E_e(S + S^1_i + ... + S^m_j)`` over one child of
   each (``S^l_i`` reached from child ``i`` of ``d^l`` likewise) while there are at most
-  :data:`MAX_COMBINATIONS` combinations, else the largest of ``E_e(S)`` and each
+  ``model.max_combinations`` combinations, else the largest of ``E_e(S)`` and each
   ``min_i E_e(S + S^l_i)``; any other child ``d`` gives ``J(d)`` too (the largest counts);
 * disjunction: ``min_i J(d_i)``.
 
@@ -51,6 +51,7 @@ import numpy as np
 from pyomo.environ import ConcreteModel, VarList
 
 from stlplan.formula.tree import Predicate
+from stlplan.planner.config import ModelConfig
 from stlplan.planner.encoding.effort_lp import (
     FLOOR_TOL,
     INF,
@@ -110,11 +111,6 @@ class TeamEffortLp:
         return least_effort(self.highs, self.base_rows, matrix, lo)
 
 
-MAX_COMBINATIONS = 64
-"""Most combinations of one child per disjunction that :meth:`TeamFloors.floor` solves together
-(beyond it, each disjunction is bounded apart)."""
-
-
 @dataclass(eq=False)
 class TeamFloors:
     """The floors ``J`` of the module docstring over a :class:`Ledger` (memoized LPs)."""
@@ -123,6 +119,9 @@ class TeamFloors:
     lps: Mapping[str, EffortLp]
     deadline: float = math.inf
     """``time.perf_counter()`` time after which no more LPs run (a floor of 0: no cut)."""
+    max_combinations: int = ModelConfig().max_combinations
+    """Most combinations of one child per disjunction that :meth:`floor` solves together
+    (beyond it, each disjunction is bounded apart; ``model.max_combinations``)."""
     predicates: dict[int, TeamPredicate] = field(default_factory=dict)
     conjunctions: dict[int, list[Any]] = field(default_factory=dict)
     disjunctions: dict[int, list[Any]] = field(default_factory=dict)
@@ -170,7 +169,7 @@ class TeamFloors:
         for other in others:
             if id(other) not in self.disjunctions:
                 best = max(best, self.floor(team, other))
-        if math.prod(len(self.disjunctions[id(d)]) for d in choices) <= MAX_COMBINATIONS:
+        if math.prod(len(self.disjunctions[id(d)]) for d in choices) <= self.max_combinations:
             return max(best, self._combined(team, held, choices))
         for other in choices:
             options = [held | self.closure(c)[0] for c in self.disjunctions[id(other)]]
@@ -196,13 +195,14 @@ def add_team_floors(
     solo: Mapping[tuple[str, str], Sequence[tuple[float, Any]]],
     exclusive: set[tuple[str, frozenset[str]]],
     deadline: float = math.inf,
+    max_combinations: int = ModelConfig().max_combinations,
 ) -> int:
     """Add the team floor of every element of several agents whose floor exceeds its agents'
     own floors (``own[id(h_e)]``) added up: by shares in a task that reuses no agent, else
     ``sum_{p in P_e} e_p >= J(h_e) x_e`` (module docstring). ``solo`` holds each agent's own
     floors per task, ``(J_p(h_e), x_e)``, and ``exclusive`` the ``(agent, {task, task})`` it
     cannot serve both of. Returns the count."""
-    floors = TeamFloors(ledger, lps, deadline)
+    floors = TeamFloors(ledger, lps, deadline, max_combinations=max_combinations)
     task_of = shared_tasks(ledger)
     model.team_shares = VarList(bounds=(0.0, None))
     shares: dict[tuple[str, str], list[Any]] = {}

@@ -1,0 +1,345 @@
+"""Every knob of the planner, declared once: :class:`PlannerConfig`.
+
+The planner reads its strategy from this tree and nowhere else: which formulation it builds,
+how the lazy rounds, the parts and the repairs share the time, and when the continuous stage
+gives up. Each field has its type, its default and a docstring; a default chosen by measurement
+names where that measurement is written (``Measured:``). Numerical tolerances that decide what
+counts as met (a violated requirement, an effort floor, a step-2 slack) are not strategy and
+stay beside the code that applies them.
+
+A run's configuration is the mission's settings (:meth:`PlannerConfig.from_mission`) with dotted
+overrides applied (:meth:`PlannerConfig.with_overrides`, e.g. ``{"repair.crowd_agents": 5}``);
+an unknown key or a value of the wrong type is a :class:`ConfigError` naming it. ``summary.json``
+records the whole tree and :func:`describe`'s one line.
+
+This module imports neither Pyomo nor HiGHS.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from stlplan.errors import StlplanError
+
+Encoding = Literal["log", "standard"]
+"""How a disjunction is encoded: a logarithmic SOS1 (``log``) or one binary per entry."""
+TaskForm = Literal["selection", "groups"]
+"""How a task is encoded: by selecting elements, or by the paper's group enumeration."""
+
+PERFORMANCE = "docs/performance.md"
+
+
+class ConfigError(StlplanError):
+    """An override names no knob, or gives a knob a value of the wrong type."""
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(
+        extra="forbid", frozen=True, strict=True, use_attribute_docstrings=True
+    )
+
+
+class SolverConfig(_Section):
+    """HiGHS's settings for every solve of a run."""
+
+    time_limit: float = Field(default=300.0, gt=0)
+    """Wall-clock limit of the whole run, s: building, step 1, step 2, confirmations and the
+    diagnosis of an infeasible mission share it (:class:`stlplan.planner.budget.Budget`)."""
+    gap: float = Field(default=1e-4, ge=0)
+    """Relative optimality gap at which step 1 stops."""
+    threads: int | None = Field(default=None, ge=1)
+    """Threads HiGHS may use (None: HiGHS decides)."""
+    seed: int = Field(default=0, ge=0)
+    """HiGHS's random seed."""
+    highs_options: dict[str, Any] = Field(default_factory=dict)
+    """Extra HiGHS options by name, for experiments."""
+    strict_integrality: float = Field(default=1e-9, gt=0)
+    """HiGHS's integrality (and MIP feasibility) tolerance when step 1 is solved again strictly,
+    because its decisions, taken exactly, left the continuous stage without a plan."""
+
+
+class ModelConfig(_Section):
+    """The MILP of step 1: which formulation, which valid inequalities."""
+
+    encoding: Encoding = "standard"
+    """Disjunctions with one binary per entry (``standard``) or as a logarithmic SOS1 (``log``).
+    Measured: docs/performance.md, the general-STL suite and Cases I-III with both encodings."""
+    tasks: TaskForm = "selection"
+    """Tasks by selecting elements (no group enumerated) or by the paper's groups (``groups``,
+    kept for comparisons with the paper). Measured: docs/performance.md, the scaled farms."""
+    floors: bool = True
+    """Add the effort floors (valid inequalities on effort, per agent, per pair of tasks an
+    agent serves and per element). Measured: docs/performance.md, effort floors."""
+    floors_share: float = Field(default=0.25, gt=0, le=1)
+    """Share of the time left that computing the effort floors of one model may take."""
+    max_options: int = Field(default=256, ge=1)
+    """A pair of tasks one agent serves gets no joint floor when its unions of predicates
+    number more than this."""
+    max_combinations: int = Field(default=64, ge=1)
+    """An element's floor takes one child of every disjunction together while there are at
+    most this many combinations, else the largest single floor."""
+    symmetry: bool = True
+    """With tasks by selection: order the task shares of interchangeable agents (valid rows
+    that keep an optimal plan). Measured: docs/performance.md, symmetry rows (the depot farms)."""
+
+
+class LazyConfig(_Section):
+    """Step 1 with the step requirements of constraints and separation added on demand."""
+
+    enabled: bool = True
+    """Leave the step requirements of constraints and separation out of the MILP and add those a
+    round's plan violates, solving again until none is (False: encode them all up front).
+    Measured: docs/performance.md, lazy requirements."""
+    window: int | None = Field(default=0, ge=0)
+    """A violated requirement also brings the requirements of the same agent (or pair) within
+    this many steps (None: every step). Measured: docs/performance.md, lazy requirements."""
+
+
+class RepairConfig(_Section):
+    """Repairing a plan agent by agent (prioritized planning) while no plan meets every
+    requirement."""
+
+    after_round_seconds: float | None = Field(default=8.0, ge=0)
+    """A lazy round that took at least this long has its plan repaired before the next round
+    (None: never by duration). Measured: docs/performance.md, repair in turn."""
+    crowd_agents: int | None = Field(default=7, ge=1)
+    """A lazy round, or a merge of parts, whose violated requirements name at least this many
+    agents is repaired in turn (None: never by crowd). Measured: docs/performance.md, repair
+    in turn."""
+    share: float = Field(default=0.25, gt=0, le=1)
+    """Share of the lazy loop's time left that one repair between rounds may spend."""
+    solves_per_turn: int = Field(default=10, ge=1)
+    """Solves of one agent's turn at most (each after adding what the last plan violated)."""
+    window: int | None = Field(default=None, ge=0)
+    """Steps of a violated requirement's family (the same pair, or agent and constraint) a turn
+    adds with it (None: all of them). Measured: docs/performance.md, repair in turn (the
+    24-agent farm)."""
+    gap: float = Field(default=0.01, ge=0)
+    """Relative gap of a turn's solves: the repair looks for a plan, the rounds prove."""
+    hold: float = Field(default=1e-4, gt=0)
+    """How far a held state or input may move from its plan (room for HiGHS's integrality
+    tolerance, ``big-M * 1e-6``)."""
+
+
+class PartsConfig(_Section):
+    """Step 1 by independent parts of the team (with lazy requirements)."""
+
+    enabled: bool = True
+    """Solve the parts of the team that no task, constraint or objective term links apart.
+    Measured: docs/performance.md, parts."""
+    merge_reserve: float = Field(default=0.1, ge=0, lt=1)
+    """Share of the time left that the parts' first solves leave for merging parts that
+    collide. Measured: docs/performance.md, parts."""
+    held_repair_share: float = Field(default=0.25, gt=0, le=1)
+    """Share of the time left that the held repair of a merged part may take."""
+    crowd_repair_share: float = Field(default=0.75, gt=0, le=1)
+    """Share of the time left that the repair in turn of a merged crowd may take. Measured:
+    docs/performance.md, parts."""
+    assembly_seconds: float = Field(default=60.0, gt=0)
+    """Time limit of the solve that assembles the parts' plans in one model, s."""
+
+
+class BudgetConfig(_Section):
+    """How the run's time limit is kept."""
+
+    grace_share: float = Field(default=0.1, ge=0)
+    """Finishing solves (step 2, a completion, the assembly) may run past the deadline by this
+    share of the time limit ..."""
+    grace_max_seconds: float = Field(default=10.0, ge=0)
+    """... and by at most this many seconds: they turn a plan already found into the one
+    written."""
+    min_solve_seconds: float = Field(default=1.0, gt=0)
+    """Every solve may run at least this long, even when the budget is spent."""
+    min_check_seconds: float = Field(default=1.0, gt=0)
+    """Every confirmation of an infeasible verdict may run at least this long."""
+
+
+class ContinuousConfig(_Section):
+    """The continuous stage after step 1: step 2, or the polish of one-step mode."""
+
+    two_step: bool = True
+    """Run step 2 (fix step 1's decisions, minimize the mission's effort norm)."""
+    landing_limit: float = Field(default=1e-5, gt=0)
+    """A step-2 point that breaks a predicate by at most this much is landed on the fixed
+    decisions (an LP) instead of falling back to step 1's plan."""
+
+
+class DiagnosisConfig(_Section):
+    """Finding a minimal conflict of an infeasible mission (a deletion filter)."""
+
+    probe_seconds: float = Field(default=30.0, gt=0)
+    """Time limit of one feasibility solve of the diagnosis, s."""
+    seconds: float = Field(default=120.0, gt=0)
+    """Time limit of the whole diagnosis, s (within what the run has left)."""
+
+
+class PlannerConfig(_Section):
+    """The planner's whole configuration; see the module docstring."""
+
+    solver: SolverConfig = SolverConfig()
+    model: ModelConfig = ModelConfig()
+    lazy: LazyConfig = LazyConfig()
+    repair: RepairConfig = RepairConfig()
+    parts: PartsConfig = PartsConfig()
+    budget: BudgetConfig = BudgetConfig()
+    continuous: ContinuousConfig = ContinuousConfig()
+    diagnosis: DiagnosisConfig = DiagnosisConfig()
+
+    @classmethod
+    def from_mission(
+        cls, mission: Any, overrides: Mapping[str, Any] | None = None
+    ) -> PlannerConfig:
+        """The mission's ``solver`` and ``objective`` settings, then dotted ``overrides``."""
+        settings, objective = mission.solver, mission.objective
+        base = {
+            "solver.time_limit": float(settings.time_limit),
+            "solver.gap": float(settings.gap),
+            "solver.threads": settings.threads,
+            "solver.seed": settings.seed,
+            "model.encoding": settings.encoding,
+            "model.tasks": settings.tasks,
+            "continuous.two_step": objective.two_step,
+        }
+        return cls().with_overrides({**base, **(overrides or {})})
+
+    def with_overrides(self, dotted: Mapping[str, Any]) -> PlannerConfig:
+        """This configuration with ``dotted`` values (``"section.knob": value``) in place.
+
+        Raises
+        ------
+        ConfigError
+            When a key names no knob or a value has the wrong type or range.
+        """
+        tree = self.model_dump()
+        for key, value in dotted.items():
+            section, _, knob = key.partition(".")
+            if (
+                section not in tree
+                or not isinstance(tree[section], dict)
+                or knob not in tree[section]
+            ):
+                raise ConfigError(_unknown(key))
+            tree[section][knob] = value
+        try:
+            return PlannerConfig.model_validate(tree)
+        except ValidationError as exc:
+            raise ConfigError(_problems(exc)) from None
+
+    def dotted(self) -> dict[str, Any]:
+        """Every knob by its dotted name."""
+        return {
+            f"{section}.{knob}": value
+            for section, knobs in self.model_dump().items()
+            for knob, value in knobs.items()
+        }
+
+
+def _unknown(key: str) -> str:
+    """The message for a key that names no knob, with the nearest names."""
+    known = list(PlannerConfig().dotted())
+    near = difflib.get_close_matches(key, known, n=3, cutoff=0.6)
+    hint = f"did you mean {' or '.join(map(repr, near))}?" if near else f"known: {', '.join(known)}"
+    return f"unknown planner setting {key!r}; {hint}"
+
+
+def _problems(exc: ValidationError) -> str:
+    """One line per wrong value: its dotted name, what was given, what is expected."""
+    lines = []
+    for error in exc.errors():
+        name = ".".join(str(part) for part in error["loc"][:2])
+        lines.append(f"planner setting {name!r} = {error.get('input')!r}: {error['msg']}")
+    return "; ".join(lines)
+
+
+def knob_docs() -> list[tuple[str, str, Any, str]]:
+    """``(dotted name, type, default, doc)`` of every knob, for the documentation."""
+    rows = []
+    for section, declared in PlannerConfig.model_fields.items():
+        kind = declared.annotation
+        assert isinstance(kind, type)
+        for knob, info in kind.model_fields.items():
+            default = info.get_default(call_default_factory=True)
+            rows.append(
+                (f"{section}.{knob}", str(info.annotation), default, info.description or "")
+            )
+    return rows
+
+
+def describe(config: PlannerConfig) -> str:
+    """The composed strategy of step 1 in one line (as CP-SAT logs its parameters)."""
+    m, r = config.model, config.repair
+    cuts = [name for name, on in (("floors", m.floors), ("symmetry", m.symmetry)) if on]
+    model = f"model({m.encoding}, {m.tasks}" + "".join(f", {c}" for c in cuts) + ")"
+    step = "direct"
+    if config.lazy.enabled:
+        triggers = []
+        if r.after_round_seconds is not None:
+            triggers.append(f"round >= {r.after_round_seconds:g} s")
+        if r.crowd_agents is not None:
+            triggers.append(f">= {r.crowd_agents} agents")
+        repair = f", repair in turn if {' or '.join(triggers)}" if triggers else ""
+        step = f"lazy rounds(direct{repair})"
+        if config.parts.enabled:
+            crowd = f"in turn if >= {r.crowd_agents} agents, " if r.crowd_agents else ""
+            step = f"parts({step}; merge: {crowd}held)"
+    after = "step 2" if config.continuous.two_step else "polish"
+    return f"{model} -> {step} -> {after} -> strict retry if needed"
+
+
+_NAMED = {
+    "time_limit": "solver.time_limit",
+    "gap": "solver.gap",
+    "threads": "solver.threads",
+    "seed": "solver.seed",
+    "encoding": "model.encoding",
+    "tasks": "model.tasks",
+    "two_step": "continuous.two_step",
+}
+"""The planner settings a run may change by their command-line names."""
+
+
+@dataclass(frozen=True)
+class Overrides:
+    """What one run changes of a mission's settings (the command line's options); None keeps
+    the mission's value.
+
+    Attributes
+    ----------
+    time_limit, gap, threads, seed, encoding, tasks, two_step
+        As the mission's ``solver`` and ``objective`` settings (:class:`PlannerConfig`'s
+        ``solver``, ``model`` and ``continuous`` knobs).
+    inter_sample
+        Judge safety on the segments between steps (the mission's ``safety.inter_sample``).
+    config
+        Any other planner knob by its dotted name, e.g. ``{"repair.crowd_agents": 5}``
+        (benchmarks compare formulations with them); checked by :meth:`PlannerConfig.with_overrides`.
+    """
+
+    time_limit: float | None = None
+    gap: float | None = None
+    threads: int | None = None
+    seed: int | None = None
+    encoding: Encoding | None = None
+    tasks: TaskForm | None = None
+    two_step: bool | None = None
+    inter_sample: bool | None = None
+    config: Mapping[str, Any] = field(default_factory=dict)
+
+    def given(self) -> dict[str, Any]:
+        """The values set (not None), by name, as the summary records them."""
+        named = {name: getattr(self, name) for name in (*_NAMED, "inter_sample")}
+        return {k: v for k, v in named.items() if v is not None} | dict(self.config)
+
+    def dotted(self) -> dict[str, Any]:
+        """The planner knobs set here, by dotted name (``inter_sample`` goes to the problem)."""
+        named = {_NAMED[k]: getattr(self, k) for k in _NAMED if getattr(self, k) is not None}
+        if "solver.time_limit" in named:
+            named["solver.time_limit"] = float(named["solver.time_limit"])
+        if "solver.gap" in named:
+            named["solver.gap"] = float(named["solver.gap"])
+        return named | dict(self.config)
