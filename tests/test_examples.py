@@ -87,18 +87,21 @@ def test_the_readme_shortened_mission_validates_as_printed(tmp_path: Path) -> No
 
 def test_the_readme_python_api_runs(tmp_path: Path) -> None:
     code = _block("## Python API", "python")
-    code = code.replace("missions/farm.yaml", str(MISSIONS / "sync-pair.yaml"))
-    code = code.replace("out/farm", str(tmp_path / "plan"))
+    assert "missions/sync-pair.yaml" in code and "out/sync-pair" in code
+    code = code.replace("missions/sync-pair.yaml", str(MISSIONS / "sync-pair.yaml"))
+    code = code.replace("out/sync-pair", str(tmp_path / "plan"))
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
         exec(compile(code, "README.md", "exec"), {})  # noqa: S102 - the README's own example
     lines = printed.getvalue().splitlines()
     assert lines[0].startswith("PlanStatus.OPTIMAL") and lines[0].endswith("True")
+    assert f"It prints `{lines[0]}`" in README  # what the README says it prints
     assert any(line.startswith("meet True") for line in lines[1:])
 
 
 def test_every_api_function_the_readme_names_exists_as_described() -> None:
-    prose = README[README.index("## Python API") : README.index("## Development")]
+    start = README.index("## Python API")
+    prose = README[start : README.index("\n## ", start)]
     for name in set(re.findall(r"`api\.(\w+)", prose)):
         assert hasattr(api, name), name
     assert "tuple[Problem, PlanResult]" in str(inspect.signature(api.plan).return_annotation)
