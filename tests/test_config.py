@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -22,7 +23,7 @@ from stlplan.planner.encoding.model import build_model
 from stlplan.planner.encoding.sos1 import sos1
 from stlplan.planner.encoding.stl import StlContext
 from stlplan.planner.solve import model_size
-from tests.conftest import MISSIONS
+from tests.conftest import MISSIONS, ROOT
 
 PAIR = MISSIONS / "sync-pair.yaml"
 
@@ -115,3 +116,19 @@ def test_the_configuration_loads_no_solver() -> None:
     code = "import sys, stlplan.planner.config; print('pyomo' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def _anchors(page: Path) -> set[str]:
+    """GitHub's anchors of the headings of a Markdown page."""
+    headings = [
+        line.lstrip("#").strip() for line in page.read_text().splitlines() if line.startswith("#")
+    ]
+    return {re.sub(r"[^\w\- ]", "", h.lower()).replace(" ", "-") for h in headings}
+
+
+def test_every_measured_default_points_at_its_measurement() -> None:
+    cited = [re.search(r"Measured:\s*(\S+?)#(\S+?)\.?$", doc, re.S) for *_, doc in knob_docs()]
+    links = [m.groups() for m in cited if m is not None]
+    assert len(links) >= 10
+    for page, anchor in links:
+        assert anchor in _anchors(ROOT / page), f"{page}#{anchor}"

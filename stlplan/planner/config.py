@@ -31,8 +31,6 @@ Encoding = Literal["log", "standard"]
 TaskForm = Literal["selection", "groups"]
 """How a task is encoded: by selecting elements, or by the paper's group enumeration."""
 
-PERFORMANCE = "docs/performance.md"
-
 
 class ConfigError(StlplanError):
     """An override names no knob, or gives a knob a value of the wrong type."""
@@ -68,13 +66,14 @@ class ModelConfig(_Section):
 
     encoding: Encoding = "standard"
     """Disjunctions with one binary per entry (``standard``) or as a logarithmic SOS1 (``log``).
-    Measured: docs/performance.md, the general-STL suite and Cases I-III with both encodings."""
+    Measured:
+    docs/measurements.md#the-disjunction-encoding-chosen-by-measurement."""
     tasks: TaskForm = "selection"
     """Tasks by selecting elements (no group enumerated) or by the paper's groups (``groups``,
-    kept for comparisons with the paper). Measured: docs/performance.md, the scaled farms."""
+    kept for comparisons with the paper). Measured: docs/measurements.md#tasks-by-selection-against-groups."""
     floors: bool = True
     """Add the effort floors (valid inequalities on effort, per agent, per pair of tasks an
-    agent serves and per element). Measured: docs/performance.md, effort floors."""
+    agent serves and per element). Measured: docs/performance.md#where-the-speed-comes-from."""
     floors_share: float = Field(default=0.25, gt=0, le=1)
     """Share of the time left that computing the effort floors of one model may take."""
     max_options: int = Field(default=256, ge=1)
@@ -85,7 +84,7 @@ class ModelConfig(_Section):
     most this many combinations, else the largest single floor."""
     symmetry: bool = True
     """With tasks by selection: order the task shares of interchangeable agents (valid rows
-    that keep an optimal plan). Measured: docs/performance.md, symmetry rows (the depot farms)."""
+    that keep an optimal plan). Measured: docs/performance.md#where-the-speed-comes-from."""
 
 
 class LazyConfig(_Section):
@@ -94,10 +93,10 @@ class LazyConfig(_Section):
     enabled: bool = True
     """Leave the step requirements of constraints and separation out of the MILP and add those a
     round's plan violates, solving again until none is (False: encode them all up front).
-    Measured: docs/performance.md, lazy requirements."""
+    Measured: docs/performance.md#where-the-speed-comes-from."""
     window: int | None = Field(default=0, ge=0)
     """A violated requirement also brings the requirements of the same agent (or pair) within
-    this many steps (None: every step). Measured: docs/performance.md, lazy requirements."""
+    this many steps (None: every step). Measured: docs/dropped.md#the-lazy-loop."""
 
 
 class RepairConfig(_Section):
@@ -106,19 +105,18 @@ class RepairConfig(_Section):
 
     after_round_seconds: float | None = Field(default=8.0, ge=0)
     """A lazy round that took at least this long has its plan repaired before the next round
-    (None: never by duration). Measured: docs/performance.md, repair in turn."""
+    (None: never by duration). Measured: docs/dropped.md#the-repair-in-turn."""
     crowd_agents: int | None = Field(default=7, ge=1)
     """A lazy round, or a merge of parts, whose violated requirements name at least this many
-    agents is repaired in turn (None: never by crowd). Measured: docs/performance.md, repair
-    in turn."""
+    agents is repaired in turn (None: never by crowd). Measured:
+    docs/measurements.md#the-16-agent-farm-with-doubled-counts."""
     share: float = Field(default=0.25, gt=0, le=1)
     """Share of the lazy loop's time left that one repair between rounds may spend."""
     solves_per_turn: int = Field(default=10, ge=1)
     """Solves of one agent's turn at most (each after adding what the last plan violated)."""
     window: int | None = Field(default=None, ge=0)
     """Steps of a violated requirement's family (the same pair, or agent and constraint) a turn
-    adds with it (None: all of them). Measured: docs/performance.md, repair in turn (the
-    24-agent farm)."""
+    adds with it (None: all of them). Measured: docs/measurements.md#the-24-agent-farm."""
     gap: float = Field(default=0.01, ge=0)
     """Relative gap of a turn's solves: the repair looks for a plan, the rounds prove."""
     hold: float = Field(default=1e-4, gt=0)
@@ -131,15 +129,15 @@ class PartsConfig(_Section):
 
     enabled: bool = True
     """Solve the parts of the team that no task, constraint or objective term links apart.
-    Measured: docs/performance.md, parts."""
+    Measured: docs/performance.md#where-the-speed-comes-from."""
     merge_reserve: float = Field(default=0.1, ge=0, lt=1)
     """Share of the time left that the parts' first solves leave for merging parts that
-    collide. Measured: docs/performance.md, parts."""
+    collide. Measured: docs/dropped.md#parts-and-merges."""
     held_repair_share: float = Field(default=0.25, gt=0, le=1)
     """Share of the time left that the held repair of a merged part may take."""
     crowd_repair_share: float = Field(default=0.75, gt=0, le=1)
     """Share of the time left that the repair in turn of a merged crowd may take. Measured:
-    docs/performance.md, parts."""
+    docs/dropped.md#parts-and-merges."""
     assembly_seconds: float = Field(default=60.0, gt=0)
     """Time limit of the solve that assembles the parts' plans in one model, s."""
 
