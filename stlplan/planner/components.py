@@ -176,7 +176,8 @@ def _combined(parts: Sequence[Part], config: PlannerConfig, seconds: float, roun
         status = first.status if first else PlanStatus.ERROR
         if stops.requested():
             status = PlanStatus.INTERRUPTED_NO_PLAN
-        return Step1(status, None, None, None, seconds, rounds, 0, first.stop if first else "")
+        added = sum(s.added for s in steps)
+        return Step1(status, None, None, None, seconds, rounds, added, first.stop if first else "")
     objective, bound = _totals(parts)
     gap = relative_gap(objective, bound)
     optimal = all(s.status is PlanStatus.OPTIMAL for s in steps)

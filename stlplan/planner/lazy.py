@@ -176,7 +176,7 @@ class LazySolver:
             if converged and not bad:
                 return _ended(solved, seconds, rounds, len(pm.added))
             left = min(time_limit - seconds, clock.remaining())
-            out_of_time = not (converged or watch.stopped) or left < self.min_solve
+            out_of_time = not (converged or watch.stopped) or left <= 0
             if solved.stopped or out_of_time:
                 return self._last(solved, tick, rounds)
             if self._between_rounds(bad, left, solved.seconds):
@@ -289,17 +289,21 @@ def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Step1:
 
 def _fix_and_solve(pm: PlanModel, session: HighsSession, values: dict[int, float]) -> Solved:
     """Fix the binaries with a value in ``values`` (by id), add every requirement, solve (a
-    finishing solve)."""
+    finishing solve whose infeasible verdict says only that those decisions admit no plan, so
+    it is neither confirmed nor reported as the mission's)."""
     fixed = []
     for v in pm.model.component_data_objects(Var):
         if v.is_binary() and not v.fixed and id(v) in values:
             v.fix(float(round(values[id(v)])))
             fixed.append(v)
     add_requirements(pm, pm.pending())
-    solved = session.solve(finishing=True)
-    for v in fixed:
-        v.unfix()
-    return solved
+    trial, session.trial = session.trial, True  # fixed decisions: the verdict is not the mission's
+    try:
+        return session.solve(finishing=True)
+    finally:
+        session.trial = trial
+        for v in fixed:
+            v.unfix()
 
 
 def _complete(
