@@ -176,7 +176,9 @@ class LazySolver:
             if converged and not bad:
                 return _ended(solved, seconds, rounds, len(pm.added))
             left = min(time_limit - seconds, clock.remaining())
-            out_of_time = not (converged or watch.stopped) or left <= 0
+            # another round while the time left is what this one took (or a least solve)
+            needed = min(self.min_solve, solved.seconds)
+            out_of_time = not (converged or watch.stopped) or left < needed
             if solved.stopped or out_of_time:
                 return self._last(solved, tick, rounds)
             if self._between_rounds(bad, left, solved.seconds):
