@@ -132,3 +132,9 @@ def test_every_measured_default_points_at_its_measurement() -> None:
     assert len(links) >= 10
     for page, anchor in links:
         assert anchor in _anchors(ROOT / page), f"{page}#{anchor}"
+
+
+def test_the_planner_page_lists_every_knob() -> None:
+    page = (ROOT / "docs" / "planner.md").read_text()
+    missing = [name for name in PlannerConfig().dotted() if f"`{name}`" not in page]
+    assert not missing
