@@ -23,6 +23,7 @@ from stlplan.planner.figures import reported
 from stlplan.planner.options import Overrides, PlanOptions
 from stlplan.planner.size import check_size
 from stlplan.result import PlanResult, PlanStatus
+from stlplan.words import counted
 
 
 def _verified(problem: Problem, result: PlanResult, gap: float) -> PlanResult:
@@ -82,7 +83,7 @@ def plan(
     reasons = cheap_reasons(problem)
     if reasons:
         diagnosis = cheap_diagnosis(problem, reasons)
-        message = f"infeasible before solving: {len(reasons)} requirement(s) cannot be met"
+        message = f"infeasible before solving: {counted(len(reasons), 'requirement')} cannot be met"
         return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis)
     with stops.stop_on_signals(), _quiet_pyomo():
         result = solve_plan(problem, options, progress=progress, deadline=deadline)

@@ -14,6 +14,7 @@ from stlplan.cli.shell import EXIT_VIOLATED, EXITS_COMMON, JsonOption, Output, Q
 from stlplan.errors import UsageError
 from stlplan.mission.groups import count_groups
 from stlplan.mission.problem import Problem, TaskModel
+from stlplan.words import counted
 
 MissionArg = Annotated[
     Path, typer.Argument(help="Mission file (YAML).", metavar="MISSION", show_default=False)
@@ -51,7 +52,8 @@ def group_count(task: TaskModel) -> int | None:
 def _groups_text(task: TaskModel) -> str:
     n = group_count(task)
     shown = f"more than {GROUPS_SHOWN}" if n is None else str(n)
-    return f"{task.name}: {len(task.elements)} elements, {shown} groups"
+    groups = "groups" if n != 1 else "group"
+    return f"{task.name}: {counted(len(task.elements), 'element')}, {shown} {groups}"
 
 
 def problem_counts(problem: Problem, mission: Path) -> dict[str, object]:
@@ -82,8 +84,9 @@ def validate(mission: MissionArg, as_json: JsonOption = False, quiet: QuietOptio
         return
     groups = "; ".join(_groups_text(t) for t in problem.tasks)
     output.line(
-        f"[green]valid[/]: {escape(str(mission))} ({len(problem.agents)} agents, "
-        f"{len(problem.tasks)} tasks, {len(problem.constraints)} constraints; "
+        f"[green]valid[/]: {escape(str(mission))} ({counted(len(problem.agents), 'agent')}, "
+        f"{counted(len(problem.tasks), 'task')}, "
+        f"{counted(len(problem.constraints), 'constraint')}; "
         f"{groups or 'no tasks'})",
         markup=True,
     )
@@ -243,4 +246,4 @@ def export_rtamt(
     if out is None:
         sys.stdout.write(text)
     else:
-        Output(quiet=quiet).line(f"wrote {len(specs)} specification(s) to {out}")
+        Output(quiet=quiet).line(f"wrote {counted(len(specs), 'specification')} to {out}")

@@ -25,6 +25,7 @@ from stlplan.cli.shell import (
 from stlplan.mission.schema import MAX_SEED
 from stlplan.planner import stops
 from stlplan.result import PlanResult, PlanStatus
+from stlplan.words import counted
 
 STATUS_EXIT = {
     PlanStatus.OPTIMAL: 0,
@@ -245,7 +246,11 @@ def sweep(
     if scheduler:
         where = f"on the Dask cluster at {scheduler}"
     else:
-        where = f"in {workers} local processes" if workers else "in one local process per core"
+        where = (
+            f"in {counted(workers, 'local process', 'local processes')}"
+            if workers
+            else "in one local process per core"
+        )
     if output.full:
         output.err.print(f"sweep runs {where}")
     with (
@@ -272,6 +277,6 @@ def sweep(
         print_table(output.out, rows)
     total = sum(int(row["runs"]) for row in rows)
     output.line(
-        f"sweep of {total} runs over {len(rows)} missions {where}: records in "
+        f"sweep of {counted(total, 'run')} over {counted(len(rows), 'mission')} {where}: records in "
         f"{folder / 'runs.jsonl'}; table in {folder / 'table.md'}"
     )

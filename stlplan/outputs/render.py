@@ -7,6 +7,7 @@ from rich.table import Table
 
 from stlplan.monitor.dynamics import DYNAMICS_CHECKED
 from stlplan.result import Confirmation, Diagnosis, MonitorReport, PlanResult, Verdict
+from stlplan.words import counted
 
 
 def _num(value: float | None, digits: int = 3) -> str:
@@ -67,7 +68,8 @@ def report_line(report: MonitorReport) -> str:
     failed = [v.name for v in report.verdicts if not v.satisfied]
     if failed:
         return (
-            f"[red]not satisfied[/]: {len(failed)} of {len(report.verdicts)} checks fail "
+            f"[red]not satisfied[/]: {len(failed)} of {counted(len(report.verdicts), 'check')} "
+            f"{'fails' if len(failed) == 1 else 'fail'} "
             f"({', '.join(failed)})"
         )
     rho = "" if report.rho_s is None else f", rho_s(Phi) = {_num(report.rho_s)}"
@@ -115,8 +117,8 @@ def print_plan(console: Console, result: PlanResult) -> None:
     size = result.model_size
     if size is not None:
         console.print(
-            f"[bold]model[/]      {size.variables} variables ({size.binaries} binary), "
-            f"{size.constraints} constraints"
+            f"[bold]model[/]      {counted(size.variables, 'variable')} ({size.binaries} "
+            f"binary), {counted(size.constraints, 'constraint')}"
         )
     console.print(
         f"[bold]time[/]       build {result.build_seconds:.2f} s, solve "

@@ -33,6 +33,7 @@ from stlplan.formula.tree import (
 )
 from stlplan.mission.problem import AgentModel, Problem, TaskModel
 from stlplan.result import MonitorReport, Trajectory, Verdict
+from stlplan.words import counted
 
 DPI = 150
 MANY_AGENTS = 12
@@ -226,7 +227,7 @@ def agent_handles(problem: Problem, styles) -> list[Line2D]:
     for agent in problem.agents:
         by_key.setdefault(_capability_key(agent), []).append(agent.name)
     return [
-        _agent_handle(styles[names[len(names) // 2]], f"{key} ({len(names)} agents)")
+        _agent_handle(styles[names[len(names) // 2]], f"{key} ({counted(len(names), 'agent')})")
         for key, names in by_key.items()
     ]
 
