@@ -87,6 +87,21 @@ def test_layout(written: Path) -> None:
     assert d_first[4:6] == ["", ""] and d_first[6] != "" and d_first[7] == ""
 
 
+def test_negative_zero_is_written_as_zero(problem: Problem, tmp_path: Path) -> None:
+    """A solver's ``-0.0`` (a velocity at rest, an input of zero) is written ``0.0``."""
+    traj = make_trajectory()
+    traj.states["uv1"][1, 2:] = [-0.0, -0.0]
+    traj.inputs["d"][0, 0] = -0.0
+    path = tmp_path / "trajectory.csv"
+    write_trajectory_csv(problem, traj, path)
+    cells = [c for line in path.read_text().splitlines() for c in line.split(",")]
+    assert not [c for c in cells if c.startswith("-") and float(c) == 0.0]
+    assert path.read_text().splitlines()[2].split(",")[4:6] == ["0.0", "0.0"]
+    back = read_trajectory_csv(problem, path)
+    assert np.array_equal(back.states["uv1"], traj.states["uv1"])
+    assert not np.signbit(back.inputs["d"][0, 0])
+
+
 def test_write_replaces_atomically(problem: Problem, written: Path) -> None:
     write_trajectory_csv(problem, make_trajectory(seed=1), written)
     assert np.array_equal(

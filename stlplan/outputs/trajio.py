@@ -3,7 +3,8 @@
 Columns: ``agent``, ``k``, ``x0 .. x{n-1}`` (state), ``u0 .. u{m-1}`` (input), where ``n`` and
 ``m`` are the largest state and input dimensions of the team. Agents with fewer components leave
 the extra cells empty, and every ``u`` cell is empty at ``k = H`` (there is no input ``u(H)``).
-Numbers are written with ``repr`` precision, so a written trajectory reads back bit for bit.
+Numbers are written with ``repr`` precision, so a written trajectory reads back bit for bit,
+except that a negative zero (a solver's ``-0.0``) is written ``0.0``.
 Further columns may follow; the reader ignores them.
 
 The reader also takes trajectories from other tools: the step column may be named ``k``, ``t`` or
@@ -42,6 +43,11 @@ def columns(problem: Problem) -> list[str]:
     return ["agent", "k", *(f"x{i}" for i in range(n)), *(f"u{i}" for i in range(m))]
 
 
+def csv_number(value: float) -> str:
+    """``value`` as a CSV cell: ``repr`` precision, and ``0.0`` for a negative zero."""
+    return repr(float(value) + 0.0)  # -0.0 + 0.0 is +0.0; every other value is unchanged
+
+
 def _rows(problem: Problem, trajectory: Trajectory, width: int) -> Iterator[list[str]]:
     H = trajectory.horizon
     n_max = max(a.n for a in problem.agents)
@@ -49,10 +55,10 @@ def _rows(problem: Problem, trajectory: Trajectory, width: int) -> Iterator[list
         x = np.asarray(trajectory.states[agent.name], dtype=float)
         u = np.asarray(trajectory.inputs[agent.name], dtype=float)
         for k in range(H + 1):
-            row = [agent.name, str(k), *(repr(float(v)) for v in x[k])]
+            row = [agent.name, str(k), *(csv_number(v) for v in x[k])]
             row += [""] * (n_max - agent.n)
             if k < H:
-                row += [repr(float(v)) for v in u[k]]
+                row += [csv_number(v) for v in u[k]]
             yield row + [""] * (width - len(row))
 
 
