@@ -190,10 +190,12 @@ def solve(
     if as_json:
         output.document(api.summary(problem, result, overrides))
         raise typer.Exit(code)
-    if output.full:
+    if output.full:  # the status line and the monitor's verdict are in the plan's report
         print_plan(output.out, result)
-    verdict = "satisfied" if code == 0 else result.status.value
-    output.line(f"{verdict}: {result.message}; outputs in {out}", error=code != 0)
+        output.line(f"outputs in {out}")
+    else:  # --quiet: one line on stdout, whatever the outcome (the exit code tells it apart)
+        verdict = "satisfied" if code == 0 else result.status.value
+        output.line(f"{verdict}: {result.message}; outputs in {out}")
     raise typer.Exit(code)
 
 

@@ -124,8 +124,7 @@ def print_plan(console: Console, result: PlanResult) -> None:
         f"[bold]time[/]       build {result.build_seconds:.2f} s, solve "
         f"{result.solve_seconds:.2f} s"
     )
-    for confirmation in result.confirmations:
-        console.print(f"[bold]infeasible[/] {confirmation_text(confirmation)}")
+    print_confirmations(console, result)
     if result.report is not None:
         print_report(console, result.report)
     if result.diagnosis is not None:
@@ -159,6 +158,18 @@ def print_figures(console: Console, result: PlanResult) -> None:
             f"[bold]fallback[/]   {fallback.step} failed ({fallback.reason}); {fallback.kept} "
             f"is kept, costing {cost}"
         )
+
+
+def print_confirmations(console: Console, result: PlanResult) -> None:
+    """Each infeasible verdict of HiGHS and how it was checked. Beside a plan, a verdict came
+    from an intermediate solve (a lazy round, a step 2 redone after a stricter step 1): it is a
+    note, not the outcome."""
+    for confirmation in result.confirmations:
+        if result.trajectory is None:
+            console.print(f"[bold]infeasible[/] {confirmation_text(confirmation)}")
+            continue
+        later = "; the plan comes from a later solve" if confirmation.outcome == "confirmed" else ""
+        console.print(f"[bold]note[/]       infeasible {confirmation_text(confirmation)}{later}")
 
 
 def confirmation_text(confirmation: Confirmation) -> str:
