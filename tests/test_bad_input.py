@@ -3,8 +3,8 @@
 Each mistake gets a non-zero exit code of its category (2 usage, including click/typer's own
 usage errors; 3 bad input; 4 infeasible, diagnosed before solving), one message that names the file (with line/column or field path where
 one applies) and says what was expected, and never a traceback. ``tests/broken/`` (72 files,
-``tests/test_checks.py``) catalogues mistakes inside a mission; this table adds 51 more, for a
-total of 123 distinct mistakes.
+``tests/test_checks.py``) catalogues mistakes inside a mission; this table adds 52 more, for a
+total of 124 distinct mistakes.
 
 ===  ===========================  ====  ==================================================
  #   mistake                      exit  the message says
@@ -62,6 +62,8 @@ total of 123 distinct mistakes.
  49  apostrophe_in_diagnosis      4     the task's whole name, by kind, in the diagnosis
  50  duplicate_through_alias      3     file, the alias's line and column, the anchor's
  51  trajectory_long_cell         3     file, the line of the cell, the size limit
+ 52  role_names_agent             3     file, line, tasks.meet.roles.p, the agent, how to
+                                        bind it ({agent: NAME})
 ===  ===========================  ====  ==================================================
 
 The last tests check that a failed ``solve`` leaves nothing behind in the output directory (no
@@ -457,6 +459,17 @@ CASES: dict[str, tuple[Case, int, tuple[str, ...]]] = {
         3,
         ("trajectory.csv", "line 4:", "a cell longer than 131072 characters"),
     ),
+    "role_names_agent": (
+        lambda t: ["validate", str(_mission_file(t, _role_names_agent))],
+        3,
+        (
+            "mission.yaml",
+            "line ",
+            "tasks.meet.roles.p",
+            "role 'p' names agent 'south'",
+            "to bind an agent write {agent: south}",
+        ),
+    ),
 }
 
 
@@ -466,6 +479,11 @@ def _duplicate_through_alias() -> str:
     agent = yaml.safe_dump(doc["agents"][0], default_flow_style=True).strip()
     rest = {k: v for k, v in doc.items() if k != "agents"}
     return f"agents:\n  - &robot {agent}\n  - *robot\n" + yaml.safe_dump(rest, sort_keys=False)
+
+
+def _role_names_agent(doc: dict[str, Any]) -> None:
+    """An agent's name where the role's capability is expected."""
+    doc["tasks"]["meet"]["roles"] = {"p": "south"}
 
 
 def _long_cell(row: str) -> str:
