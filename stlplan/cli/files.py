@@ -186,7 +186,11 @@ EXAMPLE_EPILOG = (
 def example(
     name: Annotated[
         str | None,
-        typer.Argument(help="A shipped mission; without it, list them.", metavar="NAME"),
+        typer.Argument(
+            help="A shipped mission (NAME, or FOLDER/NAME as under missions/); without it, "
+            "list them.",
+            metavar="NAME",
+        ),
     ] = None,
     out: Annotated[
         str | None,
@@ -198,7 +202,8 @@ def example(
     as_json: JsonOption = False,
     quiet: QuietOption = False,
 ) -> None:
-    """Write one of the shipped missions (paper Cases I-III and small ones) to start from.
+    """Write one of the shipped missions (paper Cases I-III, small ones, the scaled farms of
+    missions/scale and the STL suite of missions/stl) to start from.
 
     Its schema line points at the schema installed with stlplan, from where it is written.
     """
@@ -208,12 +213,16 @@ def example(
     if name is None:
         shipped = examples.examples()
         if as_json:
-            output.document([{"name": e.name, "description": e.description} for e in shipped])
+            output.document(
+                [{"name": e.name, "file": e.file, "description": e.description} for e in shipped]
+            )
         elif quiet:
             output.line(" ".join(e.name for e in shipped))
         else:
+            width = max(len(e.name) for e in shipped)
             for item in shipped:
-                output.line(f"[bold]{item.name:<12}[/] {escape(item.description)}", markup=True)
+                name = f"{item.name:<{width}}"
+                output.line(f"[bold]{name}[/]  {escape(item.summary)}".rstrip(), markup=True)
         return
     if out == "-":
         sys.stdout.write(examples.example_text(name))
