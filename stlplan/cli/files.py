@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.markup import escape
@@ -161,9 +162,13 @@ def schema(
     out: Annotated[
         str, typer.Option(help="Where to write the JSON Schema ('-': stdout).", metavar="PATH")
     ] = str(SCHEMA_PATH),
+    as_json: JsonOption = False,
     quiet: QuietOption = False,
 ) -> None:
-    """Write the mission file JSON Schema (for editors and validation)."""
+    """Write the mission file JSON Schema (for editors and validation).
+
+    With --json the document printed names the file written (with --out -, it is the schema).
+    """
     from stlplan.mission.schema import json_schema
 
     text = json_schema()
@@ -173,7 +178,11 @@ def schema(
     target = Path(out)
     target.parent.mkdir(parents=True, exist_ok=True)
     target.write_text(text, encoding="utf-8")
-    Output(quiet=quiet).line(f"wrote {target}")
+    output = Output(as_json, quiet)
+    if as_json:
+        output.document({"file": str(target)})
+    else:
+        output.line(f"wrote {target}")
 
 
 EXAMPLE_EPILOG = (
@@ -248,11 +257,34 @@ def export_rtamt(
         Path | None,
         typer.Option(help="Write to this file instead of standard output.", metavar="FILE"),
     ] = None,
+    as_json: JsonOption = False,
     quiet: QuietOption = False,
 ) -> None:
-    """Write each single-agent task and constraint as an RTAMT specification, to cross-check."""
+    """Write each single-agent task and constraint as an RTAMT specification, to cross-check.
+
+    With --json the document printed holds the specifications (name, kind, role, agents,
+    variables, text) and the tasks and constraints not exported, each with why.
+    """
     specs, text = api.export_rtamt(mission, out)
-    if out is None:
+    output = Output(as_json, quiet)
+    if as_json:
+        output.document(_rtamt_document(mission, out, specs))
+    elif out is None:
         sys.stdout.write(text)
     else:
-        Output(quiet=quiet).line(f"wrote {counted(len(specs), 'specification')} to {out}")
+        output.line(f"wrote {counted(len(specs), 'specification')} to {out}")
+
+
+def _rtamt_document(mission: Path, out: Path | None, specs: list[Any]) -> dict[str, object]:
+    """What ``export-rtamt --json`` prints."""
+    from stlplan.mission.loader import load_problem
+    from stlplan.outputs.rtamt import skipped
+
+    problem = load_problem(mission)
+    return {
+        "mission": problem.mission.name,
+        "file": str(mission),
+        "out": None if out is None else str(out),
+        "specifications": [dataclasses.asdict(spec) for spec in specs],
+        "not_exported": skipped(problem),
+    }
