@@ -17,6 +17,7 @@ from stlplan.errors import SolverError
 from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
+from stlplan.native_output import discard_highs_banner
 from stlplan.planner import stops
 from stlplan.planner.diagnose import cheap_diagnosis, cheap_reasons, diagnose
 from stlplan.planner.figures import reported
@@ -72,6 +73,7 @@ def plan(
     """
     from stlplan.planner.solve import plan as solve_plan
 
+    discard_highs_banner()  # the first HiGHS object of a process prints it on stdout
     overrides = overrides or Overrides()
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
     problem = problem.with_inter_sample(overrides.inter_sample)
