@@ -2,9 +2,9 @@
 
 Each mistake gets a non-zero exit code of its category (2 usage, including click/typer's own
 usage errors; 3 bad input; 4 infeasible, diagnosed before solving), one message that names the file (with line/column or field path where
-one applies) and says what was expected, and never a traceback. ``tests/broken/`` (72 files,
+one applies) and says what was expected, and never a traceback. ``tests/broken/`` (73 files,
 ``tests/test_checks.py``) catalogues mistakes inside a mission; this table adds 52 more, for a
-total of 124 distinct mistakes.
+total of 125 distinct mistakes.
 
 ===  ===========================  ====  ==================================================
  #   mistake                      exit  the message says
