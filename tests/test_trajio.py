@@ -231,6 +231,28 @@ def test_missing_input_before_the_horizon(problem: Problem, written: Path) -> No
     assert expected in message
 
 
+@pytest.mark.parametrize("value", ["abc", "nan", "1,5"])
+def test_garbage_in_an_input_at_the_horizon_is_refused(
+    problem: Problem, written: Path, value: str
+) -> None:
+    cell(written, 2 + H - 1 + 1, 6, f'"{value}"' if "," in value else value)  # uv1, k = H, u0
+    message = read_error(problem, written)
+    expected = f"line {H + 2}: column u0: agent 'uv1' has no input at step {H} = H"
+    assert expected in message and f"expected an empty cell, found '{value}'" in message
+
+
+def test_garbage_past_an_agents_dimensions_is_refused(problem: Problem, written: Path) -> None:
+    cell(written, 3 + H, 5, "abc")  # d (n = 2) at k = 0, x3
+    message = read_error(problem, written)
+    assert f"line {H + 3}: column x3: agent 'd' has no component x3" in message
+
+
+def test_a_number_where_no_input_is_read_is_ignored(problem: Problem, written: Path) -> None:
+    cell(written, 2 + H, 6, "0.0")  # uv1, k = H, u0: another tool's last input
+    back = read_trajectory_csv(problem, written)
+    assert np.array_equal(back.inputs["uv1"], make_trajectory().inputs["uv1"])
+
+
 # --- trajectories from other tools ---------------------------------------------------------
 
 
