@@ -47,26 +47,44 @@ class Example:
     """A shipped mission."""
 
     name: str
+    """The file's name without ``.yaml`` (unique among the shipped missions)."""
     description: str
+    """The mission's ``description``, on one line (empty when it has none)."""
     path: Path
+    file: str
+    """Where it is among the shipped missions: ``farm.yaml``, ``stl/dwell.yaml``."""
+
+    @property
+    def summary(self) -> str:
+        """The description's first sentence."""
+        first, _, rest = self.description.partition(". ")
+        return first + "." if rest else self.description
+
+
+def _order(path: Path) -> tuple[int, str, str]:
+    """The missions at the top first, then each folder's, by name."""
+    return len(path.parts), path.parent.as_posix(), path.stem
 
 
 def examples() -> list[Example]:
-    """Every shipped mission, by name."""
+    """Every shipped mission, in ``missions/`` and its folders."""
+    root = missions_dir()
     found = []
-    for path in sorted(missions_dir().glob("*.yaml"), key=lambda p: p.stem):
+    for relative in sorted((p.relative_to(root) for p in root.rglob("*.yaml")), key=_order):
+        path = root / relative
         data = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
         text = " ".join(str(data.get("description", "")).split())
-        found.append(Example(path.stem, text, path))
+        found.append(Example(path.stem, text, path, relative.as_posix()))
     return found
 
 
 def example(name: str) -> Example:
-    """The shipped mission called ``name`` (``farm``, ``farm.yaml``)."""
+    """The shipped mission called ``name`` (``farm``, ``farm.yaml``, ``dwell``,
+    ``stl/dwell.yaml``)."""
     shipped = examples()
     wanted = name.removesuffix(".yaml")
     for item in shipped:
-        if item.name == wanted:
+        if wanted in (item.name, item.file.removesuffix(".yaml")):
             return item
     names = [e.name for e in shipped]
     raise UsageError(

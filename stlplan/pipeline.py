@@ -17,12 +17,14 @@ from stlplan.errors import SolverError
 from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
+from stlplan.native_output import discard_highs_banner
 from stlplan.planner import stops
 from stlplan.planner.config import Overrides, PlannerConfig, describe
 from stlplan.planner.diagnose import cheap_diagnosis, cheap_reasons, diagnose
 from stlplan.planner.figures import reported
 from stlplan.planner.size import check_size
 from stlplan.result import PlanResult, PlanStatus
+from stlplan.words import counted
 
 
 def _verified(problem: Problem, result: PlanResult, gap: float) -> PlanResult:
@@ -71,6 +73,7 @@ def plan(
     """
     from stlplan.planner.solve import plan as solve_plan
 
+    discard_highs_banner()  # the first HiGHS object of a process prints it on stdout
     overrides = overrides or Overrides()
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
     problem = problem.with_inter_sample(overrides.inter_sample)
@@ -83,7 +86,7 @@ def plan(
     reasons = cheap_reasons(problem)
     if reasons:
         diagnosis = cheap_diagnosis(problem, reasons)
-        message = f"infeasible before solving: {len(reasons)} requirement(s) cannot be met"
+        message = f"infeasible before solving: {counted(len(reasons), 'requirement')} cannot be met"
         return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis, **used)
     with stops.stop_on_signals(), _quiet_pyomo():
         result = solve_plan(problem, config, progress=progress, deadline=deadline)

@@ -2,9 +2,9 @@
 
 Each mistake gets a non-zero exit code of its category (2 usage, including click/typer's own
 usage errors; 3 bad input; 4 infeasible, diagnosed before solving), one message that names the file (with line/column or field path where
-one applies) and says what was expected, and never a traceback. ``tests/broken/`` (72 files,
-``tests/test_checks.py``) catalogues mistakes inside a mission; this table adds 51 more, for a
-total of 123 distinct mistakes.
+one applies) and says what was expected, and never a traceback. ``tests/broken/`` (73 files,
+``tests/test_checks.py``) catalogues mistakes inside a mission; this table adds 53 more, for a
+total of 126 distinct mistakes.
 
 ===  ===========================  ====  ==================================================
  #   mistake                      exit  the message says
@@ -62,6 +62,10 @@ total of 123 distinct mistakes.
  49  apostrophe_in_diagnosis      4     the task's whole name, by kind, in the diagnosis
  50  duplicate_through_alias      3     file, the alias's line and column, the anchor's
  51  trajectory_long_cell         3     file, the line of the cell, the size limit
+ 52  role_names_agent             3     file, line, tasks.meet.roles.p, the agent, how to
+                                        bind it ({agent: NAME})
+ 53  trajectory_input_at_horizon  3     file, line, column u0, no input at step H, expected
+                                        an empty cell
 ===  ===========================  ====  ==================================================
 
 The last tests check that a failed ``solve`` leaves nothing behind in the output directory (no
@@ -457,6 +461,28 @@ CASES: dict[str, tuple[Case, int, tuple[str, ...]]] = {
         3,
         ("trajectory.csv", "line 4:", "a cell longer than 131072 characters"),
     ),
+    "role_names_agent": (
+        lambda t: ["validate", str(_mission_file(t, _role_names_agent))],
+        3,
+        (
+            "mission.yaml",
+            "line ",
+            "tasks.meet.roles.p",
+            "role 'p' names agent 'south'",
+            "to bind an agent write {agent: south}",
+        ),
+    ),
+    "trajectory_input_at_horizon": (
+        lambda t: _trajectory(t, lambda rows: _input_at(rows, "south", 8, "abc")),
+        3,
+        (
+            "trajectory.csv",
+            "line 10:",
+            "column u0",
+            "agent 'south' has no input at step 8 = H",
+            "expected an empty cell, found 'abc'",
+        ),
+    ),
 }
 
 
@@ -466,6 +492,20 @@ def _duplicate_through_alias() -> str:
     agent = yaml.safe_dump(doc["agents"][0], default_flow_style=True).strip()
     rest = {k: v for k, v in doc.items() if k != "agents"}
     return f"agents:\n  - &robot {agent}\n  - *robot\n" + yaml.safe_dump(rest, sort_keys=False)
+
+
+def _input_at(lines: list[str], agent: str, k: int, text: str) -> list[str]:
+    """``lines`` with ``text`` in the u0 cell of the agent's row at step ``k``."""
+    i = _first_step_row(lines, agent, k)
+    header = lines[0].split(",")
+    cells = lines[i].split(",")
+    cells[header.index("u0")] = text
+    return [*lines[:i], ",".join(cells), *lines[i + 1 :]]
+
+
+def _role_names_agent(doc: dict[str, Any]) -> None:
+    """An agent's name where the role's capability is expected."""
+    doc["tasks"]["meet"]["roles"] = {"p": "south"}
 
 
 def _long_cell(row: str) -> str:

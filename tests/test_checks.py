@@ -165,6 +165,7 @@ CATALOGUE: dict[str, tuple[type[StlplanError], tuple[str, ...]]] = {
         ("line 15,", "regions.Obs.G", "empty polytope", "-1 x + 0 y <= -3"),
     ),
     "gap_too_large": (MissionError, ("line 25,", "solver.gap", "< 1", "found 2")),
+    "gamma_negative": (MissionError, ("line 25,", "objective.gamma", ">= 0", "found -1")),
     "seed_too_large": (MissionError, ("line 25,", "solver.seed", "2147483647", "4294967296")),
     "constraint_no_agents": (
         MissionError,

@@ -193,3 +193,54 @@ def test_the_readme_lists_every_exit_code() -> None:
     used = errors | set(planning.STATUS_EXIT.values())
     used |= {0, shell.EXIT_VIOLATED, shell.EXIT_INTERNAL}
     assert used | {143} == listed
+
+
+def test_a_solve_prints_its_verdict_once_and_where_the_outputs_are(tmp_path: Path) -> None:
+    out = tmp_path / "plan"
+    found = runner.invoke(
+        app, ["solve", str(MISSIONS / "sync-pair.yaml"), "--out", str(out), "--no-animation"]
+    )
+    assert found.exit_code == 0, found.output
+    lines = found.stdout.splitlines()
+    message = json.loads((out / "summary.json").read_text())["message"]
+    assert found.stdout.count(message) == 1  # on the status line only
+    assert [line for line in lines if line.startswith("satisfied")] == [
+        next(line for line in lines if line.startswith("satisfied: every task"))
+    ]
+    assert not [line for line in lines if line.startswith("infeasible")]
+    assert lines[-1] == f"outputs in {out}"
+
+
+def test_an_intermediate_infeasible_verdict_beside_a_plan_is_a_note() -> None:
+    import dataclasses
+    import io
+
+    from rich.console import Console
+
+    from stlplan import api
+    from stlplan.outputs.render import print_plan
+    from stlplan.result import Check, Confirmation
+
+    _, result = api.plan(MISSIONS / "reach-avoid.yaml")
+    checks = (Check((), "Infeasible", 0.01), Check((("presolve", "off"),), "Infeasible", 0.01))
+    confirmed = Confirmation("step2", checks, "confirmed")
+    buffer = io.StringIO()
+    print_plan(
+        Console(file=buffer, width=400), dataclasses.replace(result, confirmations=(confirmed,))
+    )
+    lines = buffer.getvalue().splitlines()
+    assert not [line for line in lines if line.startswith("infeasible")]
+    notes = [line for line in lines if line.startswith("note ")]
+    assert len(notes) == 1 and "infeasible verdict of step2 confirmed" in notes[0]
+    assert notes[0].endswith("the plan comes from a later solve")
+
+
+def test_a_failed_quiet_solve_prints_its_reason_on_stdout(tmp_path: Path) -> None:
+    text = (MISSIONS / "reach-avoid.yaml").read_text(encoding="utf-8")
+    late = tmp_path / "late.yaml"  # infeasible: the goal is out of reach by step 2
+    late.write_text(text.replace("F[0,12] in(p, Goal)", "F[0,2] in(p, Goal)"), encoding="utf-8")
+    found = runner.invoke(app, ["solve", str(late), "--out", str(tmp_path / "o"), "-q"])
+    assert found.exit_code == 4, found.output
+    assert found.stdout.startswith("infeasible: ") and found.stdout.count("\n") == 1
+    assert found.stdout.rstrip().endswith(f"outputs in {tmp_path / 'o'}")
+    assert found.stderr == ""

@@ -17,7 +17,7 @@ from stlplan.cli import app
 from tests.conftest import MISSIONS, ROOT
 
 PAIR = MISSIONS / "sync-pair.yaml"
-COMMANDS = ["validate", "check", "schema", "example", "solve", "sweep"]
+COMMANDS = ["validate", "check", "schema", "example", "export-rtamt", "solve", "sweep"]
 
 
 def _invoke(*args: str) -> tuple[int, str, str]:
@@ -168,11 +168,38 @@ def test_help_is_plain_and_lists_the_exit_codes(command: str | None) -> None:
         assert artefact not in stdout, f"{artefact!r} in the help of {command}"
 
 
-def test_every_command_but_schema_takes_json_and_quiet() -> None:
-    for command in COMMANDS:
+def test_every_command_the_help_names_takes_json_and_quiet() -> None:
+    _, top, _ = _invoke("--help")
+    assert "Every command takes --json" in " ".join(top.split())
+    listed = top.split("Commands:")[1].split("Exit codes:")[0].split()
+    named = [word for word in listed if word in COMMANDS]
+    assert sorted(named) == sorted(COMMANDS)
+    for command in named:
         _, stdout, _ = _invoke(command, "--help")
-        assert ("--json" in stdout) == (command != "schema"), command
-        assert "--quiet" in stdout, command
+        assert "--json" in stdout and "--quiet" in stdout, command
+
+
+def test_schema_json_names_the_file_written(tmp_path: Path) -> None:
+    target = tmp_path / "schema.json"
+    code, stdout, stderr = _invoke("schema", "--out", str(target), "--json")
+    assert code == 0 and stderr == ""
+    assert json.loads(stdout) == {"file": str(target)}
+    assert json.loads(target.read_text(encoding="utf-8"))["title"] == "Mission"
+
+
+@pytest.mark.parametrize("to_file", [False, True])
+def test_export_rtamt_json_lists_the_specifications(tmp_path: Path, to_file: bool) -> None:
+    out = tmp_path / "specs.txt"
+    args = ["export-rtamt", str(MISSIONS / "farm.yaml"), "--json"]
+    code, stdout, stderr = _invoke(*args, *(["--out", str(out)] if to_file else []))
+    assert code == 0 and stderr == ""
+    document = json.loads(stdout)
+    specs, text = api.export_rtamt(MISSIONS / "farm.yaml")
+    assert document["mission"] == "farm" and document["out"] == (str(out) if to_file else None)
+    assert [s["text"] for s in document["specifications"]] == [s.text for s in specs]
+    assert document["specifications"][0]["agents"] == list(specs[0].agents)
+    assert document["not_exported"] == ["crop_B (several roles)", "crop_C (synchronous)"]
+    assert not to_file or out.read_text(encoding="utf-8") == text
 
 
 def test_piped_output_keeps_a_long_path_on_one_line(tmp_path: Path) -> None:

@@ -11,6 +11,7 @@ import re
 from pathlib import Path
 
 import pytest
+import yaml
 from typer.testing import CliRunner
 
 from stlplan import api, examples
@@ -30,7 +31,7 @@ def _block(after: str, language: str) -> str:
 
 def test_the_shipped_missions_and_schema_come_from_one_place() -> None:
     assert examples.missions_dir() == MISSIONS
-    assert [e.name for e in examples.examples()] == sorted(p.stem for p in MISSIONS.glob("*.yaml"))
+    assert {e.path for e in examples.examples()} == set(MISSIONS.rglob("*.yaml"))
     assert examples.schema_file().read_text(encoding="utf-8") == json_schema()
     # the wheel copies the same folders into the package (pyproject's force-include)
     pyproject = (ROOT / "pyproject.toml").read_text(encoding="utf-8")
@@ -45,6 +46,32 @@ def test_example_lists_the_shipped_missions() -> None:
     listed = json.loads(found.stdout)
     assert [e["name"] for e in listed] == [e.name for e in examples.examples()]
     assert listed[0]["description"].startswith("Farmland health monitoring, Case I")
+
+
+def test_example_offers_every_shipped_mission_with_its_description() -> None:
+    found = CliRunner().invoke(app, ["example", "--json"])
+    listed = json.loads(found.stdout)
+    shipped = sorted(p.relative_to(MISSIONS).as_posix() for p in MISSIONS.rglob("*.yaml"))
+    assert sorted(e["file"] for e in listed) == shipped
+    assert len({e["name"] for e in listed}) == len(listed)  # a name picks one file
+    assert any("/" in e["file"] for e in listed)  # the folders' missions too
+    for entry in listed:
+        data = yaml.safe_load((MISSIONS / entry["file"]).read_text(encoding="utf-8"))
+        assert entry["description"] == " ".join(data.get("description", "").split())
+    table = CliRunner().invoke(app, ["example"]).stdout.splitlines()
+    assert [line.split()[0] for line in table] == [e["name"] for e in listed]
+    for line, entry in zip(table, listed, strict=True):
+        assert entry["description"].startswith(line.split(None, 1)[1].removesuffix("."))
+
+
+@pytest.mark.parametrize("name", ["dwell", "stl/dwell", "stl/dwell.yaml"])
+def test_a_mission_in_a_folder_is_written_by_its_name(name: str, tmp_path: Path) -> None:
+    target = tmp_path / "mine.yaml"
+    found = CliRunner().invoke(app, ["example", name, "--out", str(target)])
+    assert found.exit_code == 0, found.output
+    written = target.read_text(encoding="utf-8").splitlines()[1:]
+    assert written == (MISSIONS / "stl" / "dwell.yaml").read_text(encoding="utf-8").splitlines()[1:]
+    assert load_problem(target).mission.name == "dwell"
 
 
 @pytest.mark.parametrize("inside", [True, False])

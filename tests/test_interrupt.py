@@ -27,10 +27,22 @@ from stlplan.sweep.runner import pending
 from tests.conftest import MISSIONS
 
 PAIR = MISSIONS / "sync-pair.yaml"
-# With the paper's group encoding HiGHS's first plan of this mission meets every requirement, so
-# a signal at that plan has a verified plan to keep (the search path depends on the encoding).
+# With the paper's group encoding HiGHS's first plan of the pair mission without its clearance
+# (margin.minimum 0) meets every requirement, so a signal at that plan has a verified plan to
+# keep (the search path depends on the encoding and the mission).
 KEEPABLE = ("--threads", "1", "--tasks", "groups")
 CASE2 = MISSIONS / "farm-case2.yaml"
+
+
+@pytest.fixture(scope="module")
+def exact_pair(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The pair mission with its predicates enforced exactly (no margin), as the paper does."""
+    text = PAIR.read_text(encoding="utf-8")
+    kept = [line for line in text.splitlines(keepends=True) if "margin:" not in line]
+    assert len(kept) == len(text.splitlines()) - 1
+    path = tmp_path_factory.mktemp("pair") / "sync-pair.yaml"
+    path.write_text("".join(kept), encoding="utf-8")
+    return path
 
 
 @pytest.fixture(autouse=True)
@@ -85,9 +97,9 @@ def test_an_ignored_signal_stays_ignored() -> None:
         assert not stops.requested()
 
 
-def test_interrupted_solve_keeps_its_best_plan_verified() -> None:
+def test_interrupted_solve_keeps_its_best_plan_verified(exact_pair: Path) -> None:
     _, result = api.plan(
-        PAIR, progress=signal_at_first_plan(), overrides=Overrides(threads=1, tasks="groups")
+        exact_pair, progress=signal_at_first_plan(), overrides=Overrides(threads=1, tasks="groups")
     )
     assert result.status is PlanStatus.INTERRUPTED
     assert result.trajectory is not None
@@ -104,29 +116,31 @@ def test_interrupted_lazy_round_without_a_full_plan_keeps_nothing() -> None:
 
 
 def test_cli_ctrl_c_writes_the_plan_marked_interrupted(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, exact_pair: Path
 ) -> None:
     from stlplan.outputs.progress import ProgressLine
 
     monkeypatch.setattr(ProgressLine, "update", lambda self, p: hook(p))
     hook = signal_at_first_plan()
     out = tmp_path / "plan"
-    result = CliRunner().invoke(app, ["solve", str(PAIR), "--out", str(out), *KEEPABLE])
+    result = CliRunner().invoke(app, ["solve", str(exact_pair), "--out", str(out), *KEEPABLE])
     assert result.exit_code == 130, result.output
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "interrupted"
     assert (out / "trajectory.csv").exists()
-    checked = CliRunner().invoke(app, ["check", str(PAIR), str(out / "trajectory.csv")])
+    checked = CliRunner().invoke(app, ["check", str(exact_pair), str(out / "trajectory.csv")])
     assert checked.exit_code == 0, checked.output
 
 
-def test_cli_sigterm_exits_143(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_cli_sigterm_exits_143(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, exact_pair: Path
+) -> None:
     from stlplan.outputs.progress import ProgressLine
 
     hook = signal_at_first_plan(signal.SIGTERM)
     monkeypatch.setattr(ProgressLine, "update", lambda self, p: hook(p))
     out = tmp_path / "plan"
-    result = CliRunner().invoke(app, ["solve", str(PAIR), "--out", str(out), *KEEPABLE])
+    result = CliRunner().invoke(app, ["solve", str(exact_pair), "--out", str(out), *KEEPABLE])
     assert result.exit_code == 143, result.output
     assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
 

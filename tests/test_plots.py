@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -14,6 +15,7 @@ from PIL import Image
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
+from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.outputs.plots import (
     obstacle_regions,
     plan_figure,
@@ -245,9 +247,55 @@ def test_task_presence_follows_the_roles_regions(farm: Problem) -> None:
     b = task_presence(farm, trajectory, tasks["crop_B"], report.verdict("crop_B"))
     assert set(b) == {"uv1", "ir1", "uv2", "ir2"}
     assert sorted(b["ir2"]) == list(range(2, 10))
-    assert set(b["uv1"][2]) == {"B_start", "B"} and set(b["uv1"][8]) == {"B_end", "B"}
+    assert set(b["uv1"][2]) == {"B_start", "B"}
+    assert set(b["uv1"][8]) == {"B_end"}  # inside B too, but G[2,7] in(p, B) ends at step 7
     c = task_presence(farm, trajectory, tasks["crop_C"], report.verdict("crop_C"))
     assert sorted(c["vis1"]) == sorted(c["vis2"]) == list(range(3, 10))
+
+
+def _homecoming() -> tuple[Problem, Trajectory, MonitorReport]:
+    """A robot that starts at Home and must be back there between steps 13 and 16, and a
+    trajectory that never leaves Home."""
+    mission = Mission.model_validate(
+        {
+            "name": "homecoming",
+            "horizon": 18,
+            "dynamics": {
+                "si": {
+                    "A": [[1, 0], [0, 1]],
+                    "B": [[1, 0], [0, 1]],
+                    "state_bounds": [[0, 10], [0, 10]],
+                    "input_bounds": [[-1, 1], [-1, 1]],
+                }
+            },
+            "agents": [{"name": "r", "dynamics": "si", "initial_state": [1, 1]}],
+            "regions": {"Home": {"box": [[0, 2], [0, 2]]}},
+            "tasks": {"home": {"formula": "F[13,16] in(p, Home)", "roles": {"p": {"agent": "r"}}}},
+        }
+    )
+    problem = build_problem(mission)
+    states = {"r": np.tile([1.0, 1.0], (19, 1))}
+    trajectory = Trajectory(18, states, {"r": np.zeros((18, 2))})
+    return problem, trajectory, monitor_check(problem, trajectory)
+
+
+def test_a_bar_lies_within_its_formulas_window() -> None:
+    problem, trajectory, report = _homecoming()
+    assert report.satisfied
+    steps = task_presence(problem, trajectory, problem.tasks[0], report.verdict("home"))
+    assert sorted(steps["r"]) == [13, 14, 15, 16]  # at Home from step 0, read from 13 to 16
+    ax = timeline_figure(problem, trajectory, report).axes[0]
+    bars = [p for p in ax.patches if p.get_facecolor()[3] == 1 and p.get_width() < 18]
+    assert len(bars) == 1
+    assert bars[0].get_x() == pytest.approx(13 - 0.45) and bars[0].get_width() == pytest.approx(3.9)
+
+
+def test_a_negated_region_serves_no_task() -> None:
+    from stlplan.formula.parser import parse
+
+    problem, trajectory, report = _homecoming()
+    task = dataclasses.replace(problem.tasks[0], formula=parse("G[0,18] !in(p, Home)"))
+    assert task_presence(problem, trajectory, task, report.verdict("home")) == {"r": {}}
 
 
 def test_timeline_rows_and_shading(farm: Problem) -> None:

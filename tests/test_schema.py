@@ -95,7 +95,44 @@ PROBES: list[tuple[tuple[str, ...], Any]] = [
     (("regions", "Goal"), {"box": [[4, 5.5], [1, 3]], "G": [[1, 0]], "h": [1]}),
     (("regions", "Goal"), {"G": [[1, 0]]}),
     (("tasks", "meet", "roles", "p"), []),
+    (("objective", "gamma"), -1),
+    (("objective", "gamma"), 0),
+    (("objective", "gamma"), 2.5),
+    (("objective", "beta"), -0.01),
+    (("objective", "margin"), {"minimum": -0.1}),
+    (("solver", "gap"), -0.5),
+    (("tasks", "meet", "synchronous"), {"within": [0, 2], "gamma": -2}),
 ]
+
+
+NEGATIVE = [
+    (("objective", "gamma"), -1, ">= 0"),
+    (("objective", "beta"), -0.01, ">= 0"),
+    (("objective", "margin", "minimum"), -0.1, ">= 0"),
+    (("objective", "margin", "weight"), -1.0, ">= 0"),
+    (("solver", "gap"), -0.5, ">= 0"),
+    (("solver", "time_limit"), -5.0, "> 0"),
+    (("tasks", "meet", "synchronous", "gamma"), -2, ">= 0"),
+    (("separation",), -0.1, ">= 0"),
+]
+
+
+@pytest.mark.parametrize(("field", "value", "expected"), NEGATIVE, ids=lambda v: str(v))
+def test_a_value_below_its_range_is_refused(
+    field: tuple[str, ...], value: float, expected: str
+) -> None:
+    """A field's own lower bound holds (never widened to the magnitude limit, -1e6)."""
+    doc, _ = parse_yaml((BROKEN / "_base.yaml").read_text(encoding="utf-8"), "base.yaml")
+    doc["tasks"]["meet"]["synchronous"] = {"within": [0, 2]}
+    target = doc
+    for key in field[:-1]:
+        target = target.setdefault(key, {})
+    target[field[-1]] = value
+    with pytest.raises(StlplanError) as caught:
+        validate_document(doc, None, "base.yaml")
+    assert f"{'.'.join(field)}: expected a value {expected}, found {value:g}" in str(caught.value)
+    schema = json.loads(json_schema())
+    assert list(jsonschema.Draft202012Validator(schema).iter_errors(doc))
 
 
 @pytest.mark.parametrize(

@@ -6,6 +6,7 @@ import pytest
 
 from stlplan import api
 from stlplan.api import Overrides
+from stlplan.mission.loader import load_mission
 from stlplan.monitor.verdicts import check
 from stlplan.result import PlanStatus
 from tests.conftest import MISSIONS
@@ -30,6 +31,18 @@ def test_sync_pair_synchronizes_from_the_first_reachable_step() -> None:
     meet = result.report.verdict("meet")
     assert (meet.rho_s, meet.run_start, meet.run_length) == (2, 4, 5)
     assert result.rho_s["meet"] == 2
+    assert result.report.spatial_robustness >= CLEARANCE - 1e-6  # the mission's margin.minimum
+
+
+CLEARANCE = 0.2
+"""The least clearance of the small shipped missions' plans: their maps are a few units across
+and their robots move about one unit a step."""
+
+
+@pytest.mark.parametrize("name", ["sync-pair", "warehouse", "reach-avoid"])
+def test_a_small_shipped_mission_requires_a_clearance(name: str) -> None:
+    margin = load_mission(MISSIONS / f"{name}.yaml").objective.margin
+    assert margin.minimum >= CLEARANCE
 
 
 def test_one_step_and_two_step_share_decisions_and_step_two_lowers_effort() -> None:

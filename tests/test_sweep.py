@@ -7,9 +7,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
 from stlplan import api
 from stlplan.api import Overrides
+from stlplan.cli import app
 from stlplan.errors import UsageError
 from stlplan.mission.loader import load_mission
 from stlplan.sweep.initial import draw_positions, with_initial_positions
@@ -115,6 +117,8 @@ def test_a_scheduler_without_dask_says_how_to_install_it(
 def test_resume_refuses_another_seed_or_time_limit(tmp_path: Path) -> None:
     out = tmp_path / "sweep"
     api.sweep([PAIR], runs=1, seed=1, out=out, workers=1)
+    with pytest.raises(UsageError, match="already holds 1 run; pass --resume"):
+        api.sweep([PAIR], runs=1, seed=1, out=out, workers=1)
     with pytest.raises(UsageError, match="seed 1 recorded, 2 now"):
         api.sweep([PAIR], runs=2, seed=2, out=out, workers=1, resume=True)
     with pytest.raises(UsageError, match="time_limit"):
@@ -126,3 +130,10 @@ def test_resume_refuses_another_seed_or_time_limit(tmp_path: Path) -> None:
         api.sweep([PAIR, MISSIONS / "farm.yaml"], 2, 1, out, 1, resume=True)
     rows = api.sweep([PAIR], runs=2, seed=1, out=out, workers=1, resume=True)
     assert sum(r["runs"] for r in rows) == 2
+    found = CliRunner().invoke(
+        app,
+        ["sweep", str(PAIR), "--runs", "1", "--seed", "1", "--out", str(out), "--resume"]
+        + ["--workers", "1", "-q"],
+    )  # run 0 is on record: nothing is solved
+    assert found.exit_code == 0, found.output
+    assert found.stdout.startswith("sweep of 1 run over 1 mission in 1 local process: records")

@@ -87,6 +87,21 @@ def test_layout(written: Path) -> None:
     assert d_first[4:6] == ["", ""] and d_first[6] != "" and d_first[7] == ""
 
 
+def test_negative_zero_is_written_as_zero(problem: Problem, tmp_path: Path) -> None:
+    """A solver's ``-0.0`` (a velocity at rest, an input of zero) is written ``0.0``."""
+    traj = make_trajectory()
+    traj.states["uv1"][1, 2:] = [-0.0, -0.0]
+    traj.inputs["d"][0, 0] = -0.0
+    path = tmp_path / "trajectory.csv"
+    write_trajectory_csv(problem, traj, path)
+    cells = [c for line in path.read_text().splitlines() for c in line.split(",")]
+    assert not [c for c in cells if c.startswith("-") and float(c) == 0.0]
+    assert path.read_text().splitlines()[2].split(",")[4:6] == ["0.0", "0.0"]
+    back = read_trajectory_csv(problem, path)
+    assert np.array_equal(back.states["uv1"], traj.states["uv1"])
+    assert not np.signbit(back.inputs["d"][0, 0])
+
+
 def test_write_replaces_atomically(problem: Problem, written: Path) -> None:
     write_trajectory_csv(problem, make_trajectory(seed=1), written)
     assert np.array_equal(
@@ -214,6 +229,28 @@ def test_missing_input_before_the_horizon(problem: Problem, written: Path) -> No
     message = read_error(problem, written)
     expected = f"line {H + 1}: column u1: agent 'uv1' needs an input at step {H - 1} (one per step"
     assert expected in message
+
+
+@pytest.mark.parametrize("value", ["abc", "nan", "1,5"])
+def test_garbage_in_an_input_at_the_horizon_is_refused(
+    problem: Problem, written: Path, value: str
+) -> None:
+    cell(written, 2 + H - 1 + 1, 6, f'"{value}"' if "," in value else value)  # uv1, k = H, u0
+    message = read_error(problem, written)
+    expected = f"line {H + 2}: column u0: agent 'uv1' has no input at step {H} = H"
+    assert expected in message and f"expected an empty cell, found '{value}'" in message
+
+
+def test_garbage_past_an_agents_dimensions_is_refused(problem: Problem, written: Path) -> None:
+    cell(written, 3 + H, 5, "abc")  # d (n = 2) at k = 0, x3
+    message = read_error(problem, written)
+    assert f"line {H + 3}: column x3: agent 'd' has no component x3" in message
+
+
+def test_a_number_where_no_input_is_read_is_ignored(problem: Problem, written: Path) -> None:
+    cell(written, 2 + H, 6, "0.0")  # uv1, k = H, u0: another tool's last input
+    back = read_trajectory_csv(problem, written)
+    assert np.array_equal(back.inputs["uv1"], make_trajectory().inputs["uv1"])
 
 
 # --- trajectories from other tools ---------------------------------------------------------

@@ -24,8 +24,8 @@ from stlplan.planner import stops
 EPILOG = (
     "Exit codes: 0 satisfied or valid, 1 a checked trajectory violates the mission, 2 usage "
     "error, 3 bad input, 4 infeasible, 5 no plan within the time limit, 6 solver error or a plan "
-    "the monitor rejects, 70 internal error, 130 / 143 stopped by Ctrl-C / SIGTERM. The "
-    "commands take --json (one JSON document on stdout; schema: --out -) and --quiet (one line)."
+    "the monitor rejects, 70 internal error, 130 / 143 stopped by Ctrl-C / SIGTERM. Every "
+    "command takes --json (one JSON document on stdout) and --quiet (one line)."
 )
 
 app = typer.Typer(

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.markup import escape
@@ -14,6 +15,7 @@ from stlplan.cli.shell import EXIT_VIOLATED, EXITS_COMMON, JsonOption, Output, Q
 from stlplan.errors import UsageError
 from stlplan.mission.groups import count_groups
 from stlplan.mission.problem import Problem, TaskModel
+from stlplan.words import counted
 
 MissionArg = Annotated[
     Path, typer.Argument(help="Mission file (YAML).", metavar="MISSION", show_default=False)
@@ -51,7 +53,8 @@ def group_count(task: TaskModel) -> int | None:
 def _groups_text(task: TaskModel) -> str:
     n = group_count(task)
     shown = f"more than {GROUPS_SHOWN}" if n is None else str(n)
-    return f"{task.name}: {len(task.elements)} elements, {shown} groups"
+    groups = "groups" if n != 1 else "group"
+    return f"{task.name}: {counted(len(task.elements), 'element')}, {shown} {groups}"
 
 
 def problem_counts(problem: Problem, mission: Path) -> dict[str, object]:
@@ -82,8 +85,9 @@ def validate(mission: MissionArg, as_json: JsonOption = False, quiet: QuietOptio
         return
     groups = "; ".join(_groups_text(t) for t in problem.tasks)
     output.line(
-        f"[green]valid[/]: {escape(str(mission))} ({len(problem.agents)} agents, "
-        f"{len(problem.tasks)} tasks, {len(problem.constraints)} constraints; "
+        f"[green]valid[/]: {escape(str(mission))} ({counted(len(problem.agents), 'agent')}, "
+        f"{counted(len(problem.tasks), 'task')}, "
+        f"{counted(len(problem.constraints), 'constraint')}; "
         f"{groups or 'no tasks'})",
         markup=True,
     )
@@ -158,9 +162,13 @@ def schema(
     out: Annotated[
         str, typer.Option(help="Where to write the JSON Schema ('-': stdout).", metavar="PATH")
     ] = str(SCHEMA_PATH),
+    as_json: JsonOption = False,
     quiet: QuietOption = False,
 ) -> None:
-    """Write the mission file JSON Schema (for editors and validation)."""
+    """Write the mission file JSON Schema (for editors and validation).
+
+    With --json the document printed names the file written (with --out -, it is the schema).
+    """
     from stlplan.mission.schema import json_schema
 
     text = json_schema()
@@ -170,7 +178,11 @@ def schema(
     target = Path(out)
     target.parent.mkdir(parents=True, exist_ok=True)
     target.write_text(text, encoding="utf-8")
-    Output(quiet=quiet).line(f"wrote {target}")
+    output = Output(as_json, quiet)
+    if as_json:
+        output.document({"file": str(target)})
+    else:
+        output.line(f"wrote {target}")
 
 
 EXAMPLE_EPILOG = (
@@ -183,7 +195,11 @@ EXAMPLE_EPILOG = (
 def example(
     name: Annotated[
         str | None,
-        typer.Argument(help="A shipped mission; without it, list them.", metavar="NAME"),
+        typer.Argument(
+            help="A shipped mission (NAME, or FOLDER/NAME as under missions/); without it, "
+            "list them.",
+            metavar="NAME",
+        ),
     ] = None,
     out: Annotated[
         str | None,
@@ -195,7 +211,8 @@ def example(
     as_json: JsonOption = False,
     quiet: QuietOption = False,
 ) -> None:
-    """Write one of the shipped missions (paper Cases I-III and small ones) to start from.
+    """Write one of the shipped missions (paper Cases I-III, small ones, the scaled farms of
+    missions/scale and the STL suite of missions/stl) to start from.
 
     Its schema line points at the schema installed with stlplan, from where it is written.
     """
@@ -205,12 +222,16 @@ def example(
     if name is None:
         shipped = examples.examples()
         if as_json:
-            output.document([{"name": e.name, "description": e.description} for e in shipped])
+            output.document(
+                [{"name": e.name, "file": e.file, "description": e.description} for e in shipped]
+            )
         elif quiet:
             output.line(" ".join(e.name for e in shipped))
         else:
+            width = max(len(e.name) for e in shipped)
             for item in shipped:
-                output.line(f"[bold]{item.name:<12}[/] {escape(item.description)}", markup=True)
+                name = f"{item.name:<{width}}"
+                output.line(f"[bold]{name}[/]  {escape(item.summary)}".rstrip(), markup=True)
         return
     if out == "-":
         sys.stdout.write(examples.example_text(name))
@@ -236,11 +257,34 @@ def export_rtamt(
         Path | None,
         typer.Option(help="Write to this file instead of standard output.", metavar="FILE"),
     ] = None,
+    as_json: JsonOption = False,
     quiet: QuietOption = False,
 ) -> None:
-    """Write each single-agent task and constraint as an RTAMT specification, to cross-check."""
+    """Write each single-agent task and constraint as an RTAMT specification, to cross-check.
+
+    With --json the document printed holds the specifications (name, kind, role, agents,
+    variables, text) and the tasks and constraints not exported, each with why.
+    """
     specs, text = api.export_rtamt(mission, out)
-    if out is None:
+    output = Output(as_json, quiet)
+    if as_json:
+        output.document(_rtamt_document(mission, out, specs))
+    elif out is None:
         sys.stdout.write(text)
     else:
-        Output(quiet=quiet).line(f"wrote {len(specs)} specification(s) to {out}")
+        output.line(f"wrote {counted(len(specs), 'specification')} to {out}")
+
+
+def _rtamt_document(mission: Path, out: Path | None, specs: list[Any]) -> dict[str, object]:
+    """What ``export-rtamt --json`` prints."""
+    from stlplan.mission.loader import load_problem
+    from stlplan.outputs.rtamt import skipped
+
+    problem = load_problem(mission)
+    return {
+        "mission": problem.mission.name,
+        "file": str(mission),
+        "out": None if out is None else str(out),
+        "specifications": [dataclasses.asdict(spec) for spec in specs],
+        "not_exported": skipped(problem),
+    }

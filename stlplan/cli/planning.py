@@ -25,6 +25,7 @@ from stlplan.cli.shell import (
 from stlplan.mission.schema import MAX_SEED
 from stlplan.planner import stops
 from stlplan.result import PlanResult, PlanStatus
+from stlplan.words import counted
 
 STATUS_EXIT = {
     PlanStatus.OPTIMAL: 0,
@@ -189,10 +190,12 @@ def solve(
     if as_json:
         output.document(api.summary(problem, result, overrides))
         raise typer.Exit(code)
-    if output.full:
+    if output.full:  # the status line and the monitor's verdict are in the plan's report
         print_plan(output.out, result)
-    verdict = "satisfied" if code == 0 else result.status.value
-    output.line(f"{verdict}: {result.message}; outputs in {out}", error=code != 0)
+        output.line(f"outputs in {out}")
+    else:  # --quiet: one line on stdout, whatever the outcome (the exit code tells it apart)
+        verdict = "satisfied" if code == 0 else result.status.value
+        output.line(f"{verdict}: {result.message}; outputs in {out}")
     raise typer.Exit(code)
 
 
@@ -245,7 +248,11 @@ def sweep(
     if scheduler:
         where = f"on the Dask cluster at {scheduler}"
     else:
-        where = f"in {workers} local processes" if workers else "in one local process per core"
+        where = (
+            f"in {counted(workers, 'local process', 'local processes')}"
+            if workers
+            else "in one local process per core"
+        )
     if output.full:
         output.err.print(f"sweep runs {where}")
     with (
@@ -272,6 +279,6 @@ def sweep(
         print_table(output.out, rows)
     total = sum(int(row["runs"]) for row in rows)
     output.line(
-        f"sweep of {total} runs over {len(rows)} missions {where}: records in "
+        f"sweep of {counted(total, 'run')} over {counted(len(rows), 'mission')} {where}: records in "
         f"{folder / 'runs.jsonl'}; table in {folder / 'table.md'}"
     )

@@ -9,12 +9,11 @@ whole.
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import functools
 import json
 import os
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Annotated, Any
 
 import typer
@@ -22,6 +21,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from stlplan.errors import StlplanError, UsageError
+from stlplan.native_output import fd1_redirected
 from stlplan.outputs.directory import strict_json
 from stlplan.planner import stops
 
@@ -86,33 +86,11 @@ class Output:
             (self.err if error else self.out).print(text, markup=markup)
 
 
-def _flush_native() -> None:
-    """Flush the C library's output buffers (a solver's banner printed with ``printf``)."""
-    with contextlib.suppress(OSError, AttributeError, TypeError):
-        ctypes.CDLL(None).fflush(None)
-
-
-@contextlib.contextmanager
-def solver_output(discard: bool) -> Iterator[None]:
+def solver_output(discard: bool) -> contextlib.AbstractContextManager[None]:
     """Point file descriptor 1 at stderr (or, with ``discard``, nowhere) while the solver runs,
-    so what native code prints (HiGHS's banner) never mixes with stlplan's own output on stdout;
-    ``--json`` and ``--quiet`` runs discard it."""
-    sys.stdout.flush()
-    try:
-        saved = os.dup(1)
-        target = os.open(os.devnull, os.O_WRONLY) if discard else os.dup(2)
-    except OSError:  # no file descriptor 1: nothing can reach stdout
-        yield
-        return
-    try:
-        os.dup2(target, 1)
-        yield
-    finally:
-        sys.stdout.flush()
-        _flush_native()
-        os.dup2(saved, 1)
-        os.close(saved)
-        os.close(target)
+    so what native code prints never mixes with stlplan's own output on stdout; ``--json`` and
+    ``--quiet`` runs discard it."""
+    return fd1_redirected(discard)
 
 
 def print_json_error(

@@ -176,7 +176,7 @@ def check_task(mission: Mission, name: str, formula: Formula, source: str | None
                 source,
             )
     role_agents = {
-        r: _role_agents(mission, task.roles[r], f"{where}.roles.{r}", source) for r in used
+        r: _role_agents(mission, r, task.roles[r], f"{where}.roles.{r}", source) for r in used
     }
     _check_pattern_size(task, role_agents, where, source)
     _formula_fits(mission, formula, f"{where}.formula", role_agents, horizon(formula), source)
@@ -248,9 +248,14 @@ def check_window(
 
 
 def _role_agents(
-    mission: Mission, rule: str | list[str] | PinnedRole, where: str, source: str | None
+    mission: Mission,
+    role: str,
+    rule: str | list[str] | PinnedRole,
+    where: str,
+    source: str | None,
 ) -> list[str]:
-    """The agents that may fill a role, after checking its agent or capabilities exist."""
+    """The agents that may fill ``role``, after checking its agent or capabilities exist (an
+    agent's name where a capability is expected is told how to bind that agent)."""
     names = [a.name for a in mission.agents]
     if isinstance(rule, PinnedRole):
         if rule.agent not in names:
@@ -259,6 +264,13 @@ def _role_agents(
     wanted = [rule] if isinstance(rule, str) else rule
     known = sorted({c for a in mission.agents for c in a.capabilities})
     for cap in wanted:
+        if cap not in known and cap in names:
+            fail(
+                f"role '{role}' names agent '{cap}', but a role rule lists capabilities; to bind "
+                f"an agent write {{agent: {cap}}}",
+                where,
+                source,
+            )
         if cap not in known:
             fail(
                 f"no agent has capability '{cap}'{did_you_mean(cap, known)}; capabilities of "

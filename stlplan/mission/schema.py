@@ -37,8 +37,19 @@ def _integral(value: Any) -> Any:
 
 Integer = Annotated[StrictInt, BeforeValidator(_integral)]
 """An integer; ``8.0`` counts as 8 (JSON Schema's integers), ``true`` and ``"8"`` do not."""
+Natural = Annotated[StrictInt, Field(ge=0), BeforeValidator(_integral)]
+"""An :data:`Integer` >= 0."""
 Number = Annotated[float, Strict(), Field(ge=-MAX_MAGNITUDE, le=MAX_MAGNITUDE)]
-"""A number written as a number (not text, not true/false), of magnitude at most 1e6."""
+"""A number written as a number (not text, not true/false), of magnitude at most 1e6.
+
+A field that needs a narrower range uses one of the types below: a ``Field(ge=0)`` given beside
+``Number`` would be overridden by ``Number``'s own lower bound."""
+NonNegative = Annotated[float, Strict(), Field(ge=0, le=MAX_MAGNITUDE)]
+"""A :data:`Number` >= 0."""
+Positive = Annotated[float, Strict(), Field(gt=0, le=MAX_MAGNITUDE)]
+"""A :data:`Number` > 0."""
+Fraction = Annotated[float, Strict(), Field(ge=0, lt=1)]
+"""A number in [0, 1)."""
 Bounds = tuple[Number, Number]
 NonEmptyNames = Annotated[list[str], Field(min_length=1)]
 
@@ -120,8 +131,9 @@ class Synchronous(_Strict):
     """[a, b]: the steps at which the synchronized run may start."""
     hold: Integer = Field(default=0, ge=0)
     """d: every element must satisfy phi for d+1 consecutive steps together."""
-    gamma: Number | None = Field(default=None, ge=0)
-    """Upper bound on this task's synchronous robustness (default: objective.gamma)."""
+    gamma: Natural | None = None
+    """Upper bound on this task's synchronous robustness, a natural number (default:
+    objective.gamma)."""
 
 
 class Task(_Strict):
@@ -155,21 +167,22 @@ class Constraint(_Strict):
 class Margin(_Strict):
     """Spatial robustness: the margin by which every enforced predicate holds."""
 
-    minimum: Number = Field(default=0.0, ge=0)
+    minimum: NonNegative = 0.0
     """Required margin (0 enforces predicates exactly, as the paper does)."""
     maximize: StrictBool = False
     """Maximize the margin (weighted by `weight`) instead of only requiring `minimum`."""
-    weight: Number = Field(default=1.0, ge=0)
+    weight: NonNegative = 1.0
     """Weight of the margin in the objective when maximized."""
 
 
 class Objective(_Strict):
     """Problem (step1): maximize rho_s(Phi) - beta * effort subject to every task."""
 
-    beta: Number = Field(default=0.05, ge=0)
+    beta: NonNegative = 0.05
     """Weight of the control effort."""
-    gamma: Number = Field(default=8.0, ge=0)
-    """Default upper bound on each synchronous task's robustness."""
+    gamma: Natural = 8
+    """Default upper bound on each synchronous task's robustness, a natural number as in the
+    paper (rho_s counts steps); 0 leaves the synchronous robustness out of the objective."""
     effort: Literal["l1", "l2", "linf"] = "l2"
     """Norm of the effort minimized in step 2 (step 1 always uses l1)."""
     two_step: StrictBool = True
@@ -181,9 +194,9 @@ class Objective(_Strict):
 class SolverOptions(_Strict):
     """HiGHS options."""
 
-    time_limit: Number = Field(default=300.0, gt=0)
+    time_limit: Positive = 300.0
     """Wall-clock limit of the whole run (building, solving, step 2, diagnosis), seconds."""
-    gap: Number = Field(default=1e-4, ge=0, lt=1)
+    gap: Fraction = 1e-4
     """Relative optimality gap at which HiGHS stops (0 <= gap < 1)."""
     threads: Integer | None = Field(default=None, ge=1)
     """Threads HiGHS may use (default: HiGHS decides)."""

@@ -244,7 +244,8 @@ def _bound(kind: str, ctx: dict[str, Any]) -> str:
             f"a number between -{schema.MAGNITUDE_TEXT} and {schema.MAGNITUDE_TEXT} "
             "(larger magnitudes break the solver's tolerances; rescale the units)"
         )
-    return f"a value {_BOUNDS[kind]} {limit}"
+    shown = int(limit) if isinstance(limit, float) and limit.is_integer() else limit  # 0, not 0.0
+    return f"a value {_BOUNDS[kind]} {shown}"
 
 
 def _hint(issue: _Issue) -> str:

@@ -43,6 +43,7 @@ from stlplan.monitor.crossings import separation_segments, worst_segment
 from stlplan.monitor.dynamics import dynamics_verdict
 from stlplan.monitor.robustness import robustness
 from stlplan.result import Element, MonitorReport, Trajectory, Verdict
+from stlplan.words import counted
 
 
 def check(
@@ -245,16 +246,16 @@ def _synchronous_detail(
     text = _group_text(task, group)
     if rho_s >= 0:
         return (
-            f"group {text} holds phi together for {length} steps from step {start} "
+            f"group {text} holds phi together for {counted(length, 'step')} from step {start} "
             f"(needs {need}): rho_s = {rho_s}{_capped(task, rho_s)}"
         )
     if length == 0:
         return (
             f"no group holds phi together at any start in [{task.sync.a}, {task.sync.b}] "
-            f"(needs {need} steps): rho_s = {rho_s}"
+            f"(needs {counted(need, 'step')}): rho_s = {rho_s}"
         )
     return (
-        f"no group holds phi together for {need} steps: best {text} for {length} from step "
+        f"no group holds phi together for {counted(need, 'step')}: best {text} for {length} from step "
         f"{start}, rho_s = {rho_s}"
     )
 
@@ -292,9 +293,11 @@ def _constraint_verdict(
     failing = sum(1 for v in values if not holds(v, slack))
     who = _binding_text(dict(constraint.bindings[worst])) + segments[worst]
     if failing == 0:
-        detail = f"holds for all {len(values)} binding(s); tightest {who} with margin {value:.3g}"
+        every = "the 1 binding" if len(values) == 1 else f"all {len(values)} bindings"
+        detail = f"holds for {every}; tightest {who} with margin {value:.3g}"
     else:
-        detail = f"fails for {failing} of {len(values)} binding(s); worst {who} reaches {value:.3g}"
+        some = f"{failing} of {counted(len(values), 'binding')}"
+        detail = f"fails for {some}; worst {who} reaches {value:.3g}"
     return Verdict(constraint.name, "constraint", failing == 0, value, detail=detail)
 
 

@@ -7,6 +7,7 @@ from rich.table import Table
 
 from stlplan.monitor.dynamics import DYNAMICS_CHECKED
 from stlplan.result import Confirmation, Diagnosis, MonitorReport, PlanResult, Verdict
+from stlplan.words import counted
 
 
 def _num(value: float | None, digits: int = 3) -> str:
@@ -67,7 +68,8 @@ def report_line(report: MonitorReport) -> str:
     failed = [v.name for v in report.verdicts if not v.satisfied]
     if failed:
         return (
-            f"[red]not satisfied[/]: {len(failed)} of {len(report.verdicts)} checks fail "
+            f"[red]not satisfied[/]: {len(failed)} of {counted(len(report.verdicts), 'check')} "
+            f"{'fails' if len(failed) == 1 else 'fail'} "
             f"({', '.join(failed)})"
         )
     rho = "" if report.rho_s is None else f", rho_s(Phi) = {_num(report.rho_s)}"
@@ -115,15 +117,14 @@ def print_plan(console: Console, result: PlanResult) -> None:
     size = result.model_size
     if size is not None:
         console.print(
-            f"[bold]model[/]      {size.variables} variables ({size.binaries} binary), "
-            f"{size.constraints} constraints"
+            f"[bold]model[/]      {counted(size.variables, 'variable')} ({size.binaries} "
+            f"binary), {counted(size.constraints, 'constraint')}"
         )
     console.print(
         f"[bold]time[/]       build {result.build_seconds:.2f} s, solve "
         f"{result.solve_seconds:.2f} s"
     )
-    for confirmation in result.confirmations:
-        console.print(f"[bold]infeasible[/] {confirmation_text(confirmation)}")
+    print_confirmations(console, result)
     if result.report is not None:
         print_report(console, result.report)
     if result.diagnosis is not None:
@@ -157,6 +158,18 @@ def print_figures(console: Console, result: PlanResult) -> None:
             f"[bold]fallback[/]   {fallback.step} failed ({fallback.reason}); {fallback.kept} "
             f"is kept, costing {cost}"
         )
+
+
+def print_confirmations(console: Console, result: PlanResult) -> None:
+    """Each infeasible verdict of HiGHS and how it was checked. Beside a plan, a verdict came
+    from an intermediate solve (a lazy round, a step 2 redone after a stricter step 1): it is a
+    note, not the outcome."""
+    for confirmation in result.confirmations:
+        if result.trajectory is None:
+            console.print(f"[bold]infeasible[/] {confirmation_text(confirmation)}")
+            continue
+        later = "; the plan comes from a later solve" if confirmation.outcome == "confirmed" else ""
+        console.print(f"[bold]note[/]       infeasible {confirmation_text(confirmation)}{later}")
 
 
 def confirmation_text(confirmation: Confirmation) -> str:

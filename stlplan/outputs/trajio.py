@@ -3,7 +3,8 @@
 Columns: ``agent``, ``k``, ``x0 .. x{n-1}`` (state), ``u0 .. u{m-1}`` (input), where ``n`` and
 ``m`` are the largest state and input dimensions of the team. Agents with fewer components leave
 the extra cells empty, and every ``u`` cell is empty at ``k = H`` (there is no input ``u(H)``).
-Numbers are written with ``repr`` precision, so a written trajectory reads back bit for bit.
+Numbers are written with ``repr`` precision, so a written trajectory reads back bit for bit,
+except that a negative zero (a solver's ``-0.0``) is written ``0.0``.
 Further columns may follow; the reader ignores them.
 
 The reader also takes trajectories from other tools: the step column may be named ``k``, ``t`` or
@@ -11,7 +12,9 @@ The reader also takes trajectories from other tools: the step column may be name
 the dynamics on the states only); and when every task and constraint reads positions only, the
 state columns may be the position components alone (``x0``, ``x1`` for ``position: [0, 1]``, or
 ``x``, ``y``). A header that would shift cells (spaces after the commas, another separator,
-a column named twice) and a row with more cells than the header are refused with the line.
+a column named twice), a row with more cells than the header, and text in a state or input cell
+that is not read (an input at ``k = H``, a component past the agent's own) are refused with the
+line; a number there is ignored.
 """
 
 from __future__ import annotations
@@ -42,6 +45,11 @@ def columns(problem: Problem) -> list[str]:
     return ["agent", "k", *(f"x{i}" for i in range(n)), *(f"u{i}" for i in range(m))]
 
 
+def csv_number(value: float) -> str:
+    """``value`` as a CSV cell: ``repr`` precision, and ``0.0`` for a negative zero."""
+    return repr(float(value) + 0.0)  # -0.0 + 0.0 is +0.0; every other value is unchanged
+
+
 def _rows(problem: Problem, trajectory: Trajectory, width: int) -> Iterator[list[str]]:
     H = trajectory.horizon
     n_max = max(a.n for a in problem.agents)
@@ -49,10 +57,10 @@ def _rows(problem: Problem, trajectory: Trajectory, width: int) -> Iterator[list
         x = np.asarray(trajectory.states[agent.name], dtype=float)
         u = np.asarray(trajectory.inputs[agent.name], dtype=float)
         for k in range(H + 1):
-            row = [agent.name, str(k), *(repr(float(v)) for v in x[k])]
+            row = [agent.name, str(k), *(csv_number(v) for v in x[k])]
             row += [""] * (n_max - agent.n)
             if k < H:
-                row += [repr(float(v)) for v in u[k]]
+                row += [csv_number(v) for v in u[k]]
             yield row + [""] * (width - len(row))
 
 
@@ -236,6 +244,26 @@ class _Reader:
         if k < self.H and self.layout.inputs:
             for i in range(agent.m):
                 self.inputs[name][k, i] = self._number(line, row, f"u{i}", agent, k)
+        self._unread(line, row, agent, k)
+
+    def _unread(self, line: int, row: dict[str | None, Any], agent: AgentModel, k: int) -> None:
+        """The x and u cells a row has but its agent and step do not use must be empty (or
+        numbers, ignored): no input at ``k = H``, none past the agent's own dimensions."""
+        read = {column for _, column in self.layout.state[agent.name]}
+        if k < self.H and self.layout.inputs:
+            read |= {f"u{i}" for i in range(agent.m)}
+        for column in [c for c in row if isinstance(c, str) and c not in read]:
+            text = (row[column] or "").strip()
+            if not _is_state_or_input(column) or not text or _finite(text):
+                continue
+            why = (
+                f"agent '{agent.name}' has no input at step {k} = H (inputs end at step {k - 1})"
+                if column.startswith("u") and k == self.H
+                else f"agent '{agent.name}' has no component {column}"
+            )
+            raise self.fail(
+                line, f"column {column}: {why}; expected an empty cell, found {_cell(text)}"
+            )
 
     def _step(self, line: int, text: str | None) -> int:
         text = (text or "").strip()
@@ -294,6 +322,18 @@ class _Reader:
         return Trajectory(self.H, self.states, self.inputs, known=self.layout.known)
 
 
+def _is_state_or_input(column: str) -> bool:
+    """Whether ``column`` is a state or input column (``x0``, ``u1``)."""
+    return column[:1] in ("x", "u") and column[1:].isdigit()
+
+
+def _finite(text: str) -> bool:
+    try:
+        return math.isfinite(float(text))
+    except ValueError:
+        return False
+
+
 def _cell(text: str, limit: int = 40) -> str:
     """A cell quoted for a message: shortened, with a hint when it spans lines."""
     shown = repr(text if len(text) <= limit else text[:limit] + "...")
@@ -309,7 +349,8 @@ def read_trajectory_csv(problem: Problem, path: str | Path) -> Trajectory:
     TrajectoryError
         Naming the file, the line and what was expected: missing file or columns, a header that
         would shift cells, a row longer than the header, unknown or missing agent, missing or
-        duplicate step, a non-numeric or non-finite value, or a missing input before step ``H``.
+        duplicate step, a non-numeric or non-finite value, a missing input before step ``H``, or
+        text in a cell that is not read (an input at step ``H``).
     """
     path = Path(path)
     reader = _Reader(problem, path)

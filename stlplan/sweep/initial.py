@@ -11,6 +11,7 @@ import numpy as np
 from stlplan.errors import MissionError
 from stlplan.mission.problem import region_halfspaces
 from stlplan.mission.schema import Agent, Mission
+from stlplan.words import counted
 
 MAX_TRIES = 100_000
 
@@ -50,7 +51,7 @@ def draw_positions(mission: Mission, seed: int, run: int) -> np.ndarray:
         tries += 1
         if tries > MAX_TRIES:
             raise MissionError(
-                f"cannot place {len(mission.agents)} agents {separation} apart in region "
+                f"cannot place {counted(len(mission.agents), 'agent')} {separation} apart in region "
                 f"'{mission.sweep.initial_region}'",
                 where="sweep.initial_region",
             )

@@ -10,6 +10,8 @@ from typing import Any
 
 import numpy as np
 
+from stlplan.words import counted
+
 COLUMNS = ("mission", "runs", "statuses", "mean_s", "median_s", "max_s", "rho_s", "monitor_ok")
 
 
@@ -84,7 +86,7 @@ def plot_times(records: list[dict[str, Any]], path: Path) -> None:
     for i, values in enumerate(data, start=1):
         ax.scatter(i + rng.uniform(-0.12, 0.12, len(values)), values, s=12, alpha=0.6)
     ax.set_ylabel("build + solve time [s]")
-    ax.set_title(f"stlplan sweep: {sum(len(d) for d in data)} runs")
+    ax.set_title(f"stlplan sweep: {counted(sum(len(d) for d in data), 'run')}")
     ax.grid(axis="y", alpha=0.3)
     fig.tight_layout()
     fig.savefig(path)

@@ -23,6 +23,7 @@ from stlplan.errors import SolverError, StlplanError, UsageError
 from stlplan.planner import stops
 from stlplan.planner.config import Overrides
 from stlplan.result import PlanResult
+from stlplan.words import counted
 
 RECORDS = "runs.jsonl"
 
@@ -113,7 +114,7 @@ def pending(specs: Sequence[RunSpec], out: Path, resume: bool) -> list[RunSpec]:
     }
     if done and not resume:
         raise UsageError(
-            f"{out / RECORDS} already holds {len(done)} runs; pass --resume to "
+            f"{out / RECORDS} already holds {counted(len(done), 'run')}; pass --resume to "
             "continue that sweep or choose another --out"
         )
     return [s for s in specs if (s.mission_key, s.run, s.seed) not in done]

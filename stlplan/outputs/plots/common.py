@@ -27,12 +27,13 @@ from stlplan.formula.tree import (
     Formula,
     InRegion,
     Not,
-    atoms,
+    Until,
     children,
     horizon,
 )
 from stlplan.mission.problem import AgentModel, Problem, TaskModel
 from stlplan.result import MonitorReport, Trajectory, Verdict
+from stlplan.words import counted
 
 DPI = 150
 MANY_AGENTS = 12
@@ -60,7 +61,7 @@ _LEGEND: dict[str, Any] = dict(fontsize=8, title_fontsize=8, frameon=False)
 _LIMIT: dict[str, Any] = dict(facecolor="0.9", edgecolor="0.5", hatch="xx", lw=0.8, zorder=2)
 _LIMIT_VIOLATED: dict[str, Any] = dict(_LIMIT, edgecolor="#d62728", lw=1.6)
 _LIMIT_LABEL = dict(_CENTERED, color="0.1", zorder=3, clip_on=True, bbox=_BOX)
-_TIMELINE_NOTE = "bars: steps at which the agent is inside a region its role has in the task"
+_TIMELINE_NOTE = "bars: the agent in a region of its role, at steps the task's formula reads it"
 
 
 # ---------------------------------------------------------------------------------------- geometry
@@ -131,10 +132,34 @@ def obstacle_regions(problem: Problem) -> tuple[str, ...]:
     return tuple(dict.fromkeys(found))
 
 
-def role_regions(task: TaskModel, role: str) -> tuple[str, ...]:
-    """Regions the task's formula mentions as ``in(role, R)`` for this role."""
-    found = (a.region for a in atoms(task.formula) if isinstance(a, InRegion) and a.role == role)
-    return tuple(dict.fromkeys(found))
+def read_windows(formula: Formula, lo: int, hi: int) -> Iterator[tuple[InRegion, int, int]]:
+    """Each ``in(r, R)`` of ``formula`` (none under ``!``: being inside does not serve it) with
+    the first and last step it is read at when ``formula`` is decided at every step of
+    ``[lo, hi]``: ``G[a,b]`` and ``F[a,b]`` read their child on ``[lo + a, hi + b]``, ``l U[a,b]
+    r`` reads ``r`` there and ``l`` on ``[lo, hi + b]``."""
+    if isinstance(formula, InRegion):
+        yield formula, lo, hi
+    elif isinstance(formula, (Always, Eventually)):
+        yield from read_windows(formula.child, lo + formula.interval.lo, hi + formula.interval.hi)
+    elif isinstance(formula, Until):
+        yield from read_windows(formula.left, lo, hi + formula.interval.hi)
+        yield from read_windows(formula.right, lo + formula.interval.lo, hi + formula.interval.hi)
+    elif not isinstance(formula, Not):
+        for child in children(formula):
+            yield from read_windows(child, lo, hi)
+
+
+def role_windows(problem: Problem, task: TaskModel, role: str) -> list[tuple[str, int, int]]:
+    """``(R, first, last)`` for each ``in(role, R)`` the task's formula reads, with the steps it
+    is read at: from step 0, or for a synchronous task from every step of ``[a, H - h(phi)]``
+    (its run starts in ``[a, b]`` and may last to the end)."""
+    sync = task.sync
+    lo, hi = (0, 0) if sync is None else (sync.a, problem.horizon - horizon(task.formula))
+    return [
+        (atom.region, first, min(last, problem.horizon))
+        for atom, first, last in read_windows(task.formula, lo, hi)
+        if atom.role == role
+    ]
 
 
 def task_presence(
@@ -143,7 +168,9 @@ def task_presence(
     """For each agent of the verdict's group: step -> regions of its role it is inside.
 
     An agent filling role ``r`` in an element is present at step ``k`` when its position ``z(k)``
-    lies in a region ``R`` with ``in(r, R)`` in the task's formula. Steps with no region are left out.
+    lies in a region ``R`` with ``in(r, R)`` in the task's formula, and the formula reads that
+    ``in(r, R)`` at ``k`` (:func:`role_windows`: ``F[13,16] in(p, Home)`` only at steps 13 to
+    16). Steps with no region are left out.
     """
     presence: dict[str, dict[int, tuple[str, ...]]] = {}
     for element in verdict.group or ():
@@ -151,9 +178,10 @@ def task_presence(
             agent = problem.agent(name)
             z = trajectory.position(name, agent.position)
             steps = presence.setdefault(name, {})
-            for region in role_regions(task, role):
+            for region, first, last in role_windows(problem, task, role):
                 for k in np.flatnonzero(inside(problem.regions[region], z)):
-                    steps[int(k)] = steps.get(int(k), ()) + (region,)
+                    if first <= k <= last and region not in steps.get(int(k), ()):
+                        steps[int(k)] = steps.get(int(k), ()) + (region,)
     return presence
 
 
@@ -226,7 +254,7 @@ def agent_handles(problem: Problem, styles) -> list[Line2D]:
     for agent in problem.agents:
         by_key.setdefault(_capability_key(agent), []).append(agent.name)
     return [
-        _agent_handle(styles[names[len(names) // 2]], f"{key} ({len(names)} agents)")
+        _agent_handle(styles[names[len(names) // 2]], f"{key} ({counted(len(names), 'agent')})")
         for key, names in by_key.items()
     ]
 
