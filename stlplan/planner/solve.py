@@ -61,24 +61,26 @@ def _strict_note(config: PlannerConfig) -> str:
 
 def _solved(
     problem: Problem, config: PlannerConfig, clock: Clock
-) -> tuple[PlanModel, Step1, Finish, bool]:
+) -> tuple[PlanModel, Step1, Finish, bool, ModelSize]:
     """Step 1, then the continuous stage: the model with the plan loaded, how step 1 and the
-    continuous stage ended, and whether step 1 was solved strictly.
+    continuous stage ended, whether step 1 was solved strictly, and the size of step 1's last
+    MILP (taken before the continuous stage fixes its decisions).
 
     When step 1's decisions, taken exactly, admit no plan, its plan met them only within HiGHS's
     integrality tolerance (a binary at ``1e-6`` from 0 or 1 relaxes a big-M row by ``M 1e-6``,
     more than ``EPSILON``): step 1 is solved again with :func:`strict` options.
     """
     pm, step1 = _step1(problem, config, clock)
+    size = model_size(pm.model)
     if not step1.status.has_plan:
-        return pm, step1, Finish(), False
+        return pm, step1, Finish(), False, size
     with stops.finishing():  # after a stop request too: step 2 is a quick LP or QP
         ended = finish(pm, config, clock)
     tolerance = config.solver.highs_options.get("mip_feasibility_tolerance")
     if not ended.infeasible or tolerance == config.solver.strict_integrality:
-        return pm, step1, ended, False
-    pm, step1, ended, _ = _solved(problem, strict(config), clock)
-    return pm, step1, ended, True
+        return pm, step1, ended, False, size
+    pm, step1, ended, _, size = _solved(problem, strict(config), clock)
+    return pm, step1, ended, True, size
 
 
 def _step1(problem: Problem, config: PlannerConfig, clock: Clock) -> tuple[PlanModel, Step1]:
@@ -123,9 +125,8 @@ def plan(
     """
     config = config or PlannerConfig.from_mission(problem.mission)
     clock = Clock.started(config, progress, deadline)
-    pm, step1, ended, strictly = _solved(problem, config, clock)
+    pm, step1, ended, strictly, size = _solved(problem, config, clock)
     failed = ended.failed
-    size = model_size(pm.model)
     redone = _strict_note(config) if strictly else ""
     if not step1.status.has_plan:
         clock.report("done")
