@@ -8,7 +8,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import logging
-import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -19,6 +18,7 @@ from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.native_output import discard_highs_banner
 from stlplan.planner import stops
+from stlplan.planner.budget import Budget
 from stlplan.planner.config import Overrides, PlannerConfig, describe
 from stlplan.planner.diagnose import cheap_diagnosis, cheap_reasons, diagnose
 from stlplan.planner.figures import reported
@@ -80,7 +80,7 @@ def plan(
     config = PlannerConfig.from_mission(problem.mission, overrides.dotted())
     if config.model.tasks == "groups":
         check_enumerable(problem)
-    deadline = time.perf_counter() + config.solver.time_limit
+    run = Budget.for_run(config)
     check_size(problem, config.solver.time_limit, config.model.tasks)
     used: dict[str, Any] = {"config": config.model_dump(), "strategy": describe(config)}
     reasons = cheap_reasons(problem)
@@ -89,11 +89,13 @@ def plan(
         message = f"infeasible before solving: {counted(len(reasons), 'requirement')} cannot be met"
         return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis, **used)
     with stops.stop_on_signals(), _quiet_pyomo():
-        result = solve_plan(problem, config, progress=progress, deadline=deadline)
+        result = solve_plan(problem, config, progress=progress, budget=run)
         if result.status is PlanStatus.INFEASIBLE and diagnose_infeasible:
-            result = _diagnosed(problem, config, result, deadline)
-        result = dataclasses.replace(result, **used)
-        return problem, _verified(problem, result, config.solver.gap)
+            with run.stage("diagnosis"):
+                result = _diagnosed(problem, config, result, run)
+        with run.stage("verify"):
+            result = _verified(problem, result, config.solver.gap)
+        return problem, dataclasses.replace(result, stage_seconds=dict(run.ledger), **used)
 
 
 class _DiagnosisStopped(Exception):
@@ -101,10 +103,11 @@ class _DiagnosisStopped(Exception):
 
 
 def _diagnosed(
-    problem: Problem, config: PlannerConfig, result: PlanResult, deadline: float
+    problem: Problem, config: PlannerConfig, result: PlanResult, run: Budget
 ) -> PlanResult:
     """``result`` with a minimal conflict found by feasibility solves (deletion filter), each
-    infeasible verdict confirmed (recorded as a diagnosis probe), all before ``deadline``."""
+    infeasible verdict confirmed (recorded as a diagnosis probe), all within the ``run``'s
+    budget (``diagnosis.seconds`` of it at most, ``diagnosis.probe_seconds`` a probe)."""
     from stlplan.planner.solve import plan as solve_plan
 
     limits = config.diagnosis
@@ -114,7 +117,7 @@ def _diagnosed(
     confirmations = list(result.confirmations)
 
     def feasibility(subset: Problem) -> PlanStatus:
-        found = solve_plan(subset, probe, deadline=deadline)
+        found = solve_plan(subset, probe, budget=Budget.for_run(probe, run.deadline))
         confirmations.extend(
             dataclasses.replace(c, where=f"diagnosis probe, {c.where}") for c in found.confirmations
         )
@@ -122,9 +125,9 @@ def _diagnosed(
             raise _DiagnosisStopped
         return found.status
 
-    budget = max(0.0, min(limits.seconds, deadline - time.perf_counter()))
     try:
-        diagnosis = diagnose(problem, feasibility, budget)
+        seconds = max(0.0, run.seconds(limits.seconds).remaining())
+        diagnosis = diagnose(problem, feasibility, seconds)
         out = dataclasses.replace(result, diagnosis=diagnosis)
     except _DiagnosisStopped:
         out = dataclasses.replace(result, message=result.message + " (diagnosis interrupted)")

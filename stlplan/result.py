@@ -246,3 +246,6 @@ class PlanResult:
     """The planner's whole configuration for this run, by section and knob."""
     strategy: str = ""
     """The composed strategy of the run in one line."""
+    stage_seconds: Mapping[str, float] = field(default_factory=dict)
+    """Wall time of each stage of the run (step 1, the continuous stage, a diagnosis, the
+    monitor's verification), s."""

@@ -10,6 +10,7 @@ import pytest
 
 from stlplan.formula.boundary import EPSILON
 from stlplan.planner import components
+from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.components import Part, _tighten, solve_parts
 from stlplan.planner.config import PlannerConfig
@@ -75,7 +76,7 @@ def test_parts_give_the_up_front_optimum() -> None:
     # agree within the tolerance 1e-5
     problem = two_teams()
     options = PlannerConfig().with_overrides({"solver.time_limit": 60.0, "solver.gap": 1e-6})
-    by_parts = solve_parts(problem, options, Clock(0.0, None))
+    by_parts = solve_parts(problem, options, Clock(0.0, None), Budget.of_seconds(60))
     assert by_parts is not None
     whole = plan(
         problem,
@@ -92,7 +93,10 @@ def test_a_collision_between_parts_merges_them() -> None:
     # a and b are separate parts whose straight plans collide at step 1
     problem = swap_problem(separation=0.5)
     found = solve_parts(
-        problem, PlannerConfig().with_overrides({"solver.time_limit": 60.0}), Clock(0.0, None)
+        problem,
+        PlannerConfig().with_overrides({"solver.time_limit": 60.0}),
+        Clock(0.0, None),
+        Budget.of_seconds(60),
     )
     assert found is not None
     full, step1 = found
@@ -129,7 +133,7 @@ def test_tighten_solves_the_loosest_part_again_with_an_absolute_gap() -> None:
         Part(("v",), None, loose, _step(4.0, 4.0004)),  # type: ignore[arg-type]
         Part(("u",), None, exact, _step(-0.3, -0.29999)),  # type: ignore[arg-type]
     ]
-    _tighten(parts, PlannerConfig().with_overrides({"solver.gap": 1e-4}), deadline=1e9)
+    _tighten(parts, PlannerConfig().with_overrides({"solver.gap": 1e-4}), Budget.of_seconds(1e9))
     assert exact.asked == []
     assert loose.asked == [pytest.approx(1e-4 * 3.7 - 1e-5)]
     assert parts[0].step1 is not None and parts[0].step1.bound == 4.0002
@@ -160,8 +164,8 @@ def test_a_merged_part_is_repaired_with_only_the_colliding_agents_free(
     repairs: list[tuple[frozenset[str], Step1 | None]] = []
     repair = components._repair
 
-    def spy(part: Part, config: PlannerConfig, deadline: float) -> Step1 | None:
-        repaired = repair(part, config, deadline)
+    def spy(part: Part, config: PlannerConfig, budget: Budget) -> Step1 | None:
+        repaired = repair(part, config, budget)
         repairs.append((part.free, repaired))
         return repaired
 
@@ -169,7 +173,7 @@ def test_a_merged_part_is_repaired_with_only_the_colliding_agents_free(
     problem = detour_for_free()
     assert agent_parts(problem) == [("a", "b"), ("e",)]
     options = PlannerConfig().with_overrides({"solver.time_limit": 60.0, "solver.gap": 1e-6})
-    found = solve_parts(problem, options, Clock(0.0, None))
+    found = solve_parts(problem, options, Clock(0.0, None), Budget.of_seconds(60))
     assert found is not None
     _, step1 = found
     whole = plan(
@@ -194,12 +198,22 @@ def test_tighten_towards_a_plan_below_the_parts_sum() -> None:
         Part(("v",), None, loose, _step(4.0, 4.0004)),  # type: ignore[arg-type]
         Part(("u",), None, exact, _step(-0.3, -0.29999)),  # type: ignore[arg-type]
     ]
-    _tighten(parts, PlannerConfig().with_overrides({"solver.gap": 1e-4}), deadline=1e9, plan=3.6999)
+    _tighten(
+        parts,
+        PlannerConfig().with_overrides({"solver.gap": 1e-4}),
+        Budget.of_seconds(1e9),
+        plan=3.6999,
+    )
     assert loose.asked == [pytest.approx(1e-4 * 3.6999 - 1e-4 - 1e-5)]
     # a plan that lost more than the gap cannot be helped by tighter parts: nothing is solved
     costly = _Solver(_step(4.0, 4.0))
     parts[0] = Part(("v",), None, costly, _step(4.0, 4.0004))  # type: ignore[arg-type]
-    _tighten(parts, PlannerConfig().with_overrides({"solver.gap": 1e-4}), deadline=1e9, plan=3.6)
+    _tighten(
+        parts,
+        PlannerConfig().with_overrides({"solver.gap": 1e-4}),
+        Budget.of_seconds(1e9),
+        plan=3.6,
+    )
     assert costly.asked == []
 
 
@@ -210,7 +224,7 @@ def test_a_solve_starts_from_a_given_plan() -> None:
         paper_model(model__encoding="standard"),
     )
     exact = HighsSession(pm.model, PlannerConfig(), Clock(0.0, None), "step1")
-    optimum = exact.solve(60).results.incumbent_objective
+    optimum = exact.solve(Budget.of_seconds(60)).results.incumbent_objective
     plan_x = np.array(exact.highs.getSolution().col_value)
     first = PlannerConfig().with_overrides(
         {"solver.highs_options": {"mip_max_improving_sols": 1, "mip_heuristic_effort": 0.0}}
@@ -220,7 +234,7 @@ def test_a_solve_starts_from_a_given_plan() -> None:
         session = HighsSession(pm.model, first, Clock(0.0, None), "step1")
         if start is not None:
             session.start_from(start)
-        found.append(session.solve(60).results.incumbent_objective)
+        found.append(session.solve(Budget.of_seconds(60)).results.incumbent_objective)
     assert found[0] < optimum - 1.0
     assert found[1] == pytest.approx(optimum, abs=1e-9)
 
@@ -243,7 +257,10 @@ def test_only_requirements_between_parts_are_crossings() -> None:
         problem,
         paper_model(lazy__enabled=True, model__encoding=options.model.encoding),
     )
-    parts = [components._part(problem, names, options, clock) for names in agent_parts(problem)]
+    parts = [
+        components._part(problem, names, options, clock, Budget.of_seconds(60))
+        for names in agent_parts(problem)
+    ]
     spread = {"a": (0.0, 0.0), "b": (1.0, 0.0), "c": (2.0, 0.0), "d": (3.0, 0.0), "e": (4.0, 0.0)}
     for part in parts:
         _place(part, {n: spread[n] for n in part.agents})
@@ -263,15 +280,15 @@ def test_parts_are_solved_smallest_first_in_shares_with_a_reserve(
     asked: list[tuple[tuple[str, ...], float]] = []
     start = time.perf_counter()
 
-    def solve_part(part: Part, config: PlannerConfig, deadline: float) -> Step1:
-        asked.append((part.agents, deadline - time.perf_counter()))
-        monkeypatch.setattr(time, "perf_counter", lambda: deadline)  # the share is spent
+    def solve_part(part: Part, config: PlannerConfig, share: Budget) -> Step1:
+        asked.append((part.agents, share.remaining()))
+        monkeypatch.setattr(time, "perf_counter", lambda: share.deadline)  # the share is spent
         return _step(1.0, 1.0)
 
     parts = [Part(agents, None, None) for agents in (("a", "b", "c"), ("d",), ("e", "f"))]  # type: ignore[arg-type]
     monkeypatch.setattr(components, "_solve_part", solve_part)
     monkeypatch.setattr(time, "perf_counter", lambda: start)
-    components._solve_in_shares(parts, PlannerConfig(), start + 100.0)
+    components._solve_in_shares(parts, PlannerConfig(), Budget(start + 100.0, start + 100.0))
     assert [agents for agents, _ in asked] == [("d",), ("e", "f"), ("a", "b", "c")]
     usable = 100.0 * (1 - PlannerConfig().parts.merge_reserve)
     assert [share for _, share in asked] == pytest.approx([usable / 3] * 3)

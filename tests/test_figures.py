@@ -48,7 +48,7 @@ def test_a_failed_continuous_solve_says_why_and_what_it_costs(
     import stlplan.planner.solve
     from stlplan.planner.finish import Finish
 
-    def failing(pm, options, clock):  # type: ignore[no-untyped-def]
+    def failing(pm, config, clock, budget):  # type: ignore[no-untyped-def]
         return Finish("the continuous solve ended maxTimeLimit")
 
     monkeypatch.setattr(stlplan.planner.solve, "finish", failing)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
 import pytest
@@ -10,6 +9,7 @@ from pyomo.environ import value
 
 from stlplan.mission.problem import Problem
 from stlplan.planner import components
+from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.components import Part, solve_parts
 from stlplan.planner.config import PlannerConfig
@@ -62,7 +62,7 @@ def _first_round(problem: Problem) -> tuple[Any, HighsSession]:
         paper_model(lazy__enabled=True, model__encoding=options.model.encoding),
     )
     session = HighsSession(pm.model, options, Clock(0.0, None), "step1")
-    assert session.solve(30).results.incumbent_objective is not None
+    assert session.solve(Budget.of_seconds(30)).results.incumbent_objective is not None
     return pm, session
 
 
@@ -75,12 +75,12 @@ def test_a_round_repaired_in_turn_meets_every_requirement(monkeypatch: pytest.Mo
     freed: list[set[str]] = []
     solve_free = InTurn._solve_free
 
-    def spy(self: InTurn, free: set[str], done: set[str], seconds: float) -> set[str]:
+    def spy(self: InTurn, free: set[str], done: set[str], budget: Budget) -> set[str]:
         freed.append(set(free))
-        return solve_free(self, free, done, seconds)
+        return solve_free(self, free, done, budget)
 
     monkeypatch.setattr(InTurn, "_solve_free", spy)
-    repaired = InTurn(pm, session, PlannerConfig()).run(bad, 30.0)
+    repaired = InTurn(pm, session, PlannerConfig()).run(bad, Budget.of_seconds(30.0))
     assert repaired
     assert {"a"} in freed  # the first agent is solved alone
     assert pending_violations(pm) == []  # a plan of the full problem
@@ -125,9 +125,9 @@ def test_a_crowded_round_is_repaired_however_short(
     runs: list[set[str]] = []
     run = InTurn.run
 
-    def spy(self: InTurn, bad: Any, seconds: float) -> bool:
+    def spy(self: InTurn, bad: Any, budget: Budget) -> bool:
         runs.append(agents_of(self.pm, bad))
-        return run(self, bad, seconds)
+        return run(self, bad, budget)
 
     monkeypatch.setattr(InTurn, "run", spy)
     result, _ = solve(problem, {"repair.after_round_seconds": 1e6, "repair.crowd_agents": crowd})
@@ -140,19 +140,18 @@ def test_a_turn_that_fails_frees_the_agents_it_could_not_avoid() -> None:
     # _solve_free stubbed: b alone cannot avoid a (returns a); b with a finds a plan
     calls: list[set[str]] = []
 
-    def solve_free(free: set[str], done: set[str], seconds: float) -> set[str]:
+    def solve_free(free: set[str], done: set[str], budget: Budget) -> set[str]:
         calls.append(set(free))
         return {"a", "b"} if free == {"b"} else set()
 
     turn = InTurn.__new__(InTurn)
-    turn.min_solve = PlannerConfig().budget.min_solve_seconds
     turn._solve_free = solve_free  # type: ignore[method-assign]
-    deadline = time.perf_counter() + 60
-    assert turn._turn({"b"}, {"a"}, deadline, 1) == {"a", "b"}
+    budget = Budget.of_seconds(60)
+    assert turn._turn({"b"}, {"a"}, budget, 1) == {"a", "b"}
     assert calls == [{"b"}, {"a", "b"}]
     # no agent to free with it: no plan
-    turn._solve_free = lambda free, done, seconds: set(free)  # type: ignore[method-assign]
-    assert turn._turn({"b"}, {"a"}, deadline, 1) is None
+    turn._solve_free = lambda free, done, budget: set(free)  # type: ignore[method-assign]
+    assert turn._turn({"b"}, {"a"}, budget, 1) is None
 
 
 def test_the_second_turns_never_make_the_repaired_plan_worse(
@@ -163,8 +162,10 @@ def test_the_second_turns_never_make_the_repaired_plan_worse(
     for improve in (False, True):
         pm, session = _first_round(problem)
         if not improve:
-            monkeypatch.setattr(InTurn, "_improve", lambda self, turns, everyone, deadline: None)
-        assert InTurn(pm, session, PlannerConfig()).run(pending_violations(pm), 30)
+            monkeypatch.setattr(InTurn, "_improve", lambda self, turns, everyone, budget: None)
+        assert InTurn(pm, session, PlannerConfig()).run(
+            pending_violations(pm), Budget.of_seconds(30)
+        )
         assert pending_violations(pm) == []
         scores.append(value(pm.model.step1))
         monkeypatch.undo()
@@ -176,7 +177,7 @@ def test_a_turn_adds_every_step_of_a_pair_it_crosses() -> None:
     problem = crossing_problem()
     pm, session = _first_round(problem)
     assert pm.deferral is not None
-    InTurn(pm, session, PlannerConfig()).run(pending_violations(pm), 30.0)
+    InTurn(pm, session, PlannerConfig()).run(pending_violations(pm), Budget.of_seconds(30.0))
     lazy = pm.deferral.lazy
     families = {lazy[n].family for n in pm.added}
     assert families  # the turns crossed held agents and added what they crossed
@@ -193,15 +194,15 @@ def test_a_merged_part_colliding_in_a_crowd_is_repaired_in_turn(
     repairs: list[Step1 | None] = []
     run, repair = InTurn.run, components._repair
 
-    def spy_run(self: InTurn, bad: Any, seconds: float) -> bool:
+    def spy_run(self: InTurn, bad: Any, budget: Budget) -> bool:
         turns.append(agents_of(self.pm, bad))
-        return run(self, bad, seconds)
+        return run(self, bad, budget)
 
-    def spy_repair(part: Part, config: PlannerConfig, deadline: float) -> Step1 | None:
+    def spy_repair(part: Part, config: PlannerConfig, budget: Budget) -> Step1 | None:
         assert part.pm.deferral is not None
         seeded = {part.pm.deferral.lazy[n].source for n in part.pm.added}
         assert ("separation" in seeded) is not in_turn  # the crossing is left to the turns
-        repairs.append(repair(part, config, deadline))
+        repairs.append(repair(part, config, budget))
         return repairs[-1]
 
     monkeypatch.setattr(InTurn, "run", spy_run)
@@ -209,7 +210,7 @@ def test_a_merged_part_colliding_in_a_crowd_is_repaired_in_turn(
     options = PlannerConfig().with_overrides(
         {"solver.time_limit": 60.0, "solver.gap": 1e-6, "repair.crowd_agents": crowd}
     )
-    found = solve_parts(problem, options, Clock(0.0, None))
+    found = solve_parts(problem, options, Clock(0.0, None), Budget.of_seconds(60))
     assert found is not None and found[1].status is PlanStatus.OPTIMAL
     assert turns == ([{"a", "e"}] if in_turn else [])
     repaired = repairs[0]

@@ -10,6 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pyomo.environ import Reals, Var
 
+from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding import floors, team_floors
@@ -64,7 +65,9 @@ def lp_bound(problem: Any) -> float:
             v.domain = Reals
             v.setlb(0)
             v.setub(1)
-    solved = HighsSession(pm.model, PlannerConfig(), Clock(0.0, None), "step1", mip=False).solve(60)
+    solved = HighsSession(pm.model, PlannerConfig(), Clock(0.0, None), "step1", mip=False).solve(
+        Budget.of_seconds(60)
+    )
     objective = solved.results.incumbent_objective
     assert objective is not None
     return float(objective)

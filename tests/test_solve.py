@@ -15,6 +15,7 @@ from stlplan.formula.boundary import EPSILON
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
+from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Progress
 from stlplan.planner.config import ConfigError, Overrides, PlannerConfig
 from stlplan.planner.solve import plan
@@ -306,9 +307,9 @@ def test_fixed_decisions_enforce_exactly_the_chosen_disjunct() -> None:
     )
     options = PlannerConfig().with_overrides({"solver.time_limit": 30.0})
     clock = Clock(0.0, None)
-    solve_once(pm.model, options, clock, "step1")
+    solve_once(pm.model, options, clock, "step1", Budget.of_seconds(30))
     fix_decisions(pm)
-    enforced, _, _ = enforced_predicates(pm, options, clock, "step2")
+    enforced, _, _ = enforced_predicates(pm, options, clock, "step2", Budget.of_seconds(30))
     assert enforced is not None
     assert {k for _, k, _ in enforced} == {2}
     assert len(enforced) == 4

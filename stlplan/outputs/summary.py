@@ -88,6 +88,7 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "solver": solver_dict(result.solver),
         "steps": result.steps,
         "strategy": result.strategy,
+        "stage_seconds": dict(result.stage_seconds),
         "config": dict(result.config),
         "fallback": fallback_dict(result.fallback),
         "assignments": [

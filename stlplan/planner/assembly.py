@@ -13,6 +13,7 @@ from collections.abc import Iterator, Sequence
 from typing import TYPE_CHECKING, Any
 
 from stlplan.planner import stops
+from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import requirement_key
@@ -49,7 +50,7 @@ def hold_plans(
 
 
 def assemble(
-    full: PlanModel, parts: Sequence[Part], config: PlannerConfig, clock: Clock
+    full: PlanModel, parts: Sequence[Part], config: PlannerConfig, clock: Clock, budget: Budget
 ) -> float | None:
     """Load the parts' plans into ``full`` with every indicator set; returns its objective.
 
@@ -64,7 +65,7 @@ def assemble(
     held = hold_plans(full, parts, config.repair.hold)
     with stops.finishing():  # the plan is found: a stop request lets this solve end
         session = HighsSession(full.model, config, clock, "step1")
-        solved = session.solve(config.parts.assembly_seconds, finishing=True)
+        solved = session.solve(budget.seconds(config.parts.assembly_seconds))
     release(held)
     objective = solved.results.incumbent_objective
     return None if objective is None else float(objective)

@@ -1,22 +1,18 @@
-"""A planning run's clock: progress reports, the one time budget, and what the run records.
+"""A planning run's clock: progress reports and what the run records.
 
-The time limit bounds the whole run. :class:`Clock` holds its deadline; every solve asks it what
-is left (:meth:`Clock.remaining`), the finishing solves (step 2, a completion, the assembly of
-parts) with a small grace (``budget.grace_share``, ``budget.grace_max_seconds``), and the effort
-floors of a model stop at a share of it (``model.floors_share``). The clock also sums the time spent building models and keeps every
+The run's time is shared out by :class:`stlplan.planner.budget.Budget`. :class:`Clock` reports
+progress, counts the lazy rounds, sums the time spent building models and keeps every
 confirmation of an infeasible verdict (:mod:`stlplan.planner.confirm`).
 """
 
 from __future__ import annotations
 
 import contextlib
-import math
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Literal
 
-from stlplan.planner.config import PlannerConfig
 from stlplan.result import Confirmation
 
 Phase = Literal["build", "step1", "step2", "polish", "done"]
@@ -51,45 +47,28 @@ ProgressCallback = Callable[[Progress], None]
 
 @dataclass
 class Clock:
-    """One run's time budget and records.
+    """One run's records.
 
-    Planning start time and deadline (``time.perf_counter`` seconds), the user's progress
-    callback with its first error, the lazy round, the time spent building models, and every
-    confirmation of an infeasible verdict (:mod:`stlplan.planner.confirm`).
+    Planning start time (``time.perf_counter`` seconds), the user's progress callback with its
+    first error, the lazy round, the time spent building models, and every confirmation of an
+    infeasible verdict (:mod:`stlplan.planner.confirm`).
     """
 
     start: float
     progress: ProgressCallback | None
     error: BaseException | None = None
     round: int | None = None
-    deadline: float = math.inf
-    grace: float = 0.0
     build_seconds: float = 0.0
     confirmations: list[Confirmation] = field(default_factory=list)
 
     @classmethod
-    def started(
-        cls, config: PlannerConfig, progress: ProgressCallback | None, deadline: float | None = None
-    ) -> Clock:
-        """A clock started now whose budget ends after ``solver.time_limit`` s (or at
-        ``deadline``), with the grace of ``budget``."""
-        now, limit, budget = time.perf_counter(), config.solver.time_limit, config.budget
-        end = now + limit if deadline is None else min(deadline, now + limit)
-        grace = min(budget.grace_max_seconds, budget.grace_share * limit)
-        return cls(now, progress, deadline=end, grace=grace)
+    def started(cls, progress: ProgressCallback | None) -> Clock:
+        """A clock started now."""
+        return cls(time.perf_counter(), progress)
 
     def elapsed(self) -> float:
         """Seconds since planning started."""
         return time.perf_counter() - self.start
-
-    def share(self, fraction: float) -> float:
-        """The ``time.perf_counter()`` time when ``fraction`` of the remaining budget is spent."""
-        now = time.perf_counter()
-        return now + fraction * max(0.0, self.deadline - now)
-
-    def remaining(self, finishing: bool = False) -> float:
-        """Seconds left of the budget (with the grace of finishing solves when ``finishing``)."""
-        return self.deadline + (self.grace if finishing else 0.0) - time.perf_counter()
 
     @contextlib.contextmanager
     def building(self) -> Iterator[None]:

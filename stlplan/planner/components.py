@@ -44,6 +44,7 @@ from typing import Any
 from stlplan.mission.problem import Problem
 from stlplan.planner import stops
 from stlplan.planner.assembly import assemble, hold_plans, plan_values
+from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import Requirement, requirement_key, violated
@@ -77,12 +78,13 @@ def _part(
     agents: Sequence[str],
     config: PlannerConfig,
     clock: Clock,
+    budget: Budget,
     seed: set[tuple[Any, ...]] = frozenset(),  # type: ignore[assignment]
 ) -> Part:
     """Build (and seed with known requirements) the lazy model of one part."""
     sub = sub_problem(problem, agents)
     with clock.building():
-        pm = build_model(sub, config, clock.share(config.model.floors_share))
+        pm = build_model(sub, config, budget.share(config.model.floors_share).deadline)
     assert pm.deferral is not None
     add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
     return Part(tuple(agents), pm, LazySolver(pm, config, clock))
@@ -140,7 +142,7 @@ def _slack(part: Part) -> float:
 
 
 def _tighten(
-    parts: Sequence[Part], config: PlannerConfig, deadline: float, plan: float | None = None
+    parts: Sequence[Part], config: PlannerConfig, budget: Budget, plan: float | None = None
 ) -> None:
     """Solve parts again with absolute gaps until ``(U - P) / |P|`` meets the gap (while at
     least ``budget.min_solve_seconds`` of the budget is left).
@@ -149,7 +151,7 @@ def _tighten(
     parts' objectives; the parts' slacks must then fit in ``gap |P| - (F - P)``.
     """
     for _ in range(len(parts)):
-        if deadline - time.perf_counter() < config.budget.min_solve_seconds:
+        if budget.expired():
             return
         objective, bound = _totals(parts)
         if objective is None or bound is None:
@@ -163,8 +165,7 @@ def _tighten(
         allowed = config.solver.gap * abs(reached) - (objective - reached) - others
         if plan is not None and allowed <= 1e-9:
             return
-        remaining = deadline - time.perf_counter()
-        worst.step1 = worst.solver.run(remaining, abs_gap=max(allowed, 1e-9))
+        worst.step1 = worst.solver.run(budget, abs_gap=max(allowed, 1e-9))
 
 
 def _combined(parts: Sequence[Part], config: PlannerConfig, seconds: float, rounds: int) -> Step1:
@@ -198,25 +199,24 @@ def _combined(parts: Sequence[Part], config: PlannerConfig, seconds: float, roun
     )
 
 
-def _solve_in_shares(parts: Sequence[Part], config: PlannerConfig, deadline: float) -> None:
+def _solve_in_shares(parts: Sequence[Part], config: PlannerConfig, budget: Budget) -> None:
     """Solve the parts not solved yet, the smallest first, each within an equal share of the
     time left but ``parts.merge_reserve`` (what one leaves goes to the next); the reserve is for
     merging parts whose plans collide, and :func:`_tighten` spends what is left at the end on
     the part furthest from its bound."""
     waiting = sorted((p for p in parts if p.step1 is None), key=lambda p: len(p.agents))
-    end = deadline - config.parts.merge_reserve * (deadline - time.perf_counter())
-    for i, part in enumerate(waiting):
+    shares = budget.split(len(waiting), reserve=config.parts.merge_reserve)
+    for part, share in zip(waiting, shares, strict=True):
         if stops.requested():
             return
-        share = (end - time.perf_counter()) / (len(waiting) - i)
-        part.step1 = _solve_part(part, config, time.perf_counter() + share)
+        part.step1 = _solve_part(part, config, share)
 
 
-def _solve_part(part: Part, config: PlannerConfig, deadline: float) -> Step1:
+def _solve_part(part: Part, config: PlannerConfig, budget: Budget) -> Step1:
     """A part's first solve; a merged part is repaired first (module docstring)."""
     if not part.merged_from:
-        return part.solver.run(deadline - time.perf_counter())
-    repaired = _repair(part, config, deadline)
+        return part.solver.run(budget)
+    repaired = _repair(part, config, budget)
     _, ceiling = _totals(part.merged_from)
     assert part.solver.watch is not None
     part.solver.watch.ceiling = ceiling
@@ -225,28 +225,26 @@ def _solve_part(part: Part, config: PlannerConfig, deadline: float) -> Step1:
         if ceiling - objective <= config.solver.gap * abs(objective):
             gap = relative_gap(objective, ceiling)
             return dataclasses.replace(repaired, status=PlanStatus.OPTIMAL, bound=ceiling, gap=gap)
-    return part.solver.run(deadline - time.perf_counter())
+    return part.solver.run(budget)
 
 
-def _repair(part: Part, config: PlannerConfig, deadline: float) -> Step1 | None:
+def _repair(part: Part, config: PlannerConfig, budget: Budget) -> Step1 | None:
     """Repair the parts' plans together (module docstring); then tighten the bounds of the
     parts the merged part comes from towards the repaired plan (None: no plan)."""
     tick = time.perf_counter()
     repaired = None
-    crowd_limit = config.parts.crowd_repair_share * (deadline - tick)
-    if _crowded(part.free, config) and _in_turn(part, config, crowd_limit):
+    crowd = budget.share(config.parts.crowd_repair_share)
+    if _crowded(part.free, config) and _in_turn(part, config, crowd):
         repaired = part.solver.kept(time.perf_counter() - tick)
     if repaired is None:
-        share = config.parts.held_repair_share * (deadline - time.perf_counter())
-        limit = max(config.budget.min_solve_seconds, share)
         held = hold_plans(part.pm, part.merged_from, config.repair.hold, part.free)
         try:
-            repaired = part.solver.run(limit, trial=True)
+            repaired = part.solver.run(budget.share(config.parts.held_repair_share), trial=True)
         finally:
             release(held)
     if repaired.objective is None:
         return None
-    _tighten(part.merged_from, config, deadline, plan=repaired.objective)
+    _tighten(part.merged_from, config, budget, plan=repaired.objective)
     return repaired
 
 
@@ -255,7 +253,7 @@ def _crowded(free: frozenset[str], config: PlannerConfig) -> bool:
     return config.repair.crowd_agents is not None and len(free) >= config.repair.crowd_agents
 
 
-def _in_turn(part: Part, config: PlannerConfig, seconds: float) -> bool:
+def _in_turn(part: Part, config: PlannerConfig, budget: Budget) -> bool:
     """Load the plans of the parts a merged part comes from and repair their collisions agent
     by agent (:class:`stlplan.planner.in_turn.InTurn`); whether that found a plan."""
     pm = part.pm
@@ -263,14 +261,15 @@ def _in_turn(part: Part, config: PlannerConfig, seconds: float) -> bool:
     for var, planned in plan_values(pm, part.merged_from):
         var.set_value(planned, skip_validation=True)
     bad = violated(pm.deferral.lazy, trajectory_states(pm), _margin(pm), VIOLATION_TOL)
-    InTurn(pm, part.solver.session, config).run(bad, seconds)
+    InTurn(pm, part.solver.session, config).run(bad, budget)
     return part.solver.watch.best is not None
 
 
 def solve_parts(
-    problem: Problem, config: PlannerConfig, clock: Clock
+    problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
 ) -> tuple[PlanModel, Step1] | None:
-    """Solve step 1 part by part (module docstring); None when the problem has one part.
+    """Solve step 1 part by part (module docstring) within ``budget``; None when the problem
+    has one part.
 
     Returns the full problem's model with the plan loaded (when there is one) and the result.
     """
@@ -278,12 +277,11 @@ def solve_parts(
     if len(names) < 2:
         return None
     tick = time.perf_counter()
-    deadline = min(tick + config.solver.time_limit, clock.deadline)
     with clock.building():
         full = build_model(problem, config.with_overrides({"model.floors": False}))
-    parts = [_part(problem, agents, config, clock) for agents in names]
+    parts = [_part(problem, agents, config, clock, budget) for agents in names]
     while True:
-        _solve_in_shares(parts, config, deadline)
+        _solve_in_shares(parts, config, budget)
         done = _combined(parts, config, time.perf_counter() - tick, clock.round or 1)
         if not done.status.has_plan:
             return full, done
@@ -292,11 +290,11 @@ def solve_parts(
             break
         if stops.requested():  # the parts' plans collide: no plan of the full problem
             return full, dataclasses.replace(done, status=PlanStatus.INTERRUPTED_NO_PLAN)
-        parts = _merged(problem, parts, crossing, config, clock)
+        parts = _merged(problem, parts, crossing, config, clock, budget)
     if not stops.requested():
-        _tighten(parts, config, deadline)
+        _tighten(parts, config, budget)
     done = _combined(parts, config, time.perf_counter() - tick, clock.round or 1)
-    objective = assemble(full, parts, config, clock)
+    objective = assemble(full, parts, config, clock, budget.finishing())
     seconds = time.perf_counter() - tick
     if objective is None:
         return full, dataclasses.replace(done, status=PlanStatus.ERROR, stop="assembly failed")
@@ -315,6 +313,7 @@ def _merged(
     crossing: Sequence[Requirement],
     config: PlannerConfig,
     clock: Clock,
+    budget: Budget,
 ) -> list[Part]:
     """``parts`` with those linked by ``crossing`` merged (seeded with what they had added)."""
     out = list(parts)
@@ -326,7 +325,7 @@ def _merged(
             seed |= {requirement_key(r) for r in crossing if set(r.binding.values()) <= agents}
         order = [a.name for a in problem.agents if a.name in agents]
         out = [p for p in out if p not in group]
-        merged = _part(problem, order, config, clock, seed)
+        merged = _part(problem, order, config, clock, budget, seed)
         merged.merged_from = tuple(group)
         merged.free = free
         out.append(merged)

@@ -47,7 +47,7 @@ class SolverConfig(_Section):
 
     time_limit: float = Field(default=300.0, gt=0)
     """Wall-clock limit of the whole run, s: building, step 1, step 2, confirmations and the
-    diagnosis of an infeasible mission share it (:class:`stlplan.planner.clock.Clock`)."""
+    diagnosis of an infeasible mission share it (:class:`stlplan.planner.budget.Budget`)."""
     gap: float = Field(default=1e-4, ge=0)
     """Relative optimality gap at which step 1 stops."""
     threads: int | None = Field(default=None, ge=1)

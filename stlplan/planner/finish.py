@@ -26,6 +26,7 @@ from typing import Any
 
 from pyomo.environ import Objective, Reals, Var, minimize, value
 
+from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.continuous import continuous_model, copy_plan, landing_model
 from stlplan.planner.encoding.deferred import best_option
@@ -70,7 +71,7 @@ def fix_decisions(pm: PlanModel) -> None:
 
 
 def enforced_predicates(
-    pm: PlanModel, config: PlannerConfig, clock: Clock, phase: Phase
+    pm: PlanModel, config: PlannerConfig, clock: Clock, phase: Phase, budget: Budget
 ) -> tuple[list[Enforced] | None, float, str]:
     """The predicates step 1's fixed decisions enforce, the seconds it took, and how the LP
     ended (HiGHS's termination, by name).
@@ -82,7 +83,7 @@ def enforced_predicates(
     model = pm.model
     model.step1.deactivate()
     model.least = Objective(expr=sum(model.spec.indicators.values()), sense=minimize)
-    results, seconds, _ = solve_once(model, config, clock, phase, mip=False)
+    results, seconds, _ = solve_once(model, config, clock, phase, budget, mip=False)
     model.del_component(model.least)
     model.step1.activate()
     ended = results.termination_condition.name
@@ -129,27 +130,29 @@ def _land(
     config: PlannerConfig,
     clock: Clock,
     phase: Phase,
+    budget: Budget,
 ) -> float | None:
     """Copy into ``pm`` the plan nearest ``target`` that meets every enforced predicate; returns
     how far it is (``sum |u - target|``), None when the LP fails."""
     with clock.building():
         landing = landing_model(pm, enforced, target)
-    results, _, _ = solve_once(landing, config, clock, phase, mip=False)
+    results, _, _ = solve_once(landing, config, clock, phase, budget, mip=False)
     if results.termination_condition != TC.convergenceCriteriaSatisfied:
         return None
     copy_plan(landing, pm)
     return float(value(landing.goal))
 
 
-def finish(pm: PlanModel, config: PlannerConfig, clock: Clock) -> Finish:
-    """Step 2 (or the one-step polish) with step 1's decisions fixed, the plan loaded in ``pm``.
+def finish(pm: PlanModel, config: PlannerConfig, clock: Clock, budget: Budget) -> Finish:
+    """Step 2 (or the one-step polish) with step 1's decisions fixed, the plan loaded in ``pm``,
+    within ``budget`` (a finishing one: the plan is found).
 
     On failure the step-1 solution stays loaded in ``pm``, unless a landing succeeded.
     """
     snapshot = [(v, v.value) for v in pm.model.component_data_objects(Var)]
     phase: Phase = "step2" if config.continuous.two_step else "polish"
     fix_decisions(pm)
-    enforced, _, ended = enforced_predicates(pm, config, clock, phase)
+    enforced, _, ended = enforced_predicates(pm, config, clock, phase, budget)
     for v, val in snapshot:
         v.set_value(val, skip_validation=True)
     if enforced is None:
@@ -158,7 +161,7 @@ def finish(pm: PlanModel, config: PlannerConfig, clock: Clock) -> Finish:
     with clock.building():
         small = continuous_model(pm, enforced, "effort" if phase == "step2" else "polish")
     session = HighsSession(small, config, clock, phase, mip=False)
-    solved = session.solve(finishing=True)
+    solved = session.solve(budget)
     ended = solved.results.termination_condition.name
     if solved.results.termination_condition == TC.convergenceCriteriaSatisfied:
         copy_plan(small, pm)
@@ -167,7 +170,7 @@ def finish(pm: PlanModel, config: PlannerConfig, clock: Clock) -> Finish:
     if ended in INFEASIBLE:
         return Finish(failed, True)
     target = _target(session, small)
-    moved = None if target is None else _land(pm, enforced, target, config, clock, phase)
+    moved = None if target is None else _land(pm, enforced, target, config, clock, phase, budget)
     if target is None or moved is None:
         return Finish(failed)
     kept = config.continuous.two_step and effort_kept(pm, target, config.solver.gap)

@@ -29,13 +29,13 @@ solves one agent's plan around held ones (``repair.hold`` of room each), at most
 from __future__ import annotations
 
 import logging
-import time
 from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
 from pyomo.environ import Var
 
+from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements
@@ -99,10 +99,9 @@ class InTurn:
 
     def __init__(self, pm: PlanModel, session: HighsSession, config: PlannerConfig) -> None:
         self.pm, self.session, self.repair = pm, session, config.repair
-        self.min_solve = config.budget.min_solve_seconds
 
-    def run(self, bad: Sequence[int], seconds: float) -> bool:
-        """Repair the agents ``bad`` names within ``seconds``; whether every turn found a plan."""
+    def run(self, bad: Sequence[int], budget: Budget) -> bool:
+        """Repair the agents ``bad`` names within ``budget``; whether every turn found a plan."""
         names = [a.name for a in self.pm.problem.agents]
         involved = agents_of(self.pm, bad)
         turns = [n for n in names if n in involved]
@@ -110,34 +109,32 @@ class InTurn:
         config, trial = self.session.solver.config, self.session.trial
         gap, self.session.trial = config.rel_gap, True
         config.rel_gap = max(self.repair.gap, gap or 0.0)
-        deadline = time.perf_counter() + seconds
         try:
-            repaired = self._repair(turns, done, deadline)
+            repaired = self._repair(turns, done, budget)
             if repaired:
-                self._improve(turns, set(names), deadline)
+                self._improve(turns, set(names), budget)
             return repaired
         finally:
             self.session.trial, config.rel_gap = trial, gap
 
-    def _repair(self, turns: list[str], done: set[str], deadline: float) -> bool:
+    def _repair(self, turns: list[str], done: set[str], budget: Budget) -> bool:
         """The turns of the agents ``turns``, in order; whether each found a plan."""
         for name in turns:
             if name in done:  # freed together with an earlier agent
                 continue
             left = [n for n in turns if n not in done]
-            free = self._turn({name}, done, deadline, len(left))
+            free = self._turn({name}, done, budget, len(left))
             if free is None:
                 return False
             done |= free
         return True
 
-    def _improve(self, turns: list[str], everyone: set[str], deadline: float) -> None:
+    def _improve(self, turns: list[str], everyone: set[str], budget: Budget) -> None:
         """Each repaired agent once more, alone, every other agent at its repaired plan: the
         detours it made around agents repaired after it are undone where no longer needed.
         Stops at the first solve without a plan (the watch keeps the best plan so far)."""
-        for i, name in enumerate(turns):
-            share = (deadline - time.perf_counter()) / (len(turns) - i)
-            if share < self.min_solve:
+        for name, share in zip(turns, budget.split(len(turns)), strict=True):
+            if share.expired():
                 return
             self.session.start_from(self._loaded())  # the plan so far: no turn makes it worse
             if self._solve_free({name}, everyone - {name}, share):
@@ -153,13 +150,13 @@ class InTurn:
                 x[column] = float(v.value)
         return x
 
-    def _turn(self, free: set[str], done: set[str], deadline: float, left: int) -> set[str] | None:
+    def _turn(self, free: set[str], done: set[str], budget: Budget, left: int) -> set[str] | None:
         """Agents ``free`` solved again (every other agent held); when that fails, once more
         together with the repaired agents they could not avoid. Returns the agents freed, or
         None without a plan."""
         for _ in range(2):
-            share = (deadline - time.perf_counter()) / left
-            if share < self.min_solve:
+            share = budget.share(1 / left)
+            if share.expired():
                 return None
             partners = self._solve_free(free, done, share)
             if not partners:
@@ -169,18 +166,17 @@ class InTurn:
             free = free | partners
         return None
 
-    def _solve_free(self, free: set[str], done: set[str], seconds: float) -> set[str]:
+    def _solve_free(self, free: set[str], done: set[str], budget: Budget) -> set[str]:
         """Solve with only ``free`` free, adding the requirements the plan violates among
         ``free`` and ``done``; returns no agents when that ends with a plan, else the agents
         of the requirements added (the free ones, without a plan: they could not be met)."""
         assert self.pm.deferral is not None
-        lazy, deadline, partners = self.pm.deferral.lazy, time.perf_counter() + seconds, set(free)
+        lazy, partners = self.pm.deferral.lazy, set(free)
         others = (a.name for a in self.pm.problem.agents if a.name not in free)
         held = hold_agents(self.pm, others, self.repair.hold)
         try:
             for _ in range(self.repair.solves_per_turn):
-                left = deadline - time.perf_counter()
-                solved = self.session.solve(max(left, self.min_solve))
+                solved = self.session.solve(budget)
                 if solved.stopped or not has_solution(solved.results):
                     return partners
                 mine = [
@@ -192,7 +188,7 @@ class InTurn:
                 if not mine:
                     return set()
                 partners |= agents_of(self.pm, mine)
-                if left < self.min_solve:
+                if budget.expired():
                     return partners
                 add_requirements(self.pm, neighbours(lazy, mine, self.repair.window))
             return partners

@@ -21,7 +21,7 @@ optimum to the same tolerance as an up-front solve.
 When the time limit ends the loop without a plan feasible for the full problem, the last round's
 plan is *completed*: its binaries are fixed, all remaining requirements added, and HiGHS looks for
 a plan with those decisions (a small MILP) in the grace a finishing solve has past the run's
-deadline (:class:`stlplan.planner.session.Clock`).
+deadline (:meth:`stlplan.planner.budget.Budget.finishing`).
 """
 
 from __future__ import annotations
@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 from pyomo.environ import Var
 
+from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import best_side, neighbours
@@ -109,11 +110,10 @@ class LazySolver:
             self.watch = Watch(pm, self.session.columns(), config.solver.gap)
             self.session.highs.cbMipImprovingSolution += self.watch.on_plan
             self.session.highs.cbMipInterrupt += self.watch.maybe_stop
-        self.step1: Step1 | None = None
         self.trial = False
 
-    def run(self, time_limit: float, abs_gap: float | None = None, trial: bool = False) -> Step1:
-        """Solve within ``time_limit`` seconds, to the relative gap (or to ``abs_gap`` alone).
+    def run(self, budget: Budget, abs_gap: float | None = None, trial: bool = False) -> Step1:
+        """Solve within ``budget``, to the relative gap (or to ``abs_gap`` alone).
 
         The plan of the returned :class:`Step1` (when there is one) is loaded into ``pm``. A
         ``trial`` neither confirms an infeasible verdict nor completes a plan at the time limit
@@ -127,11 +127,8 @@ class LazySolver:
             if self.watch is not None:
                 self.watch.abs_gap, self.watch.gap = abs_gap, 0.0
         if self.watch is None:
-            solved = self.session.solve(time_limit)
-            self.step1 = _ended(solved, time.perf_counter() - tick, 1, 0)
-        else:
-            self.step1 = self._capped(self._rounds(time_limit, tick))
-        return self.step1
+            return _ended(self.session.solve(budget), time.perf_counter() - tick, 1, 0)
+        return self._capped(self._rounds(budget, tick))
 
     def _capped(self, step1: Step1) -> Step1:
         """``step1`` with the watch's ceiling as its bound when that is tighter."""
@@ -145,16 +142,15 @@ class LazySolver:
             status = PlanStatus.OPTIMAL
         return dataclasses.replace(step1, status=status, bound=bound, gap=gap)
 
-    def _rounds(self, time_limit: float, tick: float) -> Step1:
+    def _rounds(self, budget: Budget, tick: float) -> Step1:
         pm, clock, watch = self.pm, self.clock, self.watch
         assert pm.deferral is not None and watch is not None
         first = clock.round or 1
         while True:
-            remaining = time_limit - (time.perf_counter() - tick)
             watch.stopped = False  # (the session clears HiGHS's stale interrupt flag)
             if watch.best is not None:
                 self.session.start_from(watch.best[1])
-            solved = self.session.solve(remaining)
+            solved = self.session.solve(budget)
             rounds, seconds = (clock.round or 1) - first + 1, time.perf_counter() - tick
             results = solved.results
             bound = results.objective_bound
@@ -175,24 +171,24 @@ class LazySolver:
             bad = pending_violations(pm) if has_solution(results) else []
             if converged and not bad:
                 return _ended(solved, seconds, rounds, len(pm.added))
-            left = min(time_limit - seconds, clock.remaining())
+            left = budget.remaining()
             # another round while the time left is what this one took (or a least solve)
             needed = min(self.min_solve, solved.seconds)
             out_of_time = not (converged or watch.stopped) or left < needed
             if solved.stopped or out_of_time:
-                return self._last(solved, tick, rounds)
-            if self._between_rounds(bad, left, solved.seconds):
+                return self._last(solved, tick, rounds, budget)
+            if self._between_rounds(bad, budget, solved.seconds):
                 return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
             clock.round = (clock.round or 0) + 1
 
-    def _between_rounds(self, bad: list[int], left: float, seconds: float) -> bool:
+    def _between_rounds(self, bad: list[int], budget: Budget, seconds: float) -> bool:
         """Add the requirements the round's plan violates (``bad``), first repairing that plan
         in turn while no plan meets every requirement and the round (of ``seconds``) was long or
         crowded (:meth:`_crowded`); whether the best plan closes the gap."""
         pm, config, watch = self.pm, self.config, self.watch
         assert pm.deferral is not None and watch is not None
         if watch.best is None and self._crowded(bad, seconds):
-            InTurn(pm, self.session, config).run(bad, config.repair.share * left)
+            InTurn(pm, self.session, config).run(bad, budget.share(config.repair.share))
         add_requirements(pm, neighbours(pm.deferral.lazy, bad, config.lazy.window))
         return watch.closed(watch.ceiling)
 
@@ -204,7 +200,7 @@ class LazySolver:
             return True
         return crowd is not None and len(agents_of(self.pm, bad)) >= crowd
 
-    def _last(self, last: Solved, tick: float, rounds: int) -> Step1:
+    def _last(self, last: Solved, tick: float, rounds: int, budget: Budget) -> Step1:
         """The loop ends short of the optimum (time, a stop request, infeasible, an error).
 
         The best plan feasible for the full problem is kept. Without one, the last round's plan
@@ -223,7 +219,7 @@ class LazySolver:
             return ended
         if self.trial:
             return dataclasses.replace(ended, status=PlanStatus.NO_PLAN, objective=None, gap=None)
-        return _complete(self.pm, self.session, last, tick, rounds)
+        return _complete(self.pm, self.session, last, tick, rounds, budget.finishing())
 
     def _from_best(self, last: Solved, tick: float, rounds: int, status: PlanStatus) -> Step1:
         """Load the best plan feasible for the full problem; the bound is the last round's.
@@ -270,9 +266,10 @@ class LazySolver:
         return objective
 
 
-def solve_step1(pm: PlanModel, config: PlannerConfig, clock: Clock) -> Step1:
-    """Solve problem (step1) of ``pm``, lazily when ``pm`` was built with ``lazy=True``."""
-    return LazySolver(pm, config, clock).run(config.solver.time_limit)
+def solve_step1(pm: PlanModel, config: PlannerConfig, clock: Clock, budget: Budget) -> Step1:
+    """Solve problem (step1) of ``pm`` within ``budget``, lazily when ``pm`` was built with
+    ``lazy=True``."""
+    return LazySolver(pm, config, clock).run(budget)
 
 
 def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Step1:
@@ -289,7 +286,9 @@ def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Step1:
     )
 
 
-def _fix_and_solve(pm: PlanModel, session: HighsSession, values: dict[int, float]) -> Solved:
+def _fix_and_solve(
+    pm: PlanModel, session: HighsSession, values: dict[int, float], budget: Budget
+) -> Solved:
     """Fix the binaries with a value in ``values`` (by id), add every requirement, solve (a
     finishing solve whose infeasible verdict says only that those decisions admit no plan, so
     it is neither confirmed nor reported as the mission's)."""
@@ -301,7 +300,7 @@ def _fix_and_solve(pm: PlanModel, session: HighsSession, values: dict[int, float
     add_requirements(pm, pm.pending())
     trial, session.trial = session.trial, True  # fixed decisions: the verdict is not the mission's
     try:
-        return session.solve(finishing=True)
+        return session.solve(budget)
     finally:
         session.trial = trial
         for v in fixed:
@@ -314,15 +313,17 @@ def _complete(
     last: Solved,
     tick: float,
     rounds: int,
+    budget: Budget,
 ) -> Step1:
-    """Out of time with no plan feasible for the full problem: complete the last round's plan.
+    """Out of time with no plan feasible for the full problem: complete the last round's plan
+    (within ``budget``, a finishing one).
 
     The bound stays the last round's (it bounds the full problem); the gap is recomputed.
     """
     bound = last.results.objective_bound
     values = {id(v): float(v.value) for v in pm.model.component_data_objects(Var)
               if v.is_binary() and v.value is not None}  # fmt: skip
-    solved = _fix_and_solve(pm, session, values)
+    solved = _fix_and_solve(pm, session, values, budget)
     seconds = time.perf_counter() - tick
     stop = last.results.termination_condition.name
     if not has_solution(solved.results):  # (an interrupt by the watch still leaves a plan)

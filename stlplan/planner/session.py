@@ -29,6 +29,7 @@ from pyomo.contrib.solver.solvers.highs import Highs
 from pyomo.environ import ConcreteModel
 
 from stlplan.planner import confirm, stops
+from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock, Phase
 from stlplan.planner.config import PlannerConfig
 from stlplan.result import PlanStatus
@@ -211,23 +212,21 @@ class HighsSession:
         """HiGHS column of each Pyomo variable in the model, by ``id`` (fixed ones have none)."""
         return dict(self.solver._pyomo_var_to_solver_var_map)
 
-    def solve(self, time_limit: float | None = None, finishing: bool = False) -> Solved:
-        """Solve (again) within ``time_limit`` seconds (default: the run's limit) and what the
-        run's budget leaves (:meth:`Clock.remaining`, with the grace when ``finishing``).
+    def solve(self, budget: Budget) -> Solved:
+        """Solve (again) within ``budget`` (at least one least solve).
 
         An infeasible verdict is confirmed (:mod:`stlplan.planner.confirm`) before it is returned; when
         a confirmation solve finds a plan, that solve is the one returned.
         """
-        limit = self.config.solver.time_limit if time_limit is None else time_limit
         tick = time.perf_counter()
-        results = self._run(min(limit, self.clock.remaining(finishing)))
+        results = self._run(budget.remaining())
         infeasible = results.termination_condition in (
             TC.provenInfeasible,
             TC.infeasibleOrUnbounded,
         )
         if infeasible and not self.trial and not stops.should_interrupt():
             first = (self.verdict, time.perf_counter() - tick)
-            results = self._confirmed(results, first, finishing)
+            results = self._confirmed(results, first, budget)
         seconds = time.perf_counter() - tick
         gap = None
         if self.mip and self.highs is not None and has_solution(results):
@@ -262,7 +261,7 @@ class HighsSession:
             raise self.clock.error
         return results
 
-    def _confirmed(self, results: Results, first: tuple[str, float], finishing: bool) -> Results:
+    def _confirmed(self, results: Results, first: tuple[str, float], budget: Budget) -> Results:
         """The results after confirming an infeasible verdict (recorded on the clock)."""
         last = [results]
 
@@ -277,7 +276,7 @@ class HighsSession:
             first,
             run,
             self.config.solver.seed,
-            lambda: self.clock.remaining(finishing),
+            budget.remaining,
             where,
             self.config.budget.min_check_seconds,
         )
@@ -286,13 +285,14 @@ class HighsSession:
 
 
 def solve_once(
-    model: ConcreteModel, config: PlannerConfig, clock: Clock, phase: Phase, mip: bool = True
+    model: ConcreteModel,
+    config: PlannerConfig,
+    clock: Clock,
+    phase: Phase,
+    budget: Budget,
+    mip: bool = True,
 ) -> tuple[Results, float, float | None]:
-    """One HiGHS solve of ``model``; returns the results, its wall time and HiGHS's MIP gap.
-
-    Step 2 and the polish are finishing solves (:meth:`HighsSession.solve`).
-    """
-    solved = HighsSession(model, config, clock, phase, mip).solve(
-        finishing=phase in ("step2", "polish")
-    )
+    """One HiGHS solve of ``model`` within ``budget``; returns the results, its wall time and
+    HiGHS's MIP gap."""
+    solved = HighsSession(model, config, clock, phase, mip).solve(budget)
     return solved.results, solved.seconds, solved.gap

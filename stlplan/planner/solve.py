@@ -25,6 +25,7 @@ from pyomo.environ import ConcreteModel, Constraint, Var
 
 from stlplan.mission.problem import Problem
 from stlplan.planner import stops
+from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock, ProgressCallback
 from stlplan.planner.components import solve_parts
 from stlplan.planner.config import PlannerConfig
@@ -60,7 +61,7 @@ def _strict_note(config: PlannerConfig) -> str:
 
 
 def _solved(
-    problem: Problem, config: PlannerConfig, clock: Clock
+    problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
 ) -> tuple[PlanModel, Step1, Finish, bool, ModelSize]:
     """Step 1, then the continuous stage: the model with the plan loaded, how step 1 and the
     continuous stage ended, whether step 1 was solved strictly, and the size of step 1's last
@@ -70,38 +71,42 @@ def _solved(
     integrality tolerance (a binary at ``1e-6`` from 0 or 1 relaxes a big-M row by ``M 1e-6``,
     more than ``EPSILON``): step 1 is solved again with :func:`strict` options.
     """
-    pm, step1 = _step1(problem, config, clock)
+    with budget.stage("step 1"):
+        pm, step1 = _step1(problem, config, clock, budget)
     size = model_size(pm.model)
     if not step1.status.has_plan:
         return pm, step1, Finish(), False, size
-    with stops.finishing():  # after a stop request too: step 2 is a quick LP or QP
-        ended = finish(pm, config, clock)
+    # after a stop request too: step 2 is a quick LP or QP
+    with stops.finishing(), budget.stage("continuous"):
+        ended = finish(pm, config, clock, budget.finishing())
     tolerance = config.solver.highs_options.get("mip_feasibility_tolerance")
     if not ended.infeasible or tolerance == config.solver.strict_integrality:
         return pm, step1, ended, False, size
-    pm, step1, ended, _, size = _solved(problem, strict(config), clock)
+    pm, step1, ended, _, size = _solved(problem, strict(config), clock, budget)
     return pm, step1, ended, True, size
 
 
-def _step1(problem: Problem, config: PlannerConfig, clock: Clock) -> tuple[PlanModel, Step1]:
+def _step1(
+    problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
+) -> tuple[PlanModel, Step1]:
     """Build and solve problem (step 1), part by part when it splits; returns the model with
     the plan loaded and how step 1 ended (building is timed on the clock)."""
     clock.report("build")
     by_parts = None
     if config.lazy.enabled and config.parts.enabled:
-        by_parts = solve_parts(problem, config, clock)
+        by_parts = solve_parts(problem, config, clock, budget)
     if by_parts is not None:
         return by_parts
     with clock.building():
-        pm = build_model(problem, config, clock.share(config.model.floors_share))
-    return pm, solve_step1(pm, config, clock)
+        pm = build_model(problem, config, budget.share(config.model.floors_share).deadline)
+    return pm, solve_step1(pm, config, clock, budget)
 
 
 def plan(
     problem: Problem,
     config: PlannerConfig | None = None,
     progress: ProgressCallback | None = None,
-    deadline: float | None = None,
+    budget: Budget | None = None,
 ) -> PlanResult:
     """Plan ``problem``: build the MILP, solve step 1, then step 2 (or a polish).
 
@@ -113,9 +118,9 @@ def plan(
         The planner's configuration (default: from the mission).
     progress
         Called with :class:`Progress` at phase changes and while HiGHS works.
-    deadline
-        ``time.perf_counter()`` time by which the run must end, when earlier than the
-        time limit from now (a run that shares its budget with other work).
+    budget
+        The run's time (default: ``solver.time_limit`` from now); its ledger gets the seconds
+        of step 1 and of the continuous stage.
 
     Returns
     -------
@@ -124,8 +129,9 @@ def plan(
         ``model_size`` is the size of the last MILP step 1 solved (lazy rows included).
     """
     config = config or PlannerConfig.from_mission(problem.mission)
-    clock = Clock.started(config, progress, deadline)
-    pm, step1, ended, strictly, size = _solved(problem, config, clock)
+    clock = Clock.started(progress)
+    budget = budget or Budget.for_run(config)
+    pm, step1, ended, strictly, size = _solved(problem, config, clock, budget)
     failed = ended.failed
     redone = _strict_note(config) if strictly else ""
     if not step1.status.has_plan:
