@@ -113,9 +113,11 @@ def write_plan(
     out: str | Path,
     options: dict[str, Any] | None = None,
     animation: bool = True,
+    viewer: bool = True,
 ) -> list[Path]:
-    """Write ``trajectory.csv``, ``summary.json``, ``plan.png``, ``timeline.png``, and with
-    ``animation`` ``plan.gif`` (and ``plan.mp4`` where ``ffmpeg`` is installed), all or none.
+    """Write ``trajectory.csv``, ``summary.json``, ``plan.png``, ``timeline.png``, with
+    ``animation`` ``plan.gif`` (and ``plan.mp4`` where ``ffmpeg`` is installed), and with
+    ``viewer`` ``plan.html`` (:mod:`stlplan.outputs.viewer`), all or none.
 
     Without a plan, only ``summary.json`` is written.
     """
@@ -135,10 +137,22 @@ def write_plan(
             files["plan.gif"] = movie.write_gif
             if ffmpeg() is not None:
                 files["plan.mp4"] = movie.write_mp4
+        if viewer:
+            from stlplan.outputs.viewer import write_viewer
+
+            files["plan.html"] = lambda p: write_viewer(problem, traj, report, p, title=title)
     return write_all(out, files, owned=PLAN_FILES)
 
 
-PLAN_FILES = ("summary.json", "trajectory.csv", "plan.png", "timeline.png", "plan.gif", "plan.mp4")
+PLAN_FILES = (
+    "summary.json",
+    "trajectory.csv",
+    "plan.png",
+    "timeline.png",
+    "plan.gif",
+    "plan.mp4",
+    "plan.html",
+)
 """Everything a solve writes into its output folder (a rerun removes what it does not write)."""
 
 
@@ -148,10 +162,12 @@ def solve(
     overrides: Overrides | None = None,
     progress: Callable[[Any], None] | None = None,
     animation: bool = True,
+    viewer: bool = True,
 ) -> PlanResult:
     """Plan, verify and (with ``out``) write the plan directory; returns the verified result.
 
-    ``animation``: write ``plan.gif`` (and ``plan.mp4``) too (:func:`write_plan`).
+    ``animation``: write ``plan.gif`` (and ``plan.mp4``) too; ``viewer``: write ``plan.html``
+    too (:func:`write_plan`).
     """
     # a bad mission leaves no output folder behind
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
@@ -167,7 +183,7 @@ def solve(
             problem, result = plan(problem, overrides, progress=progress)
             if out is not None:
                 given = (overrides or Overrides()).given()
-                write_plan(problem, result, out, given, animation=animation)
+                write_plan(problem, result, out, given, animation=animation, viewer=viewer)
     except KeyboardInterrupt:
         if created and out is not None:
             with contextlib.suppress(OSError):

@@ -141,6 +141,13 @@ NoAnimationOption = Annotated[
         help="Write no animation (plan.gif, plan.mp4).",
     ),
 ]
+NoHtmlOption = Annotated[
+    bool,
+    typer.Option(
+        "--no-html",
+        help="Write no interactive viewer (plan.html).",
+    ),
+]
 
 
 @handled
@@ -156,11 +163,12 @@ def solve(
     tasks: TasksOption = None,
     inter_sample: InterSampleOption = None,
     no_animation: NoAnimationOption = False,
+    no_html: NoHtmlOption = False,
     as_json: JsonOption = False,
     quiet: QuietOption = False,
 ) -> None:
-    """Plan a mission: solve the MILP, verify with the monitor, write CSV, JSON, plots and the
-    animation.
+    """Plan a mission: solve the MILP, verify with the monitor, write CSV, JSON, plots, the
+    animation and the interactive viewer (plan.html).
 
     With --json the document printed is summary.json.
     """
@@ -184,7 +192,12 @@ def solve(
         ProgressLine(output.err, enabled=output.full) as line,
     ):
         result = api.solve(
-            problem, out=out, overrides=overrides, progress=line.update, animation=not no_animation
+            problem,
+            out=out,
+            overrides=overrides,
+            progress=line.update,
+            animation=not no_animation,
+            viewer=not no_html,
         )
     code = _exit_code(result)
     if as_json:

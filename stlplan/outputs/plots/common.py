@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from matplotlib import colormaps
 from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
@@ -183,6 +184,34 @@ def task_presence(
                     if first <= k <= last and region not in steps.get(int(k), ()):
                         steps[int(k)] = steps.get(int(k), ()) + (region,)
     return presence
+
+
+Service = dict[str, dict[str, dict[int, tuple[str, ...]]]]
+"""Agent -> task -> step -> regions of its role the agent is inside at that step."""
+
+
+def task_service(problem: Problem, trajectory: Trajectory, report: MonitorReport) -> Service:
+    """Which agent serves which task when, for the timeline and the viewer's hover text.
+
+    Every agent of the mission is a key, in the mission's order. Under it come the tasks whose
+    verdict's group holds the agent, in the mission's order, each with the steps of
+    :func:`task_presence` (none when the agent never enters a region of its role).
+    """
+    verdicts = {v.name: v for v in report.verdicts}
+    service: Service = {a.name: {} for a in problem.agents}
+    for task in problem.tasks:
+        verdict = verdicts.get(task.name)
+        if verdict is None or not verdict.group:
+            continue
+        presence = task_presence(problem, trajectory, task, verdict)
+        for name in _group_agents(verdict):
+            service[name][task.name] = presence.get(name, {})
+    return service
+
+
+def task_colors(problem: Problem) -> dict[str, tuple[float, float, float, float]]:
+    """Task name -> its colour on the timeline: matplotlib's ``tab10`` in the mission's order."""
+    return {t.name: to_rgba(colormaps["tab10"](i % 10)) for i, t in enumerate(problem.tasks)}
 
 
 @dataclass(frozen=True)

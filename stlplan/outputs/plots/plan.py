@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -70,19 +71,52 @@ def _region_style(name: str, obstacles: set[str], initial: str | None, colors) -
     return dict(facecolor=color, edgecolor=color, alpha=0.35)
 
 
-def _draw_regions(ax, problem: Problem, bounds, avoid: np.ndarray, pt_per_unit: float) -> None:
+@dataclass(frozen=True)
+class RegionPatch:
+    """A region as the map draws it."""
+
+    name: str
+    vertices: np.ndarray
+    """Corners of the region clipped to the workspace, counter-clockwise, shape (n, 2)."""
+    area: float
+    style: dict[str, Any]
+    """Keywords of its :class:`~matplotlib.patches.Polygon`: face and edge colour, alpha, hatch."""
+    label_at: np.ndarray
+    """Where its name goes: the spot farthest from the points to avoid and the names before it."""
+
+
+def region_patches(
+    problem: Problem, bounds, avoid: np.ndarray, pt_per_unit: float
+) -> list[RegionPatch]:
+    """The regions with some area inside ``bounds``, largest first (the order they are drawn in).
+
+    Obstacles are grey and hatched, the sweep's initial region green, the others take the
+    :data:`_REGION_COLORS` in turn. Names are placed smallest region first, each away from
+    ``avoid`` (points, e.g. the paths) and the names placed before it, at ``pt_per_unit``
+    points of the figure per unit of the map.
+    """
     obstacles = set(obstacle_regions(problem))
     initial = problem.mission.sweep.initial_region if problem.mission.sweep else None
     shapes = {n: region_vertices(r, bounds) for n, r in problem.regions.items()}
-    shapes = {n: v for n, v in shapes.items() if len(v)}
-    colors = iter(_REGION_COLORS * (1 + len(shapes) // len(_REGION_COLORS)))
-    for name in sorted(shapes, key=lambda n: -polygon_area(shapes[n])):
-        style = _region_style(name, obstacles, initial, colors)
-        ax.add_patch(Polygon(shapes[name], closed=True, linewidth=1.2, zorder=1, **style))
-    for name in sorted(shapes, key=lambda n: polygon_area(shapes[n])):  # small regions first
-        x, y = _label_spot(shapes[name], name, avoid, pt_per_unit)
-        avoid = np.vstack([avoid, [x, y]])
-        ax.text(x, y, name, **_REGION_LABEL)
+    areas = {n: polygon_area(v) for n, v in shapes.items() if len(v)}
+    colors = iter(_REGION_COLORS * (1 + len(areas) // len(_REGION_COLORS)))
+    styles = {
+        name: _region_style(name, obstacles, initial, colors)
+        for name in sorted(areas, key=lambda n: -areas[n])
+    }
+    spots = {}
+    for name in sorted(areas, key=areas.__getitem__):  # small regions first
+        spots[name] = _label_spot(shapes[name], name, avoid, pt_per_unit)
+        avoid = np.vstack([avoid, spots[name]])
+    return [RegionPatch(n, shapes[n], areas[n], styles[n], spots[n]) for n in styles]
+
+
+def _draw_regions(ax, problem: Problem, bounds, avoid: np.ndarray, pt_per_unit: float) -> None:
+    patches = region_patches(problem, bounds, avoid, pt_per_unit)
+    for patch in patches:
+        ax.add_patch(Polygon(patch.vertices, closed=True, linewidth=1.2, zorder=1, **patch.style))
+    for patch in sorted(patches, key=lambda p: p.area):
+        ax.text(*patch.label_at, patch.name, **_REGION_LABEL)
 
 
 def _step_clusters(points: np.ndarray, eps: float) -> list[tuple[int, int]]:

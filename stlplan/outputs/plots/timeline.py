@@ -7,7 +7,6 @@ import os
 from collections.abc import Mapping, Sequence
 
 import numpy as np
-from matplotlib import colormaps
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch, Rectangle
 
@@ -33,7 +32,8 @@ from stlplan.outputs.plots.common import (
     region_vertices,
     save_figure,
     sync_caption,
-    task_presence,
+    task_colors,
+    task_service,
     workspace,
 )
 from stlplan.result import MonitorReport, Trajectory
@@ -54,16 +54,6 @@ def _smallest(problem: Problem, names: Sequence[str], bounds) -> str:
     return min(names, key=lambda n: polygon_area(region_vertices(problem.regions[n], bounds)))
 
 
-def _lanes(problem: Problem, report: MonitorReport) -> dict[str, list[str]]:
-    verdicts = {v.name: v for v in report.verdicts}
-    lanes: dict[str, list[str]] = {a.name: [] for a in problem.agents}
-    for task in problem.tasks:
-        verdict = verdicts.get(task.name)
-        for name in _group_agents(verdict) if verdict else ():
-            lanes[name].append(task.name)
-    return lanes
-
-
 def _draw_lane(ax, problem: Problem, lane, steps, style) -> None:
     # lane = (bottom, height); style = (colour, points per step on the x axis)
     (y0, height), (color, step_pt) = lane, style
@@ -81,17 +71,12 @@ def _draw_lane(ax, problem: Problem, lane, steps, style) -> None:
 
 def _draw_task_bars(ax, problem, trajectory, report, rows, style) -> None:
     colors, step_pt = style
-    verdicts, lanes = {v.name: v for v in report.verdicts}, _lanes(problem, report)
-    for task in problem.tasks:
-        verdict = verdicts.get(task.name)
-        if verdict is None or not verdict.group:
-            continue
-        for name, steps in task_presence(problem, trajectory, task, verdict).items():
-            height = 0.84 / len(lanes[name])
-            y0 = rows[name] + 0.42 - height * (lanes[name].index(task.name) + 1)
-            _draw_lane(ax, problem, (y0, height), steps, (colors[task.name], step_pt))
-    for name, served in lanes.items():
-        if not served:
+    for name, tasks in task_service(problem, trajectory, report).items():
+        for lane, (task, steps) in enumerate(tasks.items()):
+            height = 0.84 / len(tasks)
+            y0 = rows[name] + 0.42 - height * (lane + 1)
+            _draw_lane(ax, problem, (y0, height), steps, (colors[task], step_pt))
+        if not tasks:
             ax.text(problem.horizon / 2, rows[name], "no task", **_IDLE)
 
 
@@ -163,7 +148,7 @@ def timeline_figure(problem: Problem, trajectory: Trajectory, report: MonitorRep
     """One row per agent over steps ``0..H``: when each agent serves each task, and sync runs."""
     limits = limit_windows(problem)
     rows = {a.name: len(problem.agents) + len(limits) - 1 - i for i, a in enumerate(problem.agents)}
-    colors = {t.name: colormaps["tab10"](i % 10) for i, t in enumerate(problem.tasks)}
+    colors = task_colors(problem)
     width = float(np.clip(0.65 * (problem.horizon + 1.2) + 1.8, 8.0, 16.0))
     step_pt = 72 * (width - 1.8) / (problem.horizon + 1.2)
     height = 0.5 * (len(rows) + len(limits)) + 2.4
