@@ -10,6 +10,8 @@ import matplotlib
 import pytest
 from hypothesis import settings
 
+from tests.helpers.paths import MISSIONS
+
 matplotlib.use("Agg")
 
 # Property tests draw the same examples on every run (no example database, no randomness), so a
@@ -17,9 +19,6 @@ matplotlib.use("Agg")
 settings.register_profile("deterministic", derandomize=True, database=None)
 settings.register_profile("explore", derandomize=False)
 settings.load_profile(os.environ.get("STLPLAN_HYPOTHESIS", "deterministic"))
-
-ROOT = Path(__file__).resolve().parent.parent
-MISSIONS = ROOT / "missions"
 
 
 @pytest.fixture(autouse=True)

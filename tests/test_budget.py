@@ -9,7 +9,7 @@ from pathlib import Path
 from stlplan import api
 from stlplan.api import Overrides
 from stlplan.result import PlanStatus
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 
 
 def _long_mission(tmp_path: Path, horizon: int) -> Path:

@@ -14,9 +14,8 @@ from typer.testing import CliRunner
 
 from stlplan import __version__, api
 from stlplan.cli import app
-from tests.conftest import MISSIONS, ROOT
+from tests.helpers.paths import MISSIONS, PAIR, ROOT
 
-PAIR = MISSIONS / "sync-pair.yaml"
 COMMANDS = ["validate", "check", "schema", "example", "solve", "sweep"]
 
 

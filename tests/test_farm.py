@@ -8,7 +8,7 @@ import pytest
 from stlplan import api
 from stlplan.api import Overrides
 from stlplan.result import PlanStatus
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 
 pytestmark = pytest.mark.slow
 

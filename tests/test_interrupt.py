@@ -24,9 +24,8 @@ from stlplan.cli import app
 from stlplan.planner import stops
 from stlplan.result import PlanStatus
 from stlplan.sweep.runner import pending
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS, PAIR
 
-PAIR = MISSIONS / "sync-pair.yaml"
 # With the paper's group encoding HiGHS's first plan of this mission meets every requirement, so
 # a signal at that plan has a verified plan to keep (the search path depends on the encoding).
 KEEPABLE = ("--threads", "1", "--tasks", "groups")

@@ -17,7 +17,8 @@ from stlplan.planner.options import PlanOptions
 from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
-from tests.test_lazy import mission
+from tests.helpers.missions import mission
+from tests.helpers.solving import up_front_optimum
 
 
 def tasks_apart(starts: list[float], corners: list[list[float]], late: int) -> Any:
@@ -72,7 +73,7 @@ def test_one_agent_serving_two_far_tasks_tightens_the_relaxation(
     monkeypatch.setattr(floors, "_service_floors", lambda *args: (0, set()))
     without = lp_bound(problem)
     assert with_cuts < without - 1.0  # a maximization: the bound is lower by the way between
-    exact = plan(problem, PlanOptions(time_limit=60, gap=1e-6, lazy=False, floors=False))
+    exact = up_front_optimum(problem)
     assert exact.objective is not None and exact.objective <= with_cuts + 1e-6
 
 
@@ -123,7 +124,7 @@ def test_a_formation_of_agents_far_apart_tightens_the_relaxation(
     monkeypatch.setattr(floors, "add_team_floors", lambda *args: 0)
     without = lp_bound(problem)
     assert with_cuts < without - 0.5  # (-3.87 against -3.00)
-    exact = plan(problem, PlanOptions(time_limit=60, gap=1e-6, lazy=False, floors=False))
+    exact = up_front_optimum(problem)
     assert exact.objective is not None and exact.objective <= with_cuts + 1e-6
 
 
@@ -181,7 +182,7 @@ def test_shares_bound_a_fractional_choice_of_formations(monkeypatch: pytest.Monk
     monkeypatch.setattr(team_floors, "shared_tasks", lambda ledger: {})
     without = lp_bound(problem)
     assert with_shares < without - 1.0
-    exact = plan(problem, PlanOptions(time_limit=60, gap=1e-6, lazy=False, floors=False))
+    exact = up_front_optimum(problem)
     assert exact.objective is not None and exact.objective <= with_shares + 1e-6
 
 

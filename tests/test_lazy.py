@@ -2,68 +2,19 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 import pytest
 
 from stlplan.formula.boundary import EPSILON
 from stlplan.formula.parser import parse
 from stlplan.formula.tree import step_parts
-from stlplan.mission.problem import Problem, build_problem
-from stlplan.mission.schema import Mission
-from stlplan.monitor.verdicts import check
-from stlplan.planner.clock import Progress
+from stlplan.mission.problem import Problem
 from stlplan.planner.encoding.deferred import SEPARATION, defer, neighbours, violated
 from stlplan.planner.encoding.model import build_model, reachable_boxes
-from stlplan.planner.options import PlanOptions
-from stlplan.planner.solve import plan
 from stlplan.planner.watch import Watch, lowest
-from stlplan.result import PlanResult, PlanStatus
-
-SINGLE_INTEGRATOR = {
-    "A": [[1, 0], [0, 1]],
-    "B": [[1, 0], [0, 1]],
-    "state_bounds": [[-5, 5], [-5, 5]],
-    "input_bounds": [[-1, 1], [-1, 1]],
-}
-
-
-def mission(**fields: Any) -> Problem:
-    """A checked problem from mission fields (single integrators, ``|u| <= 1`` per axis)."""
-    return build_problem(
-        Mission.model_validate({"name": "tiny", "dynamics": {"si": SINGLE_INTEGRATOR}, **fields})
-    )
-
-
-def swap_problem(separation: float | None, horizon: int = 2, inter_sample: bool = False) -> Problem:
-    # a and b trade places on the x axis, arriving at step H; with H = 2 both are within 0.2 of
-    # x = 1 at step 1, so a separation of 0.5 costs a detour in y: up/down 0.25, back 0.15 each
-    # (sampled separation, the paper's; between samples the two would pass through each other)
-    return mission(
-        safety={"inter_sample": inter_sample},
-        horizon=horizon,
-        agents=[
-            {"name": "a", "dynamics": "si", "initial_state": [0, 0]},
-            {"name": "b", "dynamics": "si", "initial_state": [2, 0]},
-        ],
-        regions={
-            "East": {"box": [[1.9, 2.1], [-0.1, 0.1]]},
-            "West": {"box": [[-0.1, 0.1], [-0.1, 0.1]]},
-        },
-        tasks={
-            "east": {
-                "formula": f"F[{horizon},{horizon}] in(p, East)",
-                "roles": {"p": {"agent": "a"}},
-            },
-            "west": {
-                "formula": f"F[{horizon},{horizon}] in(p, West)",
-                "roles": {"p": {"agent": "b"}},
-            },
-        },
-        separation=separation,
-        objective={"beta": 1.0, "effort": "l1"},
-    )
+from stlplan.result import PlanStatus
+from tests.helpers.missions import mission, swap_problem
+from tests.helpers.solving import accepted, solve
 
 
 def detour_problem(with_obstacle: bool, inter_sample: bool = True) -> Problem:
@@ -83,22 +34,6 @@ def detour_problem(with_obstacle: bool, inter_sample: bool = True) -> Problem:
         else {},
         objective={"beta": 1.0, "effort": "l1"},
     )
-
-
-def solve(problem: Problem, **options: Any) -> tuple[PlanResult, int]:
-    """Plan with ``options``; returns the result and the number of lazy rounds."""
-    rounds = [0]
-
-    def seen(progress: Progress) -> None:
-        rounds[0] = max(rounds[0], progress.round or 0)
-
-    result = plan(problem, PlanOptions(time_limit=60, **options), progress=seen)
-    return result, rounds[0]
-
-
-def accepted(problem: Problem, result: PlanResult) -> bool:
-    assert result.trajectory is not None
-    return check(problem, result.trajectory).satisfied
 
 
 @pytest.mark.parametrize("encoding", ["standard", "log"])

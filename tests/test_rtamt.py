@@ -19,7 +19,7 @@ from stlplan.monitor.robustness import robustness
 from stlplan.monitor.verdicts import check
 from stlplan.outputs.rtamt import rtamt_text, spec_signals
 from stlplan.result import PlanStatus
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 
 REACH_AVOID = MISSIONS / "reach-avoid.yaml"
 

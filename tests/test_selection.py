@@ -18,7 +18,8 @@ from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
 from stlplan.planner.options import Overrides
 from stlplan.result import PlanResult, PlanStatus
-from tests.conftest import MISSIONS
+from tests.helpers.dynamics import single_integrator
+from tests.helpers.paths import MISSIONS
 
 EXACT = {"threads": 1, "gap": 1e-6, "two_step": False}
 
@@ -55,16 +56,7 @@ def team_mission(
         }
         for i, cap in enumerate(caps)
     ]
-    dynamics = {
-        f"si{i}": {
-            "A": [[1, 0], [0, 1]],
-            "B": [[1, 0], [0, 1]],
-            "position": [0, 1],
-            "state_bounds": [[-1, 6], [-1, 4]],
-            "input_bounds": [[-v, v], [-v, v]],
-        }
-        for i, v in enumerate(speeds)
-    }
+    dynamics = {f"si{i}": single_integrator(v, ((-1, 6), (-1, 4))) for i, v in enumerate(speeds)}
     return build_problem(
         Mission.model_validate(
             {

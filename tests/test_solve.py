@@ -5,52 +5,28 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
 
 from stlplan.formula.boundary import EPSILON
 from stlplan.mission.loader import load_problem
-from stlplan.mission.problem import Problem, build_problem
-from stlplan.mission.schema import Mission
+from stlplan.mission.problem import Problem
 from stlplan.planner.clock import Progress
 from stlplan.planner.options import Overrides, PlanOptions
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
-
-ENCODINGS = ["log", "standard"]
-FARM = Path(__file__).resolve().parents[1] / "missions" / "farm.yaml"
-
-DOUBLE_INTEGRATOR = {
-    "A": [[1, 0, 1, 0], [0, 1, 0, 1], [0, 0, 1, 0], [0, 0, 0, 1]],
-    "B": [[0.5, 0], [0, 0.5], [1, 0], [0, 1]],
-    "state_bounds": [[-5, 5], [-5, 5], [-2, 2], [-2, 2]],
-    "input_bounds": [[-2, 2], [-2, 2]],
-}
-
-
-def single_integrator(u_max: float) -> dict[str, Any]:
-    """``x(k+1) = x(k) + u(k)`` on the plane, ``|u| <= u_max`` per axis."""
-    return {
-        "A": [[1, 0], [0, 1]],
-        "B": [[1, 0], [0, 1]],
-        "state_bounds": [[-5, 5], [-5, 5]],
-        "input_bounds": [[-u_max, u_max], [-u_max, u_max]],
-    }
-
-
-def mission(**fields: Any) -> Problem:
-    """A checked problem from mission fields (name defaults to 'tiny')."""
-    return build_problem(Mission.model_validate({"name": "tiny", **fields}))
+from tests.helpers.dynamics import DOUBLE_INTEGRATOR_U2, single_integrator
+from tests.helpers.missions import mission
+from tests.helpers.paths import FARM
+from tests.helpers.solving import ENCODINGS
 
 
 def reach_problem(effort: str = "l1", goal_x: tuple[float, float] = (1, 2)) -> Problem:
     # double integrator from rest at 0: px(1) = 0.5 u0, px(2) = 1.5 u0 + 0.5 u1
     return mission(
         horizon=2,
-        dynamics={"di": DOUBLE_INTEGRATOR},
+        dynamics={"di": DOUBLE_INTEGRATOR_U2},
         agents=[{"name": "a", "dynamics": "di", "initial_state": [0, 0, 0, 0]}],
         regions={"Goal": {"box": [list(goal_x), [-1, 1]]}},
         tasks={"reach": {"formula": "F[0,2] in(p, Goal)", "roles": {"p": {"agent": "a"}}}},

@@ -18,7 +18,7 @@ from stlplan.api import Overrides
 from stlplan.cli import app
 from stlplan.mission.loader import load_problem
 from stlplan.result import PlanStatus
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 from tests.reference.robustness_milp import reference_optimum
 
 SUITE = MISSIONS / "stl"

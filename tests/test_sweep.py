@@ -14,9 +14,7 @@ from stlplan.errors import UsageError
 from stlplan.mission.loader import load_mission
 from stlplan.sweep.initial import draw_positions, with_initial_positions
 from stlplan.sweep.runner import read_records
-from tests.conftest import MISSIONS
-
-PAIR = MISSIONS / "sync-pair.yaml"
+from tests.helpers.paths import MISSIONS, PAIR
 
 
 def test_initial_positions_are_reproducible_separated_and_inside() -> None:
