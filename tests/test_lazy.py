@@ -82,14 +82,29 @@ def test_effort_floors_keep_the_optimum(lazy: bool) -> None:
 
 
 def test_floors_add_rows_and_fix_unreachable_indicators() -> None:
-    problem = swap_problem(separation=0.5)
+    # a may reach East at step 1 or 2
+    problem = swap_problem(separation=0.5, east_from=1)
     plain = build_model(problem, "standard", floors=False)
     floored = build_model(problem, "standard", floors=True)
     assert not hasattr(plain.model, "effort_floors")
     assert len(floored.model.effort_floors) > len(problem.agents)  # e_p rows and cuts
-    # East is 2 away from a: unreachable at step 1 with |u| <= 1, so that disjunct is fixed off
-    bodies = [str(c.body) for c in floored.model.effort_floors.values() if c.upper == 0]
-    assert bodies
+    # East is 1.9 away from a: unreachable at step 1 with |u| <= 1, so that disjunct (the
+    # conjunction of East's four half-planes for a at step 1) is fixed off, the step-2 one is not
+    fixed = [
+        c.body
+        for c in floored.model.effort_floors.values()
+        if c.upper == 0 and c.lower is None and c.body.is_variable_type()
+    ]
+    ledger = floored.ledger
+    children = {id(z): leaves for z, leaves in ledger.conjunctions}
+    guarded = {id(z): (node, k, dict(binding)) for z, (node, k, binding) in ledger.guarded}
+    (off,) = fixed
+    enforced = [guarded[id(leaf)] for leaf in children[id(off)]]
+    assert len(enforced) == 4
+    assert {(k, binding["p"]) for _, k, binding in enforced} == {(1, "a")}
+    # East = [1.9, 2.1] x [-0.1, 0.1]: x >= 1.9, -x >= -2.1, y >= -0.1, -y >= -0.1
+    bounds = sorted(node.bound for node, _, _ in enforced)
+    assert bounds == pytest.approx([-2.1, -0.1, -0.1, 1.9])
 
 
 def test_step_parts_unrolls_always_and_and() -> None:

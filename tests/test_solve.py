@@ -252,10 +252,17 @@ def test_fixed_decisions_enforce_exactly_the_chosen_disjunct() -> None:
 
 
 def test_thread_count_can_change_between_plans() -> None:
-    # HiGHS keeps one thread pool per process; a new count must not fail the next solve
+    # HiGHS keeps one thread pool per process; a new count must not fail the next solve, nor
+    # change its plan: the optimum by hand (test_reach_minimal_l1_effort), accepted by the monitor
+    from stlplan.monitor.verdicts import check
+
+    problem = reach_problem()
     for threads in (None, 2, 1):
-        result = plan(reach_problem(), PlanOptions(time_limit=30, threads=threads))
+        result = plan(problem, PlanOptions(time_limit=30, threads=threads))
         assert result.status is PlanStatus.OPTIMAL, (threads, result.message)
+        assert result.objective == pytest.approx(-2 / 3, abs=1e-6), threads
+        assert result.trajectory is not None
+        assert check(problem, result.trajectory).satisfied, threads
 
 
 @pytest.mark.parametrize(

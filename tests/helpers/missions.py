@@ -17,10 +17,17 @@ def mission(**fields: Any) -> Problem:
     )
 
 
-def swap_problem(separation: float | None, horizon: int = 2, inter_sample: bool = False) -> Problem:
-    """a and b trade places on the x axis, arriving at step H; with H = 2 both are within 0.2 of
-    x = 1 at step 1, so a separation of 0.5 costs a detour in y: up/down 0.25, back 0.15 each
-    (sampled separation, the paper's; between samples the two would pass through each other)."""
+def swap_problem(
+    separation: float | None,
+    horizon: int = 2,
+    inter_sample: bool = False,
+    east_from: int | None = None,
+) -> Problem:
+    """a and b trade places on the x axis, arriving at step H (a may reach East from step
+    ``east_from`` on, when given); with H = 2 both are within 0.2 of x = 1 at step 1, so a
+    separation of 0.5 costs a detour in y: up/down 0.25, back 0.15 each (sampled separation, the
+    paper's; between samples the two would pass through each other)."""
+    first = horizon if east_from is None else east_from
     return mission(
         safety={"inter_sample": inter_sample},
         horizon=horizon,
@@ -34,7 +41,7 @@ def swap_problem(separation: float | None, horizon: int = 2, inter_sample: bool 
         },
         tasks={
             "east": {
-                "formula": f"F[{horizon},{horizon}] in(p, East)",
+                "formula": f"F[{first},{horizon}] in(p, East)",
                 "roles": {"p": {"agent": "a"}},
             },
             "west": {
