@@ -165,6 +165,7 @@ def test_keeping_the_uv_agent_out_of_b_contradicts_crop_b(tmp_path: Path) -> Non
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(600)  # the farm's time limit of 300 s, and the diagnosis after it
 def test_the_farm_with_uv_agents_out_of_b_is_infeasible(tmp_path: Path) -> None:
     _, result = api.plan(_variant(tmp_path, "farm.yaml", _uv_out_of_b), overrides=ONE)
     assert result.status is PlanStatus.INFEASIBLE

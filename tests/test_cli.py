@@ -65,7 +65,7 @@ def test_solve_writes_every_output_and_check_accepts_it(tmp_path: Path) -> None:
 
 def test_check_exits_1_on_a_violating_trajectory(tmp_path: Path) -> None:
     out = tmp_path / "plan"
-    code, _ = _run("solve", str(PAIR), "--out", str(out), "-q")
+    code, _ = _run("solve", str(PAIR), "--out", str(out), "-q", "--no-animation")
     assert code == 0
     rows = (out / "trajectory.csv").read_text().splitlines()
     header, body = rows[0], rows[1:]
@@ -113,7 +113,7 @@ def test_infeasible_mission_exits_4_and_writes_only_the_summary(tmp_path: Path) 
 @pytest.mark.parametrize("flag", ["--one-step", "--encoding=standard"])
 def test_solve_options(tmp_path: Path, flag: str) -> None:
     out = tmp_path / "plan"
-    code, output = _run("solve", str(PAIR), "--out", str(out), "-q", flag)
+    code, output = _run("solve", str(PAIR), "--out", str(out), "-q", "--no-animation", flag)
     assert code == 0, output
     summary = json.loads((out / "summary.json").read_text())
     assert summary["steps"] == (1 if flag == "--one-step" else 2)

@@ -24,6 +24,7 @@ def test_stepping_stones_summary_reports_the_monitors_margin(tmp_path: Path) -> 
         "standard",
         "--out",
         str(out),
+        "--no-animation",
     ]
     result = CliRunner().invoke(app, [*args, "--threads", "1"])
     assert result.exit_code == 0, result.output

@@ -110,7 +110,8 @@ def test_cli_ctrl_c_writes_the_plan_marked_interrupted(
     monkeypatch.setattr(ProgressLine, "update", lambda self, p: hook(p))
     hook = signal_at_first_plan()
     out = tmp_path / "plan"
-    result = CliRunner().invoke(app, ["solve", str(PAIR), "--out", str(out), *KEEPABLE])
+    args = ["solve", str(PAIR), "--out", str(out), "--no-animation", *KEEPABLE]
+    result = CliRunner().invoke(app, args)
     assert result.exit_code == 130, result.output
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "interrupted"
@@ -125,7 +126,8 @@ def test_cli_sigterm_exits_143(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) 
     hook = signal_at_first_plan(signal.SIGTERM)
     monkeypatch.setattr(ProgressLine, "update", lambda self, p: hook(p))
     out = tmp_path / "plan"
-    result = CliRunner().invoke(app, ["solve", str(PAIR), "--out", str(out), *KEEPABLE])
+    args = ["solve", str(PAIR), "--out", str(out), "--no-animation", *KEEPABLE]
+    result = CliRunner().invoke(app, args)
     assert result.exit_code == 143, result.output
     assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
 

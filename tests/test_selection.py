@@ -140,6 +140,7 @@ def test_selection_names_the_group_that_serves_each_task() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(2700)  # two solves of up to 1200 s each
 @pytest.mark.parametrize("case", ["farm", "farm-case2", "farm-case3"])
 def test_paper_cases_agree(case: str) -> None:
     assert_same_optimum(*both(MISSIONS / f"{case}.yaml", gap=1e-6, time_limit=1200))

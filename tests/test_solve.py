@@ -174,6 +174,7 @@ def test_options_from_mission_with_overrides() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(600)  # a time limit of 300 s, and the build before it
 @pytest.mark.parametrize("encoding", ENCODINGS)
 def test_farm_case_one(encoding: str) -> None:
     from stlplan.monitor.verdicts import check

@@ -64,8 +64,9 @@ def test_sweep_records_every_run_and_resumes(tmp_path: Path) -> None:
 
 
 def test_sweep_on_a_local_dask_cluster_matches_local_runs(tmp_path: Path) -> None:
-    import distributed
-
+    distributed = pytest.importorskip(
+        "distributed", reason="Dask is an optional extra: pip install 'stlplan[dask]'"
+    )
     cluster = distributed.LocalCluster(
         host="127.0.0.1",
         n_workers=2,
