@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -10,16 +9,16 @@ import matplotlib
 import pytest
 from hypothesis import settings
 
+from tests.helpers.examples import PROFILE
+from tests.helpers.paths import MISSIONS
+
 matplotlib.use("Agg")
 
 # Property tests draw the same examples on every run (no example database, no randomness), so a
 # green suite stays green; STLPLAN_HYPOTHESIS=explore draws fresh examples to look for new bugs.
 settings.register_profile("deterministic", derandomize=True, database=None)
 settings.register_profile("explore", derandomize=False)
-settings.load_profile(os.environ.get("STLPLAN_HYPOTHESIS", "deterministic"))
-
-ROOT = Path(__file__).resolve().parent.parent
-MISSIONS = ROOT / "missions"
+settings.load_profile(PROFILE)
 
 
 @pytest.fixture(autouse=True)

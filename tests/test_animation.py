@@ -36,9 +36,8 @@ from stlplan.outputs.plots.animation import (
 )
 from stlplan.outputs.plots.common import MANY_AGENTS, limit_windows, spread
 from stlplan.result import MonitorReport, Trajectory, Verdict
-from tests.test_plots import FARM, make_report, make_trajectory
-
-MISSIONS = Path(__file__).resolve().parents[1] / "missions"
+from tests.helpers.paths import FARM, MISSIONS
+from tests.helpers.plans import make_report, make_trajectory
 
 
 def _keyframes(points: list[tuple[int, float, float]], horizon: int) -> np.ndarray:

@@ -13,14 +13,7 @@ from stlplan.mission.problem import build_problem
 from stlplan.mission.schema import Mission
 from stlplan.monitor.verdicts import check
 from stlplan.result import PlanStatus, Trajectory
-
-DOUBLE_INTEGRATOR = {
-    "A": [[1, 0, 1, 0], [0, 1, 0, 1], [0, 0, 1, 0], [0, 0, 0, 1]],
-    "B": [[0.5, 0], [0, 0.5], [1, 0], [0, 1]],
-    "position": [0, 1],
-    "state_bounds": [[-1, 10], [-1, 10], [-2, 2], [-2, 2]],
-    "input_bounds": [[-1, 1], [-1, 1]],
-}
+from tests.helpers.dynamics import DOUBLE_INTEGRATOR_U1
 
 
 def reach(final: str, effort: str) -> Any:
@@ -30,7 +23,7 @@ def reach(final: str, effort: str) -> Any:
             {
                 "name": "reach",
                 "horizon": 6,
-                "dynamics": {"di": DOUBLE_INTEGRATOR},
+                "dynamics": {"di": DOUBLE_INTEGRATOR_U1},
                 "agents": [
                     {"name": "r", "dynamics": "di", "initial_state": [0, 0, 0, 0], "final": final}
                 ],

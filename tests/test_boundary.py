@@ -20,19 +20,13 @@ from stlplan.mission.schema import Mission
 from stlplan.monitor.robustness import robustness
 from stlplan.monitor.verdicts import check
 from stlplan.result import PlanStatus, Trajectory
-from tests.conftest import MISSIONS
+from tests.helpers.dynamics import SINGLE_INTEGRATOR_U2
+from tests.helpers.paths import MISSIONS
 
 HIGHS_FEASIBILITY = 1e-7
 """HiGHS's primal feasibility tolerance: how far a solved row may miss."""
 
 ONE = Overrides(threads=1)
-
-SINGLE_INTEGRATOR = {
-    "A": [[1, 0], [0, 1]],
-    "B": [[1, 0], [0, 1]],
-    "state_bounds": [[-5, 5], [-5, 5]],
-    "input_bounds": [[-2, 2], [-2, 2]],
-}
 
 
 def corridor(formula: str, effort: str = "l1", two_step: bool = True) -> Problem:
@@ -42,7 +36,7 @@ def corridor(formula: str, effort: str = "l1", two_step: bool = True) -> Problem
             {
                 "name": "corridor",
                 "horizon": 3,
-                "dynamics": {"si": SINGLE_INTEGRATOR},
+                "dynamics": {"si": SINGLE_INTEGRATOR_U2},
                 "agents": [{"name": "a", "dynamics": "si", "initial_state": [0, 0]}],
                 "regions": {"Goal": {"box": [[1, 2], [-1, 1]]}},
                 "tasks": {"goal": {"formula": formula, "roles": {"p": {"agent": "a"}}}},
@@ -171,6 +165,7 @@ def test_keeping_the_uv_agent_out_of_b_contradicts_crop_b(tmp_path: Path) -> Non
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(600)  # the farm's time limit of 300 s, and the diagnosis after it
 def test_the_farm_with_uv_agents_out_of_b_is_infeasible(tmp_path: Path) -> None:
     _, result = api.plan(_variant(tmp_path, "farm.yaml", _uv_out_of_b), overrides=ONE)
     assert result.status is PlanStatus.INFEASIBLE

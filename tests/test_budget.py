@@ -9,7 +9,7 @@ from pathlib import Path
 from stlplan import api
 from stlplan.api import Overrides
 from stlplan.result import PlanStatus
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 
 
 def _long_mission(tmp_path: Path, horizon: int) -> Path:
@@ -22,17 +22,24 @@ def _long_mission(tmp_path: Path, horizon: int) -> Path:
 
 
 def test_a_small_time_limit_bounds_a_long_horizon_run(tmp_path: Path) -> None:
-    mission = _long_mission(tmp_path, 600)  # unbounded, its effort floors alone take a minute
+    mission = _long_mission(tmp_path, 600)
     limit = 4.0
     tick = time.perf_counter()
     result = api.solve(
         mission, out=tmp_path / "out", overrides=Overrides(time_limit=limit, threads=1)
     )
     wall = time.perf_counter() - tick
-    assert wall < limit + 4.0, wall  # the grace of finishing solves, loading, writing
-    assert result.status in (PlanStatus.NO_PLAN, PlanStatus.FEASIBLE, PlanStatus.OPTIMAL)
-    if result.status is PlanStatus.NO_PLAN:
-        assert "time limit" in result.message
+    # The mission is feasible, but no plan comes within a few seconds: with 30 s the run still
+    # ends with none (two lazy rounds, the last one's plan violating requirements), so at 4 s
+    # NO_PLAN, for the time limit, is the one outcome; OPTIMAL or FEASIBLE would mean the limit
+    # was not the one asked for, and no signal is sent (INTERRUPTED) nor is it infeasible.
+    assert result.status is PlanStatus.NO_PLAN, result.message
+    assert f"within the time limit of {limit:g} s" in result.message
+    # Unbounded, the effort floors of this horizon alone take over a minute (about 100 s on an
+    # idle 2-core machine), while the bounded run takes about 5 s; the wall-clock bound sits far
+    # between the two, so that a loaded machine does not fail it while a build that ignores the
+    # limit does.
+    assert wall < limit + 30.0, wall
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert 0.2 < summary["build_seconds"] < wall  # measured, not left at 0
     assert summary["build_seconds"] + summary["solve_seconds"] <= wall

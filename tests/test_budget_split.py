@@ -11,7 +11,7 @@ import pytest
 from stlplan import api
 from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 
 
 @pytest.fixture

@@ -15,9 +15,8 @@ import pytest
 
 from stlplan.errors import FormulaError, MissionError, StlplanError
 from stlplan.mission.loader import load_problem
-
-BROKEN = Path(__file__).resolve().parent / "broken"
-BASE = BROKEN / "_base.yaml"
+from tests.helpers.messages import NOISE
+from tests.helpers.paths import BASE, BROKEN
 
 # name -> (error type, fragments the message must contain)
 CATALOGUE: dict[str, tuple[type[StlplanError], tuple[str, ...]]] = {
@@ -204,8 +203,6 @@ CATALOGUE: dict[str, tuple[type[StlplanError], tuple[str, ...]]] = {
         ("line 23,", "constraints.avoid.formula", "magnitude above 1e6"),
     ),
 }
-
-NOISE = ("Input should", "pydantic", "https://", "Traceback", "Value error", "For further")
 
 
 def _message(path: Path) -> StlplanError:

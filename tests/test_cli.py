@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 
 from stlplan.cli import app
 from stlplan.outputs.plots import ffmpeg
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS, PAIR, ROOT
 
 runner = CliRunner()
 
@@ -51,7 +51,7 @@ def test_schema_command_writes_the_schema(tmp_path: Path) -> None:
 
 def test_solve_writes_every_output_and_check_accepts_it(tmp_path: Path) -> None:
     out = tmp_path / "plan"
-    code, output = _run("solve", str(MISSIONS / "sync-pair.yaml"), "--out", str(out), "-q")
+    code, output = _run("solve", str(PAIR), "--out", str(out), "-q")
     assert code == 0, output
     names = sorted(p.name for p in out.iterdir())
     movie = ["plan.gif", "plan.mp4"] if ffmpeg() is not None else ["plan.gif"]
@@ -66,13 +66,13 @@ def test_solve_writes_every_output_and_check_accepts_it(tmp_path: Path) -> None:
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "optimal"
     assert summary["monitor"]["satisfied"] is True
-    code, output = _run("check", str(MISSIONS / "sync-pair.yaml"), str(out / "trajectory.csv"))
+    code, output = _run("check", str(PAIR), str(out / "trajectory.csv"))
     assert code == 0, output
 
 
 def test_check_exits_1_on_a_violating_trajectory(tmp_path: Path) -> None:
     out = tmp_path / "plan"
-    code, _ = _run("solve", str(MISSIONS / "sync-pair.yaml"), "--out", str(out), "-q")
+    code, _ = _run("solve", str(PAIR), "--out", str(out), "-q", "--no-animation")
     assert code == 0
     rows = (out / "trajectory.csv").read_text().splitlines()
     header, body = rows[0], rows[1:]
@@ -87,7 +87,7 @@ def test_check_exits_1_on_a_violating_trajectory(tmp_path: Path) -> None:
         frozen.append(",".join(cells[:2] + state + inputs))
     bad = tmp_path / "frozen.csv"
     bad.write_text("\n".join([header, *frozen]) + "\n")
-    code, output = _run("check", str(MISSIONS / "sync-pair.yaml"), str(bad))
+    code, output = _run("check", str(PAIR), str(bad))
     assert code == 1
     assert "FAIL" in output
 
@@ -95,13 +95,13 @@ def test_check_exits_1_on_a_violating_trajectory(tmp_path: Path) -> None:
 def test_unwritable_output_fails_before_solving(tmp_path: Path) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("x")
-    code, message = _run("solve", str(MISSIONS / "sync-pair.yaml"), "--out", str(blocker / "sub"))
+    code, message = _run("solve", str(PAIR), "--out", str(blocker / "sub"))
     assert code == 2
     assert "output directory" in message
 
 
 def test_infeasible_mission_exits_4_and_writes_only_the_summary(tmp_path: Path) -> None:
-    text = (MISSIONS / "sync-pair.yaml").read_text()
+    text = PAIR.read_text()
     # An input bound of zero: no agent can move, so the goal cannot be reached.
     import yaml
 
@@ -120,7 +120,7 @@ def test_infeasible_mission_exits_4_and_writes_only_the_summary(tmp_path: Path) 
 @pytest.mark.parametrize("flag", ["--one-step", "--encoding=standard"])
 def test_solve_options(tmp_path: Path, flag: str) -> None:
     out = tmp_path / "plan"
-    code, output = _run("solve", str(MISSIONS / "sync-pair.yaml"), "--out", str(out), "-q", flag)
+    code, output = _run("solve", str(PAIR), "--out", str(out), "-q", "--no-animation", flag)
     assert code == 0, output
     summary = json.loads((out / "summary.json").read_text())
     assert summary["steps"] == (1 if flag == "--one-step" else 2)
@@ -187,7 +187,6 @@ def test_summary_json_is_strict(tmp_path: Path) -> None:
 def test_the_readme_lists_every_exit_code() -> None:
     import stlplan.errors
     from stlplan.cli import planning, shell
-    from tests.conftest import ROOT
 
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     table = readme[readme.index("Exit codes:") : readme.index("Errors name the file")]

@@ -14,9 +14,8 @@ from typer.testing import CliRunner
 
 from stlplan import __version__, api
 from stlplan.cli import app
-from tests.conftest import MISSIONS, ROOT
+from tests.helpers.paths import MISSIONS, PAIR, ROOT
 
-PAIR = MISSIONS / "sync-pair.yaml"
 COMMANDS = ["validate", "check", "schema", "example", "export-rtamt", "solve", "sweep"]
 
 
@@ -41,7 +40,9 @@ def _process(*args: str) -> subprocess.CompletedProcess[str]:
 def solved(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, object]]:
     """The pair mission solved by a separate process with --json: its folder and stdout."""
     out = tmp_path_factory.mktemp("solved") / "plan"
-    done = _process("solve", str(PAIR), "--out", str(out), "--threads", "1", "--json")
+    done = _process(
+        "solve", str(PAIR), "--out", str(out), "--threads", "1", "--no-animation", "--json"
+    )
     assert done.returncode == 0, done.stderr
     assert done.stderr == ""  # stderr holds errors only, not even the solver's banner
     return out, json.loads(done.stdout)
@@ -147,7 +148,14 @@ def test_quiet_prints_exactly_one_line(solved: tuple[Path, dict[str, object]]) -
     valid = _process("validate", str(PAIR), "-q")
     assert valid.stdout.count("\n") == 1 and valid.stderr == ""
     solved = _process(
-        "solve", str(PAIR), "--out", str(out.parent / "quiet"), "--threads", "1", "-q"
+        "solve",
+        str(PAIR),
+        "--out",
+        str(out.parent / "quiet"),
+        "--threads",
+        "1",
+        "--no-animation",
+        "-q",
     )
     assert solved.returncode == 0
     assert solved.stdout.startswith("satisfied: ") and solved.stdout.count("\n") == 1

@@ -20,8 +20,9 @@ from stlplan.planner.parts import agent_parts, sub_problem
 from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
-from tests.helpers.configs import UP_FRONT, paper_model
-from tests.test_lazy import accepted, mission, swap_problem
+from tests.helpers.configs import paper_model
+from tests.helpers.missions import detour_for_free, mission, swap_problem
+from tests.helpers.solving import accepted, up_front_optimum
 
 
 def two_teams(separation: float | None = 0.05) -> Any:
@@ -78,10 +79,7 @@ def test_parts_give_the_up_front_optimum() -> None:
     options = PlannerConfig().with_overrides({"solver.time_limit": 60.0, "solver.gap": 1e-6})
     by_parts = solve_parts(problem, options, Clock(0.0, None), Budget.of_seconds(60))
     assert by_parts is not None
-    whole = plan(
-        problem,
-        UP_FRONT,
-    )
+    whole = up_front_optimum(problem)
     parted = plan(problem, options)
     assert by_parts[1].status is PlanStatus.OPTIMAL
     assert by_parts[1].objective == pytest.approx(whole.objective, abs=1e-5)
@@ -139,25 +137,6 @@ def test_tighten_solves_the_loosest_part_again_with_an_absolute_gap() -> None:
     assert parts[0].step1 is not None and parts[0].step1.bound == 4.0002
 
 
-def detour_for_free() -> Any:
-    # a (or b) must reach R; a's straight diagonal passes through the idle e at (1, 1), but every
-    # monotone path from (0, 0) to R costs the same L1 effort: the collision costs nothing
-    agents = [
-        {"name": "a", "dynamics": "si", "capabilities": ["X"], "initial_state": [0, 0]},
-        {"name": "b", "dynamics": "si", "capabilities": ["X"], "initial_state": [4, -4]},
-        {"name": "e", "dynamics": "si", "capabilities": ["Z"], "initial_state": [1, 1]},
-    ]
-    return mission(
-        safety={"inter_sample": True},
-        horizon=4,
-        agents=agents,
-        regions={"R": {"box": [[2, 3], [2, 3]]}},
-        tasks={"reach": {"formula": "F[3,4] in(p, R)", "roles": {"p": "X"}}},
-        separation=0.2,
-        objective={"beta": 1.0, "effort": "l1"},
-    )
-
-
 def test_a_merged_part_is_repaired_with_only_the_colliding_agents_free(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -176,10 +155,7 @@ def test_a_merged_part_is_repaired_with_only_the_colliding_agents_free(
     found = solve_parts(problem, options, Clock(0.0, None), Budget.of_seconds(60))
     assert found is not None
     _, step1 = found
-    whole = plan(
-        problem,
-        UP_FRONT,
-    )
+    whole = up_front_optimum(problem)
     assert [free for free, _ in repairs] == [frozenset({"a", "e"})]  # b was held
     repaired = repairs[0][1]
     assert repaired is not None and repaired.objective is not None

@@ -23,7 +23,7 @@ from stlplan.planner.encoding.model import build_model
 from stlplan.planner.encoding.sos1 import sos1
 from stlplan.planner.encoding.stl import StlContext
 from stlplan.planner.solve import model_size
-from tests.conftest import MISSIONS, ROOT
+from tests.helpers.paths import MISSIONS, ROOT
 
 PAIR = MISSIONS / "sync-pair.yaml"
 

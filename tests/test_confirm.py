@@ -12,9 +12,8 @@ import pytest
 from stlplan import api
 from stlplan.api import Overrides
 from stlplan.planner.confirm import attempts, has_plan, option, solve_confirmed, verdict
-from tests.conftest import MISSIONS
+from tests.helpers.paths import DATA, MISSIONS
 
-DATA = Path(__file__).parent / "data"
 # both plans proven to the true optimum, so that they can be compared to 1e-6
 EXACT = Overrides(threads=1, gap=1e-9)
 

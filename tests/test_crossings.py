@@ -17,8 +17,8 @@ from stlplan.outputs.plots import plan_figure
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
-from tests.test_lazy import mission, swap_problem
-from tests.test_monitor import AVOID, make_problem, walk
+from tests.helpers.maps import AVOID, make_problem, walk
+from tests.helpers.missions import mission, swap_problem
 
 finite = st.floats(-10, 10, allow_nan=False)
 

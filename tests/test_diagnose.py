@@ -11,7 +11,7 @@ from stlplan.formula.parser import parse
 from stlplan.mission.loader import load_problem
 from stlplan.planner.diagnose import cheap_reasons, needs
 from stlplan.result import PlanStatus
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 
 
 def _variant(tmp_path: Path, edit) -> Path:

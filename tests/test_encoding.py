@@ -38,8 +38,8 @@ from stlplan.planner.encoding.stl import (
     predicate_range,
 )
 from tests.helpers.configs import paper_model
-
-ENCODINGS = ["log", "standard"]
+from tests.helpers.dynamics import SINGLE_INTEGRATOR_U1, double_integrator, single_integrator
+from tests.helpers.solving import ENCODINGS
 
 
 def _solve(model: ConcreteModel, target, sense) -> float | None:
@@ -138,14 +138,7 @@ def _line_mission(
             {
                 "name": "line",
                 "horizon": steps,
-                "dynamics": {
-                    "si": {
-                        "A": [[1, 0], [0, 1]],
-                        "B": [[1, 0], [0, 1]],
-                        "state_bounds": [[-5, 5], [-5, 5]],
-                        "input_bounds": [[-10, 10], [-10, 10]],
-                    }
-                },
+                "dynamics": {"si": single_integrator(10)},
                 "agents": [{"name": "a1", "dynamics": "si", "initial_state": [start, 0]}],
                 "regions": {n: {"box": b} for n, b in regions.items()},
                 "tasks": tasks or {},
@@ -229,14 +222,7 @@ def test_reachable_boxes_of_a_double_integrator() -> None:
             {
                 "name": "di",
                 "horizon": 2,
-                "dynamics": {
-                    "di": {
-                        "A": [[1, 0, 1, 0], [0, 1, 0, 1], [0, 0, 1, 0], [0, 0, 0, 1]],
-                        "B": [[0.5, 0], [0, 0.5], [1, 0], [0, 1]],
-                        "state_bounds": [[-1.5, 5], [-5, 5], [-2, 2], [-2, 2]],
-                        "input_bounds": [[-1, 1], [-1, 1]],
-                    }
-                },
+                "dynamics": {"di": double_integrator(1, ((-1.5, 5), (-5, 5)))},
                 "agents": [{"name": "a", "dynamics": "di", "initial_state": [0, 0, 0, 0]}],
             }
         )
@@ -253,14 +239,7 @@ def test_shared_elements_are_encoded_once() -> None:
             {
                 "name": "share",
                 "horizon": 3,
-                "dynamics": {
-                    "si": {
-                        "A": [[1, 0], [0, 1]],
-                        "B": [[1, 0], [0, 1]],
-                        "state_bounds": [[-5, 5], [-5, 5]],
-                        "input_bounds": [[-1, 1], [-1, 1]],
-                    }
-                },
+                "dynamics": {"si": SINGLE_INTEGRATOR_U1},
                 "agents": [
                     {
                         "name": f"a{i}",

@@ -18,7 +18,7 @@ from stlplan import api, examples
 from stlplan.cli import app
 from stlplan.mission.loader import load_problem
 from stlplan.mission.schema import json_schema
-from tests.conftest import MISSIONS, ROOT
+from tests.helpers.paths import MISSIONS, ROOT
 
 README = (ROOT / "README.md").read_text(encoding="utf-8")
 

@@ -8,9 +8,10 @@ import pytest
 from stlplan import api
 from stlplan.api import Overrides
 from stlplan.result import PlanStatus
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 
-pytestmark = pytest.mark.slow
+# time limits of 600 and 900 s: beyond the suite's timeout of 300 s per test
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(1200)]
 
 
 def test_case_one_sampled_reaches_the_papers_synchronization() -> None:

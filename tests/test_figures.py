@@ -12,9 +12,7 @@ from stlplan import api
 from stlplan.api import Overrides
 from stlplan.cli import app
 from stlplan.planner.figures import plan_objective
-from tests.conftest import MISSIONS
-
-DATA = Path(__file__).parent / "data"
+from tests.helpers.paths import DATA, MISSIONS
 
 
 def test_stepping_stones_summary_reports_the_monitors_margin(tmp_path: Path) -> None:
@@ -26,6 +24,7 @@ def test_stepping_stones_summary_reports_the_monitors_margin(tmp_path: Path) -> 
         "standard",
         "--out",
         str(out),
+        "--no-animation",
     ]
     result = CliRunner().invoke(app, [*args, "--threads", "1"])
     assert result.exit_code == 0, result.output

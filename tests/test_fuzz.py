@@ -40,6 +40,7 @@ from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check
 from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
 from stlplan.result import MonitorReport, Trajectory
+from tests.helpers.messages import NOISE
 
 FUZZ_EXAMPLES = int(os.environ.get("STLPLAN_FUZZ_EXAMPLES", "150"))
 FUZZ = settings(
@@ -47,7 +48,6 @@ FUZZ = settings(
     deadline=None,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
 )
-NOISE = ("Input should", "pydantic", "https://", "Traceback", "For further", "Value error")
 SOURCE = "fuzz.yaml"
 
 # --- formulas ----------------------------------------------------------------------------------

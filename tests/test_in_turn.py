@@ -20,9 +20,9 @@ from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
 from stlplan.planner.watch import pending_violations
 from stlplan.result import PlanStatus
-from tests.helpers.configs import UP_FRONT, paper_model
-from tests.test_components import detour_for_free
-from tests.test_lazy import accepted, mission, solve
+from tests.helpers.configs import paper_model
+from tests.helpers.missions import detour_for_free, mission
+from tests.helpers.solving import accepted, solve, up_front_optimum
 
 
 def crossing_problem(inter_sample: bool = True) -> Problem:
@@ -215,9 +215,6 @@ def test_a_merged_part_colliding_in_a_crowd_is_repaired_in_turn(
     assert turns == ([{"a", "e"}] if in_turn else [])
     repaired = repairs[0]
     assert repaired is not None and (repaired.stop == "repaired") is in_turn
-    whole = plan(
-        problem,
-        UP_FRONT,
-    )
+    whole = up_front_optimum(problem)
     assert found[1].objective == pytest.approx(whole.objective, abs=1e-5)
     assert accepted(problem, plan(problem, options))

@@ -16,9 +16,7 @@ from stlplan.formula.parser import parse
 from stlplan.mission.loader import load_problem
 from stlplan.planner.initial import initial_reasons, step0_part
 from stlplan.result import PlanStatus
-from tests.conftest import MISSIONS, ROOT
-
-BASE = ROOT / "tests" / "broken" / "_base.yaml"
+from tests.helpers.paths import BASE, MISSIONS
 
 
 def _variant(tmp: Path, edit: Callable[[dict[str, Any]], None]) -> Path:

@@ -24,9 +24,8 @@ from stlplan.cli import app
 from stlplan.planner import stops
 from stlplan.result import PlanStatus
 from stlplan.sweep.runner import pending
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS, PAIR
 
-PAIR = MISSIONS / "sync-pair.yaml"
 # With the paper's group encoding HiGHS's first plan of the pair mission without its clearance
 # (margin.minimum 0) meets every requirement, so a signal at that plan has a verified plan to
 # keep (the search path depends on the encoding and the mission).
@@ -123,7 +122,8 @@ def test_cli_ctrl_c_writes_the_plan_marked_interrupted(
     monkeypatch.setattr(ProgressLine, "update", lambda self, p: hook(p))
     hook = signal_at_first_plan()
     out = tmp_path / "plan"
-    result = CliRunner().invoke(app, ["solve", str(exact_pair), "--out", str(out), *KEEPABLE])
+    args = ["solve", str(exact_pair), "--out", str(out), "--no-animation", *KEEPABLE]
+    result = CliRunner().invoke(app, args)
     assert result.exit_code == 130, result.output
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "interrupted"
@@ -140,7 +140,8 @@ def test_cli_sigterm_exits_143(
     hook = signal_at_first_plan(signal.SIGTERM)
     monkeypatch.setattr(ProgressLine, "update", lambda self, p: hook(p))
     out = tmp_path / "plan"
-    result = CliRunner().invoke(app, ["solve", str(exact_pair), "--out", str(out), *KEEPABLE])
+    args = ["solve", str(exact_pair), "--out", str(out), "--no-animation", *KEEPABLE]
+    result = CliRunner().invoke(app, args)
     assert result.exit_code == 143, result.output
     assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
 

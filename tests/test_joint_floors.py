@@ -18,8 +18,10 @@ from stlplan.planner.encoding.model import build_model
 from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
-from tests.helpers.configs import UP_FRONT, paper_model
-from tests.test_lazy import mission
+from tests.helpers.configs import paper_model
+from tests.helpers.examples import examples
+from tests.helpers.missions import mission
+from tests.helpers.solving import up_front_optimum
 
 
 def tasks_apart(starts: list[float], corners: list[list[float]], late: int) -> Any:
@@ -82,14 +84,16 @@ def test_one_agent_serving_two_far_tasks_tightens_the_relaxation(
     monkeypatch.setattr(floors, "_service_floors", lambda *args: (0, set()))
     without = lp_bound(problem)
     assert with_cuts < without - 1.0  # a maximization: the bound is lower by the way between
-    exact = plan(
-        problem,
-        UP_FRONT,
-    )
+    exact = up_front_optimum(problem)
     assert exact.objective is not None and exact.objective <= with_cuts + 1e-6
 
 
-@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# two MILPs proven to 1e-7 per example: 6 by default, more with STLPLAN_HYPOTHESIS=explore
+@settings(
+    max_examples=examples(6, explore=60),
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
 @given(
     starts=st.lists(st.sampled_from([-2.0, 0.0, 1.0, 3.0]), min_size=1, max_size=2, unique=True),
     corners=st.lists(
@@ -136,10 +140,7 @@ def test_a_formation_of_agents_far_apart_tightens_the_relaxation(
     monkeypatch.setattr(floors, "add_team_floors", lambda *args: 0)
     without = lp_bound(problem)
     assert with_cuts < without - 0.5  # (-3.87 against -3.00)
-    exact = plan(
-        problem,
-        UP_FRONT,
-    )
+    exact = up_front_optimum(problem)
     assert exact.objective is not None and exact.objective <= with_cuts + 1e-6
 
 
@@ -197,14 +198,16 @@ def test_shares_bound_a_fractional_choice_of_formations(monkeypatch: pytest.Monk
     monkeypatch.setattr(team_floors, "shared_tasks", lambda ledger: {})
     without = lp_bound(problem)
     assert with_shares < without - 1.0
-    exact = plan(
-        problem,
-        UP_FRONT,
-    )
+    exact = up_front_optimum(problem)
     assert exact.objective is not None and exact.objective <= with_shares + 1e-6
 
 
-@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# two MILPs proven to 1e-7 per example: 4 by default, more with STLPLAN_HYPOTHESIS=explore
+@settings(
+    max_examples=examples(4, explore=40),
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
 @given(
     starts=grid_points(6),
     goal=st.integers(-3, 2),

@@ -7,7 +7,7 @@ import pytest
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.finish import effort_kept
 from tests.helpers.configs import paper_model
-from tests.test_lazy import mission
+from tests.helpers.missions import mission
 
 
 def _model(effort: str):  # type: ignore[no-untyped-def]

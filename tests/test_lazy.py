@@ -2,69 +2,20 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 import pytest
 
 from stlplan.formula.boundary import EPSILON
 from stlplan.formula.parser import parse
 from stlplan.formula.tree import step_parts
-from stlplan.mission.problem import Problem, build_problem
-from stlplan.mission.schema import Mission
-from stlplan.monitor.verdicts import check
-from stlplan.planner.clock import Progress
-from stlplan.planner.config import PlannerConfig
+from stlplan.mission.problem import Problem
 from stlplan.planner.encoding.deferred import SEPARATION, defer, neighbours, violated
 from stlplan.planner.encoding.model import build_model, reachable_boxes
-from stlplan.planner.solve import plan
 from stlplan.planner.watch import Watch, lowest
-from stlplan.result import PlanResult, PlanStatus
+from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model
-
-SINGLE_INTEGRATOR = {
-    "A": [[1, 0], [0, 1]],
-    "B": [[1, 0], [0, 1]],
-    "state_bounds": [[-5, 5], [-5, 5]],
-    "input_bounds": [[-1, 1], [-1, 1]],
-}
-
-
-def mission(**fields: Any) -> Problem:
-    """A checked problem from mission fields (single integrators, ``|u| <= 1`` per axis)."""
-    return build_problem(
-        Mission.model_validate({"name": "tiny", "dynamics": {"si": SINGLE_INTEGRATOR}, **fields})
-    )
-
-
-def swap_problem(separation: float | None, horizon: int = 2, inter_sample: bool = False) -> Problem:
-    # a and b trade places on the x axis, arriving at step H; with H = 2 both are within 0.2 of
-    # x = 1 at step 1, so a separation of 0.5 costs a detour in y: up/down 0.25, back 0.15 each
-    # (sampled separation, the paper's; between samples the two would pass through each other)
-    return mission(
-        safety={"inter_sample": inter_sample},
-        horizon=horizon,
-        agents=[
-            {"name": "a", "dynamics": "si", "initial_state": [0, 0]},
-            {"name": "b", "dynamics": "si", "initial_state": [2, 0]},
-        ],
-        regions={
-            "East": {"box": [[1.9, 2.1], [-0.1, 0.1]]},
-            "West": {"box": [[-0.1, 0.1], [-0.1, 0.1]]},
-        },
-        tasks={
-            "east": {
-                "formula": f"F[{horizon},{horizon}] in(p, East)",
-                "roles": {"p": {"agent": "a"}},
-            },
-            "west": {
-                "formula": f"F[{horizon},{horizon}] in(p, West)",
-                "roles": {"p": {"agent": "b"}},
-            },
-        },
-        separation=separation,
-        objective={"beta": 1.0, "effort": "l1"},
-    )
+from tests.helpers.missions import mission, swap_problem
+from tests.helpers.solving import accepted, solve
 
 
 def detour_problem(with_obstacle: bool, inter_sample: bool = True) -> Problem:
@@ -84,23 +35,6 @@ def detour_problem(with_obstacle: bool, inter_sample: bool = True) -> Problem:
         else {},
         objective={"beta": 1.0, "effort": "l1"},
     )
-
-
-def solve(problem: Problem, config: dict[str, Any] | None = None) -> tuple[PlanResult, int]:
-    """Plan with the dotted ``config`` overrides; returns the result and the lazy rounds."""
-    rounds = [0]
-
-    def seen(progress: Progress) -> None:
-        rounds[0] = max(rounds[0], progress.round or 0)
-
-    settings = PlannerConfig().with_overrides({"solver.time_limit": 60.0, **(config or {})})
-    result = plan(problem, settings, progress=seen)
-    return result, rounds[0]
-
-
-def accepted(problem: Problem, result: PlanResult) -> bool:
-    assert result.trajectory is not None
-    return check(problem, result.trajectory).satisfied
 
 
 @pytest.mark.parametrize("encoding", ["standard", "log"])
@@ -159,20 +93,29 @@ def test_effort_floors_keep_the_optimum(lazy: bool) -> None:
 
 
 def test_floors_add_rows_and_fix_unreachable_indicators() -> None:
-    problem = swap_problem(separation=0.5)
-    plain = build_model(
-        problem,
-        paper_model(model__encoding="standard"),
-    )
-    floored = build_model(
-        problem,
-        paper_model(model__floors=True, model__encoding="standard"),
-    )
+    # a may reach East at step 1 or 2
+    problem = swap_problem(separation=0.5, east_from=1)
+    plain = build_model(problem, paper_model(model__encoding="standard"))
+    floored = build_model(problem, paper_model(model__floors=True, model__encoding="standard"))
     assert not hasattr(plain.model, "effort_floors")
     assert len(floored.model.effort_floors) > len(problem.agents)  # e_p rows and cuts
-    # East is 2 away from a: unreachable at step 1 with |u| <= 1, so that disjunct is fixed off
-    bodies = [str(c.body) for c in floored.model.effort_floors.values() if c.upper == 0]
-    assert bodies
+    # East is 1.9 away from a: unreachable at step 1 with |u| <= 1, so that disjunct (the
+    # conjunction of East's four half-planes for a at step 1) is fixed off, the step-2 one is not
+    fixed = [
+        c.body
+        for c in floored.model.effort_floors.values()
+        if c.upper == 0 and c.lower is None and c.body.is_variable_type()
+    ]
+    ledger = floored.ledger
+    children = {id(z): leaves for z, leaves in ledger.conjunctions}
+    guarded = {id(z): (node, k, dict(binding)) for z, (node, k, binding) in ledger.guarded}
+    (off,) = fixed
+    enforced = [guarded[id(leaf)] for leaf in children[id(off)]]
+    assert len(enforced) == 4
+    assert {(k, binding["p"]) for _, k, binding in enforced} == {(1, "a")}
+    # East = [1.9, 2.1] x [-0.1, 0.1]: x >= 1.9, -x >= -2.1, y >= -0.1, -y >= -0.1
+    bounds = sorted(node.bound for node, _, _ in enforced)
+    assert bounds == pytest.approx([-2.1, -0.1, -0.1, 1.9])
 
 
 def test_step_parts_unrolls_always_and_and() -> None:

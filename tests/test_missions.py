@@ -12,7 +12,7 @@ from stlplan.formula.tree import horizon
 from stlplan.mission.groups import pack
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 
 SHIPPED = sorted(MISSIONS.glob("*.yaml"))
 SCALED = sorted((MISSIONS / "scale").glob("farm-x*.yaml"))

@@ -5,7 +5,7 @@ from __future__ import annotations
 from stlplan import api
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.solve import model_size
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 
 
 def test_a_solved_plan_reports_the_binaries_of_step_one() -> None:

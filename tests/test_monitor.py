@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from collections.abc import Mapping, Sequence
-from pathlib import Path
-from typing import Any
+from collections.abc import Mapping
 
 import numpy as np
 import pytest
@@ -31,62 +29,10 @@ from stlplan.formula.tree import (
     horizon,
 )
 from stlplan.mission.loader import load_problem
-from stlplan.mission.problem import Problem, build_problem
-from stlplan.mission.schema import Mission
 from stlplan.monitor.verdicts import check
 from stlplan.result import Trajectory
-
-ROOT = Path(__file__).resolve().parent.parent
-BOXES = {"R": ((2.0, 4.0), (2.0, 4.0)), "C": ((6.0, 8.0), (6.0, 8.0))}
-DYNAMICS = {
-    "A": [[1, 0], [0, 1]],
-    "B": [[1, 0], [0, 1]],
-    "position": [0, 1],
-    "state_bounds": [[0, 10], [0, 10]],
-    "input_bounds": [[-5, 5], [-5, 5]],
-}
-
-Path2 = Sequence[tuple[float, float]]
-
-
-def make_problem(
-    paths: Mapping[str, Path2],
-    capabilities: Mapping[str, str],
-    tasks: Mapping[str, Any] | None = None,
-    constraints: Mapping[str, Any] | None = None,
-    separation: float | None = None,
-) -> Problem:
-    """A single-integrator mission on a 10 x 10 map; each agent starts where its path starts."""
-    horizon = len(next(iter(paths.values()))) - 1
-    agents = [
-        {
-            "name": n,
-            "dynamics": "si",
-            "capabilities": [capabilities[n]],
-            "initial_state": list(p[0]),
-        }
-        for n, p in paths.items()
-    ]
-    mission = Mission.model_validate(
-        {
-            "name": "test",
-            "horizon": horizon,
-            "dynamics": {"si": DYNAMICS},
-            "agents": agents,
-            "regions": {name: {"box": [list(x), list(y)]} for name, (x, y) in BOXES.items()},
-            "tasks": dict(tasks or {}),
-            "constraints": dict(constraints or {}),
-            "separation": separation,
-        }
-    )
-    return build_problem(mission)
-
-
-def walk(paths: Mapping[str, Path2]) -> Trajectory:
-    """States along ``paths``, inputs ``u(k) = x(k+1) - x(k)`` so the dynamics hold exactly."""
-    states = {n: np.array(p, dtype=float) for n, p in paths.items()}
-    inputs = {n: np.diff(x, axis=0) for n, x in states.items()}
-    return Trajectory(len(next(iter(paths.values()))) - 1, states, inputs)
+from tests.helpers.maps import AVOID, BOXES, Path2, make_problem, walk
+from tests.helpers.paths import FARM
 
 
 def stay(point: tuple[float, float], steps: int) -> list[tuple[float, float]]:
@@ -268,8 +214,6 @@ def test_synchronous_failure_names_the_best_group() -> None:
 
 # --- constraints, separation, dynamics -------------------------------------------------------
 
-AVOID = {"avoid": {"formula": "G[0,3] !in(p, R)", "for_each": "p"}}
-
 
 def test_constraint_fails_for_the_agent_that_enters() -> None:
     paths = {"a": stay((1, 1), 4), "b": [(1, 3), (2.5, 3), (1, 3), (1, 3)]}
@@ -350,7 +294,7 @@ def test_trajectory_that_does_not_fit_is_rejected() -> None:
 
 
 def test_farm_agents_that_stay_home_fail_every_task() -> None:
-    problem = load_problem(ROOT / "missions" / "farm.yaml")
+    problem = load_problem(FARM)
     H = problem.horizon
     traj = Trajectory(
         H,

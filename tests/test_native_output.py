@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from stlplan.native_output import fd1_redirected
-from tests.conftest import MISSIONS, ROOT
+from tests.helpers.paths import MISSIONS, ROOT
 
 API_RUN = """
 import sys

@@ -19,7 +19,7 @@ from stlplan.monitor.robustness import robustness
 from stlplan.monitor.verdicts import check
 from stlplan.outputs.rtamt import rtamt_text, spec_signals
 from stlplan.result import PlanStatus
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 
 REACH_AVOID = MISSIONS / "reach-avoid.yaml"
 
@@ -92,8 +92,11 @@ def test_rtamt_scores_the_single_agent_suite_as_the_monitor_does(name: str) -> N
     path = MISSIONS / "stl" / f"{name}.yaml"
     problem, result = api.plan(path, overrides=Overrides(threads=1))
     assert result.status is PlanStatus.OPTIMAL and result.trajectory is not None
-    specs, _ = api.export_rtamt(path)
-    assert specs
+    specs, text = api.export_rtamt(path)
+    # one agent: every task and constraint is exported, once, and none is left out
+    requirements = [t.name for t in problem.tasks] + [c.name for c in problem.constraints]
+    assert sorted(s.name for s in specs) == sorted(requirements)
+    assert "# not exported" not in text
     # RTAMT judges samples: compare with the monitor's sampled robustness of the same plan
     sampled = check(problem.with_inter_sample(False), result.trajectory)
     for spec in specs:

@@ -13,9 +13,7 @@ from stlplan.errors import StlplanError
 from stlplan.mission.loader import validate_document
 from stlplan.mission.schema import Mission, json_schema
 from stlplan.mission.yamldoc import parse_yaml
-from tests.conftest import MISSIONS, ROOT
-
-BROKEN = ROOT / "tests" / "broken"
+from tests.helpers.paths import BROKEN, MISSIONS, ROOT
 
 
 def test_schema_file_is_up_to_date() -> None:

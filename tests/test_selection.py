@@ -18,7 +18,8 @@ from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
 from stlplan.planner.config import Overrides
 from stlplan.result import PlanResult, PlanStatus
-from tests.conftest import MISSIONS
+from tests.helpers.dynamics import single_integrator
+from tests.helpers.paths import MISSIONS
 
 EXACT = {"threads": 1, "gap": 1e-6, "two_step": False}
 
@@ -55,16 +56,7 @@ def team_mission(
         }
         for i, cap in enumerate(caps)
     ]
-    dynamics = {
-        f"si{i}": {
-            "A": [[1, 0], [0, 1]],
-            "B": [[1, 0], [0, 1]],
-            "position": [0, 1],
-            "state_bounds": [[-1, 6], [-1, 4]],
-            "input_bounds": [[-v, v], [-v, v]],
-        }
-        for i, v in enumerate(speeds)
-    }
+    dynamics = {f"si{i}": single_integrator(v, ((-1, 6), (-1, 4))) for i, v in enumerate(speeds)}
     return build_problem(
         Mission.model_validate(
             {
@@ -148,6 +140,7 @@ def test_selection_names_the_group_that_serves_each_task() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(2700)  # two solves of up to 1200 s each
 @pytest.mark.parametrize("case", ["farm", "farm-case2", "farm-case3"])
 def test_paper_cases_agree(case: str) -> None:
     assert_same_optimum(*both(MISSIONS / f"{case}.yaml", gap=1e-6, time_limit=1200))

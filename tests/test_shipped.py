@@ -9,7 +9,7 @@ from stlplan.api import Overrides
 from stlplan.mission.loader import load_mission
 from stlplan.monitor.verdicts import check
 from stlplan.result import PlanStatus
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 
 
 def test_reach_avoid_reaches_the_largest_possible_margin() -> None:

@@ -13,7 +13,7 @@ from stlplan.cli import app
 from stlplan.errors import MissionError
 from stlplan.mission.loader import load_problem
 from stlplan.planner.size import check_size, estimate
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 
 runner = CliRunner()
 

@@ -16,9 +16,7 @@ from stlplan.errors import UsageError
 from stlplan.mission.loader import load_mission
 from stlplan.sweep.initial import draw_positions, with_initial_positions
 from stlplan.sweep.runner import read_records
-from tests.conftest import MISSIONS
-
-PAIR = MISSIONS / "sync-pair.yaml"
+from tests.helpers.paths import MISSIONS, PAIR
 
 
 def test_initial_positions_are_reproducible_separated_and_inside() -> None:
@@ -68,8 +66,9 @@ def test_sweep_records_every_run_and_resumes(tmp_path: Path) -> None:
 
 
 def test_sweep_on_a_local_dask_cluster_matches_local_runs(tmp_path: Path) -> None:
-    import distributed
-
+    distributed = pytest.importorskip(
+        "distributed", reason="Dask is an optional extra: pip install 'stlplan[dask]'"
+    )
     cluster = distributed.LocalCluster(
         host="127.0.0.1",
         n_workers=2,

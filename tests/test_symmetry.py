@@ -19,8 +19,8 @@ from stlplan.planner.encoding.selection import Selection
 from stlplan.planner.encoding.symmetry import agent_classes, chain_task
 from stlplan.planner.solve import model_size
 from stlplan.result import PlanStatus
-from tests.conftest import MISSIONS
 from tests.helpers.configs import paper_model
+from tests.helpers.paths import MISSIONS
 
 SMALL = MISSIONS / "scale" / "farm-depot-small.yaml"
 DEPOT = MISSIONS / "scale" / "farm-x2-depot.yaml"

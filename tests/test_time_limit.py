@@ -7,7 +7,7 @@ import pytest
 from stlplan import api
 from stlplan.api import Overrides
 from stlplan.result import PlanStatus
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 
 
 @pytest.mark.parametrize("limit", [0.3, 0.8, 2.0])

@@ -14,18 +14,14 @@ from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
 from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
 from stlplan.result import Trajectory
+from tests.helpers.dynamics import double_integrator
 
 H = 3
 
 
 def make_problem(constraints: dict[str, object] | None = None) -> Problem:
     """A double integrator ``ground`` (n = 4, m = 2) and a planar point ``dot`` (n = 2, m = 1)."""
-    ground = {
-        "A": [[1, 0, 1, 0], [0, 1, 0, 1], [0, 0, 1, 0], [0, 0, 0, 1]],
-        "B": [[0.5, 0], [0, 0.5], [1, 0], [0, 1]],
-        "state_bounds": [[0, 7], [0, 5], [-2, 2], [-2, 2]],
-        "input_bounds": [[-2, 2], [-2, 2]],
-    }
+    ground = double_integrator(2, ((0, 7), (0, 5)))
     dot = {
         "A": [[1, 0], [0, 1]],
         "B": [[1], [1]],

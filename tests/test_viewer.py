@@ -22,7 +22,7 @@ from stlplan.monitor.verdicts import check
 from stlplan.outputs.plots import task_presence
 from stlplan.outputs.viewer import hover_texts, viewer_figure, write_viewer
 from stlplan.result import PlanResult, Trajectory
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 from tests.test_plots import FARM, make_report, make_trajectory
 
 CHROMIUM = Path("/usr/bin/chromium")

@@ -7,7 +7,7 @@ from typer.testing import CliRunner
 
 from stlplan.cli import app
 from stlplan.words import counted
-from tests.conftest import MISSIONS
+from tests.helpers.paths import MISSIONS
 
 
 @pytest.mark.parametrize(

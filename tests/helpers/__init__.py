@@ -1,1 +1,4 @@
-"""Shared helpers of the test suite (no test module imports another)."""
+"""What several test modules share: dynamics tables, mission builders, paths and solving helpers.
+
+Test modules import from here, never from one another.
+"""

@@ -1,0 +1,73 @@
+"""Tiny missions shared by the planner's tests: a builder and the named problems."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from stlplan.mission.problem import Problem, build_problem
+from stlplan.mission.schema import Mission
+from tests.helpers.dynamics import SINGLE_INTEGRATOR_U1
+
+
+def mission(**fields: Any) -> Problem:
+    """A checked problem from mission fields: name 'tiny', and dynamics ``si`` (single
+    integrators, ``|u| <= 1`` per axis) unless ``dynamics`` is given."""
+    return build_problem(
+        Mission.model_validate({"name": "tiny", "dynamics": {"si": SINGLE_INTEGRATOR_U1}, **fields})
+    )
+
+
+def swap_problem(
+    separation: float | None,
+    horizon: int = 2,
+    inter_sample: bool = False,
+    east_from: int | None = None,
+) -> Problem:
+    """a and b trade places on the x axis, arriving at step H (a may reach East from step
+    ``east_from`` on, when given); with H = 2 both are within 0.2 of x = 1 at step 1, so a
+    separation of 0.5 costs a detour in y: up/down 0.25, back 0.15 each (sampled separation, the
+    paper's; between samples the two would pass through each other)."""
+    first = horizon if east_from is None else east_from
+    return mission(
+        safety={"inter_sample": inter_sample},
+        horizon=horizon,
+        agents=[
+            {"name": "a", "dynamics": "si", "initial_state": [0, 0]},
+            {"name": "b", "dynamics": "si", "initial_state": [2, 0]},
+        ],
+        regions={
+            "East": {"box": [[1.9, 2.1], [-0.1, 0.1]]},
+            "West": {"box": [[-0.1, 0.1], [-0.1, 0.1]]},
+        },
+        tasks={
+            "east": {
+                "formula": f"F[{first},{horizon}] in(p, East)",
+                "roles": {"p": {"agent": "a"}},
+            },
+            "west": {
+                "formula": f"F[{horizon},{horizon}] in(p, West)",
+                "roles": {"p": {"agent": "b"}},
+            },
+        },
+        separation=separation,
+        objective={"beta": 1.0, "effort": "l1"},
+    )
+
+
+def detour_for_free() -> Problem:
+    """a (or b) must reach R; a's straight diagonal passes through the idle e at (1, 1), but
+    every monotone path from (0, 0) to R costs the same L1 effort: the collision costs nothing."""
+    agents = [
+        {"name": "a", "dynamics": "si", "capabilities": ["X"], "initial_state": [0, 0]},
+        {"name": "b", "dynamics": "si", "capabilities": ["X"], "initial_state": [4, -4]},
+        {"name": "e", "dynamics": "si", "capabilities": ["Z"], "initial_state": [1, 1]},
+    ]
+    return mission(
+        safety={"inter_sample": True},
+        horizon=4,
+        agents=agents,
+        regions={"R": {"box": [[2, 3], [2, 3]]}},
+        tasks={"reach": {"formula": "F[3,4] in(p, R)", "roles": {"p": "X"}}},
+        separation=0.2,
+        objective={"beta": 1.0, "effort": "l1"},
+    )

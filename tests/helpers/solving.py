@@ -1,0 +1,41 @@
+"""Solving a test problem: with a count of lazy rounds, the up-front reference, the monitor's word."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from stlplan.mission.problem import Problem
+from stlplan.monitor.verdicts import check
+from stlplan.planner.clock import Progress
+from stlplan.planner.config import PlannerConfig
+from stlplan.planner.solve import plan
+from stlplan.result import PlanResult
+from tests.helpers.configs import UP_FRONT
+
+ENCODINGS = ["log", "standard"]
+"""The SOS1 encodings of disjunctions and group choices."""
+
+
+def solve(problem: Problem, config: dict[str, Any] | None = None) -> tuple[PlanResult, int]:
+    """Plan with the dotted ``config`` overrides (a 60 s limit unless they set one); returns
+    the result and the number of lazy rounds."""
+    rounds = [0]
+
+    def seen(progress: Progress) -> None:
+        rounds[0] = max(rounds[0], progress.round or 0)
+
+    settings = PlannerConfig().with_overrides({"solver.time_limit": 60.0, **(config or {})})
+    result = plan(problem, settings, progress=seen)
+    return result, rounds[0]
+
+
+def up_front_optimum(problem: Problem) -> PlanResult:
+    """The reference optimum: every row in the model from the start, no floors, proven to a gap
+    of 1e-6 (:data:`tests.helpers.configs.UP_FRONT`)."""
+    return plan(problem, UP_FRONT)
+
+
+def accepted(problem: Problem, result: PlanResult) -> bool:
+    """Whether the monitor accepts the plan of ``result`` (which must have one)."""
+    assert result.trajectory is not None
+    return check(problem, result.trajectory).satisfied
