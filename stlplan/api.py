@@ -13,6 +13,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from stlplan.analysis.size import check_size
 from stlplan.errors import UsageError
 from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
@@ -21,10 +22,9 @@ from stlplan.outputs.directory import prepare_directory, write_all, write_json
 from stlplan.outputs.summary import summary_dict
 from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
 from stlplan.pipeline import plan
-from stlplan.planner import stops
 from stlplan.planner.config import Overrides, PlannerConfig
-from stlplan.planner.size import check_size
 from stlplan.result import MonitorReport, PlanResult
+from stlplan.runtime import signals
 
 DEFAULT_TOLERANCE = 1e-6
 """The monitor's tolerance when none is given: solver round-off."""
@@ -45,7 +45,7 @@ __all__ = [
 
 def validate(mission: str | Path) -> Problem:
     """Load and check a mission file, and that its model fits this machine and the mission's
-    time limit (:func:`stlplan.planner.size.check_size`); raise on the first mistake."""
+    time limit (:func:`stlplan.analysis.size.check_size`); raise on the first mistake."""
     problem = load_problem(mission)
     check_size(problem, problem.mission.solver.time_limit, problem.mission.solver.tasks)
     return problem
@@ -179,7 +179,7 @@ def solve(
     if out is not None:
         prepare_directory(Path(out))
     try:
-        with stops.stop_on_signals():  # a signal while writing: nothing is written
+        with signals.stop_on_signals():  # a signal while writing: nothing is written
             problem, result = plan(problem, overrides, progress=progress)
             if out is not None:
                 given = (overrides or Overrides()).given()

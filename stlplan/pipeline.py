@@ -12,33 +12,17 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
-from stlplan.errors import SolverError
+from stlplan.analysis.diagnose import cheap_diagnosis, cheap_reasons, diagnose
+from stlplan.analysis.size import check_size
 from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
-from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.native_output import discard_highs_banner
-from stlplan.planner import stops
 from stlplan.planner.budget import Budget
 from stlplan.planner.config import Overrides, PlannerConfig, describe
-from stlplan.planner.diagnose import cheap_diagnosis, cheap_reasons, diagnose
-from stlplan.planner.figures import reported
-from stlplan.planner.size import check_size
 from stlplan.result import PlanResult, PlanStatus
+from stlplan.runtime import signals
+from stlplan.verify import verified
 from stlplan.words import counted
-
-
-def _verified(problem: Problem, result: PlanResult, gap: float) -> PlanResult:
-    """Attach the monitor's report and report the written plan's figures
-    (:func:`stlplan.planner.figures.reported`); a plan the monitor rejects is an error, never an output.
-    """
-    if result.trajectory is None:
-        return result
-    report = monitor_check(problem, result.trajectory)
-    failed = [v for v in report.verdicts if not v.satisfied]
-    if failed:
-        lines = "; ".join(f"{v.name}: {v.detail}" for v in failed)
-        raise SolverError(f"the solver's plan is rejected by the monitor ({lines})")
-    return reported(problem, result, report, gap)
 
 
 @contextlib.contextmanager
@@ -68,8 +52,8 @@ def plan(
     conflict found by feasibility solves).
 
     In the main thread, SIGINT and SIGTERM during a solve stop HiGHS and the best plan so far
-    comes back verified with status ``interrupted`` (:mod:`stlplan.planner.stops`); a second signal, or
-    one outside a solve, raises :class:`stlplan.planner.stops.Interrupted`.
+    comes back verified with status ``interrupted`` (:mod:`stlplan.runtime.signals`); a second signal, or
+    one outside a solve, raises :class:`stlplan.runtime.signals.Interrupted`.
     """
     from stlplan.planner.solve import plan as solve_plan
 
@@ -88,13 +72,13 @@ def plan(
         diagnosis = cheap_diagnosis(problem, reasons)
         message = f"infeasible before solving: {counted(len(reasons), 'requirement')} cannot be met"
         return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis, **used)
-    with stops.stop_on_signals(), _quiet_pyomo():
+    with signals.stop_on_signals(), _quiet_pyomo():
         result = solve_plan(problem, config, progress=progress, budget=run)
         if result.status is PlanStatus.INFEASIBLE and diagnose_infeasible:
             with run.stage("diagnosis"):
                 result = _diagnosed(problem, config, result, run)
         with run.stage("verify"):
-            result = _verified(problem, result, config.solver.gap)
+            result = verified(problem, result, config.solver.gap)
         return problem, dataclasses.replace(result, stage_seconds=dict(run.ledger), **used)
 
 

@@ -7,9 +7,9 @@ from pathlib import Path
 import yaml
 
 from stlplan import api
+from stlplan.analysis.diagnose import cheap_reasons, needs
 from stlplan.formula.parser import parse
 from stlplan.mission.loader import load_problem
-from stlplan.planner.diagnose import cheap_reasons, needs
 from stlplan.result import PlanStatus
 from tests.helpers.paths import MISSIONS
 

@@ -25,10 +25,11 @@ from pyomo.environ import (
     value,
 )
 
+from stlplan.analysis.reach import reachable_boxes
 from stlplan.formula.parser import parse
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
-from stlplan.planner.encoding.model import build_model, reachable_boxes
+from stlplan.planner.encoding.model import build_model
 from stlplan.planner.encoding.sos1 import sos1_block
 from stlplan.planner.encoding.stl import (
     StlContext,

@@ -1,4 +1,4 @@
-"""One value per quantity: reported figures are the written plan's (stlplan.planner.figures)."""
+"""One value per quantity: reported figures are the written plan's (stlplan.verify)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 from stlplan import api
 from stlplan.api import Overrides
 from stlplan.cli import app
-from stlplan.planner.figures import plan_objective
+from stlplan.verify import plan_objective
 from tests.helpers.paths import DATA, MISSIONS
 
 

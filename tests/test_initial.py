@@ -12,9 +12,9 @@ import pytest
 import yaml
 
 from stlplan import api
+from stlplan.analysis.initial import initial_reasons, step0_part
 from stlplan.formula.parser import parse
 from stlplan.mission.loader import load_problem
-from stlplan.planner.initial import initial_reasons, step0_part
 from stlplan.result import PlanStatus
 from tests.helpers.paths import BASE, MISSIONS
 

@@ -21,8 +21,8 @@ from typer.testing import CliRunner
 from stlplan import api
 from stlplan.api import Overrides
 from stlplan.cli import app
-from stlplan.planner import stops
 from stlplan.result import PlanStatus
+from stlplan.runtime import signals
 from stlplan.sweep.runner import pending
 from tests.helpers.paths import MISSIONS, PAIR
 
@@ -47,7 +47,7 @@ def exact_pair(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(autouse=True)
 def _default_handlers() -> Iterator[None]:
     """Run each test with Python's default SIGINT and SIGTERM handlers, and restore them."""
-    saved = {s: signal.getsignal(s) for s in stops.CAUGHT}
+    saved = {s: signal.getsignal(s) for s in signals.CAUGHT}
     signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     yield
@@ -69,31 +69,31 @@ def signal_at_first_plan(signum: int = signal.SIGINT, times: int = 1) -> Callabl
 
 
 def test_signal_outside_a_solve_raises_with_the_shell_exit_code() -> None:
-    with stops.stop_on_signals(), pytest.raises(stops.Interrupted) as caught:
+    with signals.stop_on_signals(), pytest.raises(signals.Interrupted) as caught:
         os.kill(os.getpid(), signal.SIGTERM)
     assert caught.value.exit_code == 143
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # restored
-    assert stops.Interrupted(signal.SIGINT).exit_code == 130
+    assert signals.Interrupted(signal.SIGINT).exit_code == 130
 
 
 def test_signal_during_a_solve_is_recorded_and_a_second_one_is_hard() -> None:
-    with stops.stop_on_signals(), stops.solving():
+    with signals.stop_on_signals(), signals.solving():
         os.kill(os.getpid(), signal.SIGINT)
-        assert stops.requested() and stops.should_interrupt()
-        with stops.finishing():
-            assert not stops.should_interrupt()  # a first request lets finishing solves end
+        assert signals.requested() and signals.should_interrupt()
+        with signals.finishing():
+            assert not signals.should_interrupt()  # a first request lets finishing solves end
             os.kill(os.getpid(), signal.SIGINT)
-            assert stops.should_interrupt()
-        with pytest.raises(stops.Interrupted):
-            stops.raise_if_hard()
+            assert signals.should_interrupt()
+        with pytest.raises(signals.Interrupted):
+            signals.raise_if_hard()
 
 
 def test_an_ignored_signal_stays_ignored() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    with stops.stop_on_signals():
+    with signals.stop_on_signals():
         assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
         os.kill(os.getpid(), signal.SIGINT)
-        assert not stops.requested()
+        assert not signals.requested()
 
 
 def test_interrupted_solve_keeps_its_best_plan_verified(exact_pair: Path) -> None:
@@ -148,7 +148,7 @@ def test_cli_sigterm_exits_143(
 
 def test_second_signal_stops_hard_and_writes_nothing(tmp_path: Path) -> None:
     out = tmp_path / "plan"
-    with pytest.raises(stops.Interrupted):
+    with pytest.raises(signals.Interrupted):
         api.solve(
             PAIR, out=out, progress=signal_at_first_plan(times=2), overrides=Overrides(threads=1)
         )
@@ -179,7 +179,7 @@ def test_interrupted_sweep_keeps_finished_runs_stops_workers_and_resumes(
         if len(read_records(tmp_path)) == 3:
             os.kill(os.getpid(), signal.SIGINT)
 
-    with pytest.raises(stops.Interrupted):
+    with pytest.raises(signals.Interrupted):
         api.sweep([PAIR], 40, 0, tmp_path, workers, on_record=stop_after_three)
     assert multiprocessing.active_children() == []
     kept = read_records(tmp_path)
@@ -192,8 +192,8 @@ def test_interrupted_sweep_keeps_finished_runs_stops_workers_and_resumes(
 
 def test_held_signal_arrives_after_the_critical_section() -> None:
     done = []
-    with stops.stop_on_signals(), pytest.raises(stops.Interrupted):
-        with stops.held():
+    with signals.stop_on_signals(), pytest.raises(signals.Interrupted):
+        with signals.held():
             # sent to this thread, which holds it: a signal sent to the process may be taken by
             # another thread (numpy's or HiGHS's pool), which does not hold it
             signal.pthread_kill(threading.get_ident(), signal.SIGINT)
@@ -210,8 +210,8 @@ def test_held_signal_waits_when_another_thread_receives_it() -> None:
     worker.start()
     done = []
     try:
-        with stops.stop_on_signals(), pytest.raises(stops.Interrupted):
-            with stops.held():
+        with signals.stop_on_signals(), pytest.raises(signals.Interrupted):
+            with signals.held():
                 os.kill(os.getpid(), signal.SIGINT)
                 time.sleep(0.2)  # the handler runs in the main thread during this sleep
                 done.append("inside")

@@ -5,12 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from stlplan.analysis.reach import reachable_boxes
 from stlplan.formula.boundary import EPSILON
 from stlplan.formula.parser import parse
 from stlplan.formula.tree import step_parts
 from stlplan.mission.problem import Problem
 from stlplan.planner.encoding.deferred import SEPARATION, defer, neighbours, violated
-from stlplan.planner.encoding.model import build_model, reachable_boxes
+from stlplan.planner.encoding.model import build_model
 from stlplan.planner.watch import Watch, lowest
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model

@@ -9,10 +9,10 @@ import pytest
 from typer.testing import CliRunner
 
 from stlplan import api
+from stlplan.analysis.size import check_size, estimate
 from stlplan.cli import app
 from stlplan.errors import MissionError
 from stlplan.mission.loader import load_problem
-from stlplan.planner.size import check_size, estimate
 from tests.helpers.paths import MISSIONS
 
 runner = CliRunner()

@@ -19,7 +19,7 @@ from stlplan import __version__
 from stlplan.cli import files, planning
 from stlplan.cli.help import Command, Group
 from stlplan.cli.shell import EXIT_INTERRUPTED, console
-from stlplan.planner import stops
+from stlplan.runtime import signals
 
 EPILOG = (
     "Exit codes: 0 satisfied or valid, 1 a checked trajectory violates the mission, 2 usage "
@@ -77,4 +77,4 @@ def main() -> None:
         app()
     except KeyboardInterrupt as exc:
         console(stderr=True).print("interrupted")
-        sys.exit(exc.exit_code if isinstance(exc, stops.Interrupted) else EXIT_INTERRUPTED)
+        sys.exit(exc.exit_code if isinstance(exc, signals.Interrupted) else EXIT_INTERRUPTED)

@@ -23,8 +23,8 @@ from stlplan.cli.shell import (
     solver_output,
 )
 from stlplan.mission.schema import MAX_SEED
-from stlplan.planner import stops
 from stlplan.result import PlanResult, PlanStatus
+from stlplan.runtime import signals
 from stlplan.words import counted
 
 STATUS_EXIT = {
@@ -84,7 +84,7 @@ OutOption = Annotated[
 
 def _exit_code(result: PlanResult) -> int:
     code = STATUS_EXIT[result.status]
-    stopped_by = stops.last_signal()
+    stopped_by = signals.last_signal()
     if result.status.interrupted and stopped_by is not None:  # 130 for Ctrl-C, 143 for TERM
         code = 128 + stopped_by
     return code

@@ -23,7 +23,7 @@ from rich.markup import escape
 from stlplan.errors import StlplanError, UsageError
 from stlplan.native_output import fd1_redirected
 from stlplan.outputs.directory import strict_json
-from stlplan.planner import stops
+from stlplan.runtime import signals
 
 EXIT_OK, EXIT_VIOLATED, EXIT_USAGE, EXIT_BAD_INPUT = 0, 1, 2, 3
 EXIT_INFEASIBLE, EXIT_NO_PLAN, EXIT_SOLVER = 4, 5, 6
@@ -140,7 +140,7 @@ def handled(command: Callable[..., None]) -> Callable[..., None]:
             _report(as_json, exc.exit_code, error_kind(exc), exc)
             raise typer.Exit(exc.exit_code) from None
         except KeyboardInterrupt as exc:  # a signal outside a solve, or a second one
-            code = exc.exit_code if isinstance(exc, stops.Interrupted) else EXIT_INTERRUPTED
+            code = exc.exit_code if isinstance(exc, signals.Interrupted) else EXIT_INTERRUPTED
             _report(as_json, code, "interrupted", "interrupted")
             raise typer.Exit(code) from None
         except OSError as exc:  # a file the operating system refused (disk full, permissions)

@@ -11,7 +11,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from stlplan.errors import UsageError
-from stlplan.planner import stops
+from stlplan.runtime import signals
 
 Writer = Callable[[Path], None]
 
@@ -65,7 +65,7 @@ def write_all(out: Path, files: dict[str, Writer], owned: tuple[str, ...] = ()) 
         for name, write in files.items():
             write(staging / name)
         written = []
-        with stops.held():  # a stop request waits until every file is in place
+        with signals.held():  # a stop request waits until every file is in place
             for name in files:
                 os.replace(staging / name, out / name)
                 written.append(out / name)

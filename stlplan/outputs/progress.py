@@ -11,7 +11,7 @@ from rich.console import Console
 from rich.live import Live
 from rich.text import Text
 
-from stlplan.planner import stops
+from stlplan.runtime import signals
 
 
 class ProgressLine:
@@ -57,6 +57,6 @@ class ProgressLine:
         gap = getattr(progress, "gap", None)
         if gap is not None:
             parts.append(f"gap {100 * gap:.2f}%")
-        if stops.requested():
+        if signals.requested():
             parts.append("stopping: keeping the best plan so far (press Ctrl-C again to abort)")
         self._live.update(Text(" | ".join(parts)))

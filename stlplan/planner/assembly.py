@@ -10,9 +10,8 @@ one solve choosing the indicators and binaries (:func:`assemble`).
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from stlplan.planner import stops
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
@@ -20,26 +19,34 @@ from stlplan.planner.encoding.deferred import requirement_key
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.in_turn import Held, hold_near, release
 from stlplan.planner.session import HighsSession
+from stlplan.runtime import signals
 
-if TYPE_CHECKING:
-    from stlplan.planner.components import Part
+
+def added_keys(pm: PlanModel) -> set[tuple[Any, ...]]:
+    """Keys of the lazy requirements the model ``pm`` holds."""
+    assert pm.deferral is not None
+    return {requirement_key(pm.deferral.lazy[n]) for n in pm.added}
 
 
 def plan_values(
-    target: PlanModel, parts: Sequence[Part], free: frozenset[str] = frozenset()
+    target: PlanModel, parts: Sequence[PlanModel], free: frozenset[str] = frozenset()
 ) -> Iterator[tuple[Any, float]]:
     """``(variable of target, its value in a part's plan)`` for every state and input of the
-    parts' agents but those in ``free`` (fixed variables and unset values skipped)."""
+    agents of the parts' models but those in ``free`` (fixed variables and unset values
+    skipped)."""
     for part in parts:
         for name in ("x", "u"):
-            source, goal = getattr(part.pm.model, name), getattr(target.model, name)
+            source, goal = getattr(part.model, name), getattr(target.model, name)
             for key, var in source.items():
                 if not (goal[key].fixed or var.value is None or key[0] in free):
                     yield goal[key], float(var.value)
 
 
 def hold_plans(
-    target: PlanModel, parts: Sequence[Part], width: float, free: frozenset[str] = frozenset()
+    target: PlanModel,
+    parts: Sequence[PlanModel],
+    width: float,
+    free: frozenset[str] = frozenset(),
 ) -> Held:
     """Bound ``x`` and ``u`` of ``target`` to within ``width`` (``repair.hold``) of the parts'
     plans (but those of the agents in ``free``); returns what :func:`release` restores."""
@@ -50,7 +57,11 @@ def hold_plans(
 
 
 def assemble(
-    full: PlanModel, parts: Sequence[Part], config: PlannerConfig, clock: Clock, budget: Budget
+    full: PlanModel,
+    parts: Sequence[PlanModel],
+    config: PlannerConfig,
+    clock: Clock,
+    budget: Budget,
 ) -> float | None:
     """Load the parts' plans into ``full`` with every indicator set; returns its objective.
 
@@ -60,10 +71,10 @@ def assemble(
     """
     assert full.deferral is not None
     index = {requirement_key(r): n for n, r in enumerate(full.deferral.lazy)}
-    keys = set().union(*(p.added_keys() for p in parts))
+    keys = set().union(*(added_keys(p) for p in parts))
     add_requirements(full, [index[k] for k in keys if k in index])
     held = hold_plans(full, parts, config.repair.hold)
-    with stops.finishing():  # the plan is found: a stop request lets this solve end
+    with signals.finishing():  # the plan is found: a stop request lets this solve end
         session = HighsSession(full.model, config, clock, "step1")
         solved = session.solve(budget.seconds(config.parts.assembly_seconds))
     release(held)

@@ -42,8 +42,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from stlplan.mission.problem import Problem
-from stlplan.planner import stops
-from stlplan.planner.assembly import assemble, hold_plans, plan_values
+from stlplan.planner.assembly import added_keys, assemble, hold_plans, plan_values
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
@@ -54,6 +53,7 @@ from stlplan.planner.lazy import LazySolver, Step1, relative_gap
 from stlplan.planner.parts import agent_parts, sub_problem
 from stlplan.planner.watch import VIOLATION_TOL, trajectory_states
 from stlplan.result import PlanStatus
+from stlplan.runtime import signals
 
 
 @dataclass(eq=False)
@@ -66,11 +66,6 @@ class Part:
     step1: Step1 | None = None
     merged_from: tuple[Part, ...] = ()
     free: frozenset[str] = frozenset()
-
-    def added_keys(self) -> set[tuple[Any, ...]]:
-        """Keys of the requirements this part's model holds."""
-        assert self.pm.deferral is not None
-        return {requirement_key(self.pm.deferral.lazy[n]) for n in self.pm.added}
 
 
 def _part(
@@ -175,7 +170,7 @@ def _combined(parts: Sequence[Part], config: PlannerConfig, seconds: float, roun
     if failed or len(steps) < len(parts):
         first = failed[0] if failed else None
         status = first.status if first else PlanStatus.ERROR
-        if stops.requested():
+        if signals.requested():
             status = PlanStatus.INTERRUPTED_NO_PLAN
         added = sum(s.added for s in steps)
         return Step1(status, None, None, None, seconds, rounds, added, first.stop if first else "")
@@ -184,7 +179,7 @@ def _combined(parts: Sequence[Part], config: PlannerConfig, seconds: float, roun
     optimal = all(s.status is PlanStatus.OPTIMAL for s in steps)
     optimal = optimal and gap is not None and gap <= config.solver.gap * (1 + 1e-9)
     status = PlanStatus.OPTIMAL if optimal else PlanStatus.FEASIBLE
-    if stops.requested() and not optimal:
+    if signals.requested() and not optimal:
         status = PlanStatus.INTERRUPTED
     return Step1(
         status=status,
@@ -207,7 +202,7 @@ def _solve_in_shares(parts: Sequence[Part], config: PlannerConfig, budget: Budge
     waiting = sorted((p for p in parts if p.step1 is None), key=lambda p: len(p.agents))
     shares = budget.split(len(waiting), reserve=config.parts.merge_reserve)
     for part, share in zip(waiting, shares, strict=True):
-        if stops.requested():
+        if signals.requested():
             return
         part.step1 = _solve_part(part, config, share)
 
@@ -237,7 +232,8 @@ def _repair(part: Part, config: PlannerConfig, budget: Budget) -> Step1 | None:
     if _crowded(part.free, config) and _in_turn(part, config, crowd):
         repaired = part.solver.kept(time.perf_counter() - tick)
     if repaired is None:
-        held = hold_plans(part.pm, part.merged_from, config.repair.hold, part.free)
+        merged_from = [p.pm for p in part.merged_from]
+        held = hold_plans(part.pm, merged_from, config.repair.hold, part.free)
         try:
             repaired = part.solver.run(budget.share(config.parts.held_repair_share), trial=True)
         finally:
@@ -258,7 +254,7 @@ def _in_turn(part: Part, config: PlannerConfig, budget: Budget) -> bool:
     by agent (:class:`stlplan.planner.in_turn.InTurn`); whether that found a plan."""
     pm = part.pm
     assert pm.deferral is not None and part.solver.watch is not None
-    for var, planned in plan_values(pm, part.merged_from):
+    for var, planned in plan_values(pm, [p.pm for p in part.merged_from]):
         var.set_value(planned, skip_validation=True)
     bad = violated(pm.deferral.lazy, trajectory_states(pm), _margin(pm), VIOLATION_TOL)
     InTurn(pm, part.solver.session, config).run(bad, budget)
@@ -288,20 +284,20 @@ def solve_parts(
         crossing = _crossing(full, parts)
         if not crossing:
             break
-        if stops.requested():  # the parts' plans collide: no plan of the full problem
+        if signals.requested():  # the parts' plans collide: no plan of the full problem
             return full, dataclasses.replace(done, status=PlanStatus.INTERRUPTED_NO_PLAN)
         parts = _merged(problem, parts, crossing, config, clock, budget)
-    if not stops.requested():
+    if not signals.requested():
         _tighten(parts, config, budget)
     done = _combined(parts, config, time.perf_counter() - tick, clock.round or 1)
-    objective = assemble(full, parts, config, clock, budget.finishing())
+    objective = assemble(full, [p.pm for p in parts], config, clock, budget.finishing())
     seconds = time.perf_counter() - tick
     if objective is None:
         return full, dataclasses.replace(done, status=PlanStatus.ERROR, stop="assembly failed")
     gap = relative_gap(objective, done.bound)
     status = done.status
     if status is PlanStatus.OPTIMAL and (gap is None or gap > config.solver.gap * (1 + 1e-9)):
-        status = PlanStatus.INTERRUPTED if stops.requested() else PlanStatus.FEASIBLE
+        status = PlanStatus.INTERRUPTED if signals.requested() else PlanStatus.FEASIBLE
     return full, dataclasses.replace(
         done, status=status, objective=objective, gap=gap, seconds=seconds
     )
@@ -320,7 +316,7 @@ def _merged(
     for group in _merge(parts, [set(r.binding.values()) for r in crossing]):
         agents = {a for p in group for a in p.agents}
         free = frozenset(a for r in crossing for a in r.binding.values()) & agents
-        seed = set().union(*(p.added_keys() for p in group))
+        seed = set().union(*(added_keys(p.pm) for p in group))
         if not _crowded(free, config):  # (a repair in turn adds them as its plans cross)
             seed |= {requirement_key(r) for r in crossing if set(r.binding.values()) <= agents}
         order = [a.name for a in problem.agents if a.name in agents]

@@ -28,11 +28,12 @@ from pyomo.contrib.solver.common.results import Results, SolutionStatus, Termina
 from pyomo.contrib.solver.solvers.highs import Highs
 from pyomo.environ import ConcreteModel
 
-from stlplan.planner import confirm, stops
+from stlplan.planner import confirm
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock, Phase
 from stlplan.planner.config import PlannerConfig
 from stlplan.result import PlanStatus
+from stlplan.runtime import signals
 
 TC = TerminationCondition
 _STATUS: dict[TerminationCondition, tuple[PlanStatus, PlanStatus]] = {
@@ -116,7 +117,7 @@ class Solved:
     seconds: float
     gap: float | None
     stopped: bool = False
-    """Whether the user asked to stop (:mod:`stlplan.planner.stops`): the solve was cut short."""
+    """Whether the user asked to stop (:mod:`stlplan.runtime.signals`): the solve was cut short."""
 
 
 class HighsSession:
@@ -184,8 +185,8 @@ class HighsSession:
         _watch(self.highs, clock, phase)
 
     def _stop_if_asked(self, event: Any) -> None:
-        """Interrupt HiGHS when the user asked to stop (:mod:`stlplan.planner.stops`)."""
-        if stops.should_interrupt():
+        """Interrupt HiGHS when the user asked to stop (:mod:`stlplan.runtime.signals`)."""
+        if signals.should_interrupt():
             event.interrupt()
 
     def _clear_stale_interrupt(self, event: Any) -> None:
@@ -224,7 +225,7 @@ class HighsSession:
             TC.provenInfeasible,
             TC.infeasibleOrUnbounded,
         )
-        if infeasible and not self.trial and not stops.should_interrupt():
+        if infeasible and not self.trial and not signals.should_interrupt():
             first = (self.verdict, time.perf_counter() - tick)
             results = self._confirmed(results, first, budget)
         seconds = time.perf_counter() - tick
@@ -236,7 +237,7 @@ class HighsSession:
                 gap = 0.0 if optimal else None
         if has_solution(results):
             results.solution_loader.load_vars()
-        return Solved(results, seconds, gap, stops.should_interrupt())
+        return Solved(results, seconds, gap, signals.should_interrupt())
 
     def _run(self, seconds: float, settings: confirm.Settings | None = None) -> Results:
         """One HiGHS solve through Pyomo within ``seconds`` (at least
@@ -250,13 +251,13 @@ class HighsSession:
         try:
             # Pyomo redirects the process's stdout/stderr while HiGHS runs; send what the
             # progress callback writes meanwhile to the real stderr (HiGHS's own log is off).
-            with stops.solving():
+            with signals.solving():
                 tee = [sys.stderr] if self.clock.progress else []
                 results = self.solver.solve(self.model, tee=tee)
         finally:
             config.solver_options = usual
         self.verdict = confirm.verdict(self.highs)
-        stops.raise_if_hard()
+        signals.raise_if_hard()
         if self.clock.error is not None:
             raise self.clock.error
         return results

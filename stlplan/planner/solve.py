@@ -24,7 +24,6 @@ import math
 from pyomo.environ import ConcreteModel, Constraint, Var
 
 from stlplan.mission.problem import Problem
-from stlplan.planner import stops
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock, ProgressCallback
 from stlplan.planner.components import solve_parts
@@ -34,6 +33,7 @@ from stlplan.planner.encoding.readout import plan_result
 from stlplan.planner.finish import Finish, enforced_predicates, finish, fix_decisions
 from stlplan.planner.lazy import Step1, solve_step1
 from stlplan.result import Fallback, ModelSize, PlanResult, PlanStatus
+from stlplan.runtime import signals
 
 __all__ = ["enforced_predicates", "fix_decisions", "model_size", "plan"]
 
@@ -77,7 +77,7 @@ def _solved(
     if not step1.status.has_plan:
         return pm, step1, Finish(), False, size
     # after a stop request too: step 2 is a quick LP or QP
-    with stops.finishing(), budget.stage("continuous"):
+    with signals.finishing(), budget.stage("continuous"):
         ended = finish(pm, config, clock, budget.finishing())
     tolerance = config.solver.highs_options.get("mip_feasibility_tolerance")
     if not ended.infeasible or tolerance == config.solver.strict_integrality:

@@ -20,9 +20,9 @@ from pathlib import Path
 from typing import Any
 
 from stlplan.errors import SolverError, StlplanError, UsageError
-from stlplan.planner import stops
 from stlplan.planner.config import Overrides
 from stlplan.result import PlanResult
+from stlplan.runtime import signals
 from stlplan.words import counted
 
 RECORDS = "runs.jsonl"
@@ -60,8 +60,8 @@ def run_one(spec: RunSpec) -> dict[str, Any]:
     except StlplanError as exc:
         record.update(status="error", message=str(exc), wall_seconds=time.monotonic() - started)
         return record
-    if result.status.interrupted or stops.requested():  # not a result: --resume runs it again
-        raise stops.Interrupted(stops.last_signal() or signal.SIGINT)
+    if result.status.interrupted or signals.requested():  # not a result: --resume runs it again
+        raise signals.Interrupted(signals.last_signal() or signal.SIGINT)
     record.update(_figures(result), wall_seconds=time.monotonic() - started)
     return record
 
@@ -122,7 +122,7 @@ def pending(specs: Sequence[RunSpec], out: Path, resume: bool) -> list[RunSpec]:
 
 def _append(out: Path, record: dict[str, Any]) -> None:
     line = json.dumps(record) + "\n"
-    with stops.held(), open(out / RECORDS, "a", encoding="utf-8") as handle:
+    with signals.held(), open(out / RECORDS, "a", encoding="utf-8") as handle:
         handle.write(line)
         handle.flush()
         os.fsync(handle.fileno())
@@ -132,7 +132,7 @@ def _leave_interrupts_to_parent() -> None:
     """Pool workers ignore Ctrl-C and die on SIGTERM: the parent stops them all and says so."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler, inherited by fork
-    stops.leave_signals_alone()
+    signals.leave_signals_alone()
 
 
 def _terminate(pool: ProcessPoolExecutor) -> None:
@@ -191,12 +191,12 @@ def execute(
 ) -> None:
     """Run ``specs`` and append each record to ``out/runs.jsonl`` as it finishes.
 
-    Ctrl-C or SIGTERM stops the sweep (:class:`stlplan.planner.stops.Interrupted`); the runs in flight
+    Ctrl-C or SIGTERM stops the sweep (:class:`stlplan.runtime.signals.Interrupted`); the runs in flight
     are lost, the recorded ones kept.
     """
     out.mkdir(parents=True, exist_ok=True)
     stream = _dask(specs, scheduler) if scheduler else _local(specs, workers)
-    with stops.stop_on_signals(), contextlib.closing(stream):
+    with signals.stop_on_signals(), contextlib.closing(stream):
         for record in stream:
             _append(out, record)
             if on_record is not None:

@@ -12,6 +12,8 @@ import plotly.graph_objects as go
 import plotly.io as pio
 from plotly.subplots import make_subplots
 
+import stlplan.outputs.viewer.map as plan_map
+import stlplan.outputs.viewer.timeline as timeline
 from stlplan.mission.problem import Problem
 from stlplan.outputs.plots.common import (
     MANY_AGENTS,
@@ -25,8 +27,6 @@ from stlplan.outputs.plots.common import (
     workspace,
     write_atomically,
 )
-from stlplan.outputs.viewer import map as plan_map
-from stlplan.outputs.viewer import timeline
 from stlplan.result import MonitorReport, Trajectory
 
 HEIGHT_PX = 700

@@ -23,8 +23,9 @@ from pyomo.environ import ConcreteModel, Constraint, ConstraintList, Objective, 
 from pyomo.environ import maximize as maximize_sense
 from pyomo.environ import minimize as minimize_sense
 
+from stlplan.analysis.reach import reachable_boxes
 from stlplan.formula.boundary import required_margin
-from stlplan.planner.encoding.model import PlanModel, reachable_boxes
+from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.stl import Enforced, alpha
 
 Stage = Literal["effort", "polish"]

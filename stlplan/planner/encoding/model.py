@@ -36,6 +36,7 @@ from pyomo.environ import (
     maximize,
 )
 
+from stlplan.analysis.reach import reachable_boxes
 from stlplan.formula.boundary import required_margin
 from stlplan.mission.problem import AgentModel, Problem
 from stlplan.planner.config import Encoding, PlannerConfig, TaskForm
@@ -129,28 +130,6 @@ class PlanModel:
             [self.model.u[agent.name, k, j] for j in range(agent.m)]
             for k in range(self.problem.horizon)
         ]
-
-
-def reachable_boxes(problem: Problem) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Interval hull of each agent's reachable states per step, inside its state box.
-
-    ``[x(0)] = x^0`` and ``[x(k+1)] = (A [x(k)] + B [u]) cap [x_lo, x_hi]`` in interval
-    arithmetic (``A = A+ + A-`` split by sign). Tightens variable bounds and big-M constants.
-    """
-    boxes = {}
-    for a in problem.agents:
-        lo = np.empty((problem.horizon + 1, a.n))
-        hi = np.empty_like(lo)
-        lo[0] = hi[0] = a.initial_state
-        a_pos, a_neg = np.maximum(a.A, 0), np.minimum(a.A, 0)
-        b_pos, b_neg = np.maximum(a.B, 0), np.minimum(a.B, 0)
-        u_lo = b_pos @ a.input_lo + b_neg @ a.input_hi
-        u_hi = b_pos @ a.input_hi + b_neg @ a.input_lo
-        for k in range(problem.horizon):
-            lo[k + 1] = np.maximum(a_pos @ lo[k] + a_neg @ hi[k] + u_lo, a.state_lo)
-            hi[k + 1] = np.minimum(a_pos @ hi[k] + a_neg @ lo[k] + u_hi, a.state_hi)
-        boxes[a.name] = (lo, hi)
-    return boxes
 
 
 def add_agents(

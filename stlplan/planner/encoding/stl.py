@@ -105,7 +105,7 @@ class StlContext:
         Indexed variable ``x[agent, k, i]``.
     boxes
         Agent name to ``(lo, hi)``, arrays of shape (H+1, n): the states reachable at each step
-        (see :func:`stlplan.planner.encoding.model.reachable_boxes`).
+        (see :func:`stlplan.analysis.reach.reachable_boxes`).
     horizon
         ``H``: states exist for ``k = 0..H``.
     margin

@@ -25,6 +25,7 @@ import numpy as np
 
 from stlplan.errors import SolverError
 from stlplan.mission.problem import Problem
+from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.result import MonitorReport, PlanResult, SolverFigures, Trajectory
 
 TOL = 1e-6
@@ -106,3 +107,17 @@ def reported(problem: Problem, result: PlanResult, report: MonitorReport, gap: f
         }
         out = dataclasses.replace(out, fallback=dataclasses.replace(out.fallback, cost=cost))
     return out
+
+
+def verified(problem: Problem, result: PlanResult, gap: float) -> PlanResult:
+    """Attach the monitor's report and report the written plan's figures
+    (:func:`reported`); a plan the monitor rejects is an error, never an output.
+    """
+    if result.trajectory is None:
+        return result
+    report = monitor_check(problem, result.trajectory)
+    failed = [v for v in report.verdicts if not v.satisfied]
+    if failed:
+        lines = "; ".join(f"{v.name}: {v.detail}" for v in failed)
+        raise SolverError(f"the solver's plan is rejected by the monitor ({lines})")
+    return reported(problem, result, report, gap)

@@ -3,7 +3,7 @@
 Two kinds of evidence:
 
 * **cheap reasons**, found without solving: the conflicts at step 0 of
-  :mod:`stlplan.planner.initial` (an initial state that breaks a requirement, two agents that
+  :mod:`stlplan.analysis.initial` (an initial state that breaks a requirement, two agents that
   start too close, a margin no region allows), then a region that a task's formula requires a
   role to reach by some step, when too few of the agents that may fill the role can get there in
   time given their dynamics and bounds (interval reachability, an over-approximation, so a claim
@@ -22,37 +22,12 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
-from stlplan.formula.tree import Always, And, Eventually, Formula, InRegion, Until
+from stlplan.analysis.initial import Reason, initial_reasons
+from stlplan.analysis.reach import needs, reachable_boxes
 from stlplan.mission.problem import Problem, TaskModel
-from stlplan.planner.initial import Reason, initial_reasons
 from stlplan.result import Diagnosis, PlanStatus
 
-Need = tuple[str, str, int]
-"""(role, region, deadline): the role must be in the region at some step <= deadline."""
-
 Feasibility = Callable[[Problem], PlanStatus]
-
-
-def needs(formula: Formula, shift: int = 0) -> Iterator[Need]:
-    """Region visits every satisfying trajectory must make, with their deadlines.
-
-    Follows only ``&``, ``G``, ``F`` and the right side of ``U`` (never ``|`` or ``!``):
-    ``G[a,b] f`` needs ``f`` at ``k+a``; ``F[a,b] f`` at some step up to ``k+b``; ``l U[a,b] r``
-    needs ``r`` by ``k+b`` and ``l`` at ``k`` (``l U*[0,b] r`` needs ``r`` only).
-    """
-    if isinstance(formula, InRegion):
-        yield formula.role, formula.region, shift
-    elif isinstance(formula, And):
-        for child in formula.children:
-            yield from needs(child, shift)
-    elif isinstance(formula, Always):
-        yield from needs(formula.child, shift + formula.interval.lo)
-    elif isinstance(formula, Eventually):
-        yield from needs(formula.child, shift + formula.interval.hi)
-    elif isinstance(formula, Until):
-        if formula.interval.lo > 0 or not formula.strict:  # U*[0,b] may hold by right alone
-            yield from needs(formula.left, shift)
-        yield from needs(formula.right, shift + formula.interval.hi)
 
 
 def _meets(problem: Problem, region: str, box_lo: np.ndarray, box_hi: np.ndarray) -> bool:
@@ -133,7 +108,6 @@ def _constraint_reasons(problem: Problem, boxes: dict) -> Iterator[Reason]:
 def cheap_reasons(problem: Problem) -> tuple[Reason, ...]:
     """Reasons the mission is infeasible that need no solve (empty when none is found): the
     conflicts at step 0 first, then the regions no capable agent reaches in time."""
-    from stlplan.planner.encoding.model import reachable_boxes
 
     found = list(initial_reasons(problem))
     boxes = reachable_boxes(problem)

@@ -10,7 +10,7 @@ branch has one), and its robustness at the initial states is compared with the r
   region it must always avoid);
 * an ordinary task whose step-0 part fewer than ``count`` elements meet;
 * two agents that start closer than the separation (infinity norm of their positions);
-* a region a task or constraint must reach (:func:`stlplan.planner.diagnose.needs`) in which no
+* a region a task or constraint must reach (:func:`stlplan.analysis.reach.needs`) in which no
   point lies as far inside as the required margin (the radius of the largest disc inside it).
 
 Each finding is a :class:`Reason` naming the task, constraint or ``separation`` it blames.
@@ -23,6 +23,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from stlplan.analysis.reach import needs
 from stlplan.formula import tree
 from stlplan.formula.parser import to_text
 from stlplan.formula.tree import Formula
@@ -162,7 +163,6 @@ def _separation_reasons(problem: Problem) -> Iterator[Reason]:
 
 
 def _margin_reasons(problem: Problem) -> Iterator[Reason]:
-    from stlplan.planner.diagnose import needs
 
     needed = _margin(problem)
     if needed <= 0:

@@ -1,0 +1,62 @@
+"""Where agents can be, and where formulas require them to be, found without solving.
+
+:func:`reachable_boxes` over-approximates each agent's reachable states by interval arithmetic
+(it tightens the model's bounds and big-M constants, and proves regions out of reach);
+:func:`needs` lists the region visits every trajectory satisfying a formula must make.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+
+from stlplan.formula.tree import Always, And, Eventually, Formula, InRegion, Until
+from stlplan.mission.problem import Problem
+
+Need = tuple[str, str, int]
+"""(role, region, deadline): the role must be in the region at some step <= deadline."""
+
+
+def reachable_boxes(problem: Problem) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Interval hull of each agent's reachable states per step, inside its state box.
+
+    ``[x(0)] = x^0`` and ``[x(k+1)] = (A [x(k)] + B [u]) cap [x_lo, x_hi]`` in interval
+    arithmetic (``A = A+ + A-`` split by sign). Tightens variable bounds and big-M constants.
+    """
+    boxes = {}
+    for a in problem.agents:
+        lo = np.empty((problem.horizon + 1, a.n))
+        hi = np.empty_like(lo)
+        lo[0] = hi[0] = a.initial_state
+        a_pos, a_neg = np.maximum(a.A, 0), np.minimum(a.A, 0)
+        b_pos, b_neg = np.maximum(a.B, 0), np.minimum(a.B, 0)
+        u_lo = b_pos @ a.input_lo + b_neg @ a.input_hi
+        u_hi = b_pos @ a.input_hi + b_neg @ a.input_lo
+        for k in range(problem.horizon):
+            lo[k + 1] = np.maximum(a_pos @ lo[k] + a_neg @ hi[k] + u_lo, a.state_lo)
+            hi[k + 1] = np.minimum(a_pos @ hi[k] + a_neg @ lo[k] + u_hi, a.state_hi)
+        boxes[a.name] = (lo, hi)
+    return boxes
+
+
+def needs(formula: Formula, shift: int = 0) -> Iterator[Need]:
+    """Region visits every satisfying trajectory must make, with their deadlines.
+
+    Follows only ``&``, ``G``, ``F`` and the right side of ``U`` (never ``|`` or ``!``):
+    ``G[a,b] f`` needs ``f`` at ``k+a``; ``F[a,b] f`` at some step up to ``k+b``; ``l U[a,b] r``
+    needs ``r`` by ``k+b`` and ``l`` at ``k`` (``l U*[0,b] r`` needs ``r`` only).
+    """
+    if isinstance(formula, InRegion):
+        yield formula.role, formula.region, shift
+    elif isinstance(formula, And):
+        for child in formula.children:
+            yield from needs(child, shift)
+    elif isinstance(formula, Always):
+        yield from needs(formula.child, shift + formula.interval.lo)
+    elif isinstance(formula, Eventually):
+        yield from needs(formula.child, shift + formula.interval.hi)
+    elif isinstance(formula, Until):
+        if formula.interval.lo > 0 or not formula.strict:  # U*[0,b] may hold by right alone
+            yield from needs(formula.left, shift)
+        yield from needs(formula.right, shift + formula.interval.hi)

@@ -1,0 +1,1 @@
+"""Process-wide state of a run: the stop requests of signals."""

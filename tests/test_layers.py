@@ -1,0 +1,110 @@
+"""The package's layers: no import circles, and every import points down the layers."""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+from tests.helpers.paths import ROOT
+
+PACKAGE = ROOT / "stlplan"
+
+LAYERS = (
+    (
+        "stlplan.errors",
+        "stlplan.words",
+        "stlplan.result",
+        "stlplan.runtime",
+        "stlplan.native_output",
+    ),
+    ("stlplan.formula",),
+    ("stlplan.mission", "stlplan.examples"),
+    ("stlplan.monitor", "stlplan.analysis", "stlplan.planner.config", "stlplan.planner.budget"),
+    ("stlplan.planner.encoding",),
+    ("stlplan.planner",),
+    ("stlplan.verify", "stlplan.pipeline"),
+    ("stlplan.outputs",),
+    ("stlplan.sweep",),
+    ("stlplan.api",),
+    ("stlplan.bench", "stlplan.cli", "stlplan.__main__", "stlplan"),
+)
+"""From the bottom up: a module may import its own layer's modules and those below."""
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for path in PACKAGE.rglob("*.py"):
+        parts = path.relative_to(ROOT).with_suffix("").parts
+        name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        out[name] = path
+    return out
+
+
+def _imported(name: str, path: Path, known: dict[str, Path]) -> Iterator[str]:
+    """The package's modules ``name`` imports, at module level or inside functions."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                up = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join(up + ([base] if base else []))
+            targets = [f"{base}.{alias.name}" for alias in node.names] + [base]
+        else:
+            continue
+        for target in targets:
+            while target and target not in known:
+                target = target.rpartition(".")[0]
+            if target.startswith("stlplan") and target != name:
+                yield target
+
+
+def _graph() -> dict[str, set[str]]:
+    known = _modules()
+    return {name: set(_imported(name, path, known)) for name, path in known.items()}
+
+
+def _layer(name: str) -> int:
+    best = max(
+        ((len(prefix), i) for i, layer in enumerate(LAYERS) for prefix in layer
+         if name == prefix or name.startswith(prefix + ".")),
+        default=None,
+    )  # fmt: skip
+    assert best is not None, f"{name} is in no layer"
+    return best[1]
+
+
+def test_every_import_points_down_the_layers() -> None:
+    upward = [
+        f"{name} -> {target}"
+        for name, targets in _graph().items()
+        for target in targets
+        if _layer(target) > _layer(name)
+    ]
+    assert not upward
+
+
+def test_no_module_imports_itself_through_others() -> None:
+    graph, circles = _graph(), []
+    for start in graph:
+        seen, stack = set(), list(graph[start])
+        while stack:
+            name = stack.pop()
+            if name == start:
+                circles.append(start)
+                break
+            if name not in seen:
+                seen.add(name)
+                stack.extend(graph.get(name, ()))
+    assert not circles
+
+
+def test_the_api_loads_no_solver() -> None:
+    code = "import sys, stlplan.api; print(sorted({'pyomo', 'highspy'} & set(sys.modules)))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
