@@ -53,12 +53,6 @@ class TrajectoryError(StlplanError):
     exit_code = 3
 
 
-class InfeasibleError(StlplanError):
-    """The mission's tasks and constraints cannot be met together."""
-
-    exit_code = 4
-
-
 class SolverError(StlplanError):
     """The solver failed, or produced a plan the monitor rejects."""
 

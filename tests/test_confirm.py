@@ -11,7 +11,8 @@ import pytest
 
 from stlplan import api
 from stlplan.api import Overrides
-from stlplan.planner.confirm import attempts, has_plan, option, solve_confirmed, verdict
+from stlplan.planner.confirm import attempts, has_plan, option, verdict
+from tests.helpers.confirming import solve_confirmed
 from tests.helpers.paths import DATA, MISSIONS
 
 # both plans proven to the true optimum, so that they can be compared to 1e-6

@@ -275,8 +275,8 @@ def test_fixed_decisions_enforce_exactly_the_chosen_disjunct() -> None:
     # reach at k=2 is the optimal decision: the Goal's half-planes at k=2 are the ones enforced
     from stlplan.planner.clock import Clock
     from stlplan.planner.encoding.model import build_model
+    from stlplan.planner.finish import enforced_predicates, fix_decisions
     from stlplan.planner.session import solve_once
-    from stlplan.planner.solve import enforced_predicates, fix_decisions
 
     pm = build_model(
         reach_problem(),

@@ -168,10 +168,8 @@ def minimal_conflict(
 
 
 def diagnose(problem: Problem, feasibility: Feasibility, budget: float) -> Diagnosis:
-    """Cheap reasons, then (when they name nothing) a minimal conflict by feasibility solves."""
-    reasons = cheap_reasons(problem)
-    if reasons:
-        return cheap_diagnosis(problem, reasons)
+    """A minimal conflict by feasibility solves within ``budget`` seconds (the cheap reasons,
+    :func:`cheap_reasons`, are looked for before solving)."""
     conflict, complete = minimal_conflict(problem, feasibility, budget)
     kinds = tuple(kind_of(problem, name) for name in conflict)
     return Diagnosis(conflict=conflict, complete=complete, kinds=kinds)

@@ -11,15 +11,13 @@ one after the other:
   infeasibility is not established, and the run reports what that check ended with;
 * only a verdict every check repeats is **confirmed**.
 
-The rule works on a ``highspy.Highs`` object, so it applies alike to the models Pyomo loads
-(:class:`stlplan.planner.session.HighsSession` drives it through Pyomo's solve) and to a model read
-from an MPS file (:func:`solve_confirmed`).
+The rule works on a ``highspy.Highs`` object (:class:`stlplan.planner.session.HighsSession`
+drives it through Pyomo's solve).
 """
 
 from __future__ import annotations
 
 import contextlib
-import math
 import time
 from collections.abc import Callable, Iterator
 from typing import Any
@@ -114,25 +112,3 @@ def confirm(
         if not says_infeasible(highs):
             return Confirmation(where, tuple(checks), "undecided")
     return Confirmation(where, tuple(checks), "confirmed")
-
-
-def solve_confirmed(highs: Any, seed: int = 0, time_limit: float = math.inf) -> Confirmation | None:
-    """Solve ``highs`` (options as set), confirming an infeasible verdict (module docstring).
-
-    Returns the confirmation, or None when the solve did not say infeasible. ``highs`` holds the
-    last solve. ``time_limit`` bounds all solves together.
-    """
-    deadline = time.perf_counter() + time_limit
-    limit = float(option(highs, "time_limit"))
-
-    def run(settings: Settings, seconds: float) -> None:
-        highs.setOptionValue("time_limit", min(limit, seconds))
-        highs.run()
-
-    with applied(highs, {"random_seed": seed, "time_limit": limit}):
-        tick = time.perf_counter()
-        run({}, max(BudgetConfig().min_check_seconds, deadline - tick))
-        if not says_infeasible(highs):
-            return None
-        first = (verdict(highs), time.perf_counter() - tick)
-        return confirm(highs, first, run, seed, lambda: deadline - time.perf_counter())

@@ -24,18 +24,23 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from pyomo.contrib.solver.common.results import TerminationCondition
 from pyomo.environ import Objective, Reals, Var, minimize, value
 
 from stlplan.planner.budget import Budget
+from stlplan.planner.clock import Clock, Phase
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.continuous import continuous_model, copy_plan, landing_model
 from stlplan.planner.encoding.deferred import best_option
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.stl import Enforced
-from stlplan.planner.session import TC, Clock, HighsSession, Phase, solve_once
+from stlplan.planner.session import HighsSession, solve_once
 from stlplan.planner.watch import trajectory_states
 
-INFEASIBLE = {TC.provenInfeasible.name, TC.infeasibleOrUnbounded.name}
+INFEASIBLE = {
+    TerminationCondition.provenInfeasible.name,
+    TerminationCondition.infeasibleOrUnbounded.name,
+}
 """Terminations that mean the fixed decisions admit no plan."""
 
 
@@ -87,7 +92,7 @@ def enforced_predicates(
     model.del_component(model.least)
     model.step1.activate()
     ended = results.termination_condition.name
-    if results.termination_condition != TC.convergenceCriteriaSatisfied:
+    if results.termination_condition != TerminationCondition.convergenceCriteriaSatisfied:
         return None, seconds, ended
     guarded = [enforced for z, enforced in pm.ledger.guarded if value(z) > 0.5]
     return pm.ledger.required + guarded, seconds, ended
@@ -137,7 +142,7 @@ def _land(
     with clock.building():
         landing = landing_model(pm, enforced, target)
     results, _, _ = solve_once(landing, config, clock, phase, budget, mip=False)
-    if results.termination_condition != TC.convergenceCriteriaSatisfied:
+    if results.termination_condition != TerminationCondition.convergenceCriteriaSatisfied:
         return None
     copy_plan(landing, pm)
     return float(value(landing.goal))
@@ -163,7 +168,7 @@ def finish(pm: PlanModel, config: PlannerConfig, clock: Clock, budget: Budget) -
     session = HighsSession(small, config, clock, phase, mip=False)
     solved = session.solve(budget)
     ended = solved.results.termination_condition.name
-    if solved.results.termination_condition == TC.convergenceCriteriaSatisfied:
+    if solved.results.termination_condition == TerminationCondition.convergenceCriteriaSatisfied:
         copy_plan(small, pm)
         return Finish()
     failed = f"the continuous solve ended {ended}"

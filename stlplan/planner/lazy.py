@@ -32,6 +32,7 @@ import math
 import time
 from dataclasses import dataclass
 
+from pyomo.contrib.solver.common.results import TerminationCondition
 from pyomo.environ import Var
 
 from stlplan.planner.budget import Budget
@@ -40,7 +41,7 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import best_side, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
 from stlplan.planner.in_turn import InTurn, agents_of
-from stlplan.planner.session import TC, HighsSession, Solved, has_solution, plan_status
+from stlplan.planner.session import HighsSession, Solved, has_solution, plan_status
 from stlplan.planner.watch import Watch, lowest, pending_violations, trajectory_states
 from stlplan.result import PlanStatus
 
@@ -167,7 +168,9 @@ class LazySolver:
             )
             if watch.best is not None and watch.closed(results.objective_bound):
                 return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
-            converged = results.termination_condition == TC.convergenceCriteriaSatisfied
+            converged = (
+                results.termination_condition == TerminationCondition.convergenceCriteriaSatisfied
+            )
             bad = pending_violations(pm) if has_solution(results) else []
             if converged and not bad:
                 return _ended(solved, seconds, rounds, len(pm.added))

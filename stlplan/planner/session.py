@@ -35,16 +35,15 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
 
-TC = TerminationCondition
 _STATUS: dict[TerminationCondition, tuple[PlanStatus, PlanStatus]] = {
     # termination condition: (status with a plan, status without one)
-    TC.convergenceCriteriaSatisfied: (PlanStatus.OPTIMAL, PlanStatus.ERROR),
-    TC.maxTimeLimit: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
-    TC.iterationLimit: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
-    TC.objectiveLimit: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
-    TC.interrupted: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
-    TC.provenInfeasible: (PlanStatus.INFEASIBLE, PlanStatus.INFEASIBLE),
-    TC.infeasibleOrUnbounded: (PlanStatus.INFEASIBLE, PlanStatus.INFEASIBLE),
+    TerminationCondition.convergenceCriteriaSatisfied: (PlanStatus.OPTIMAL, PlanStatus.ERROR),
+    TerminationCondition.maxTimeLimit: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
+    TerminationCondition.iterationLimit: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
+    TerminationCondition.objectiveLimit: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
+    TerminationCondition.interrupted: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
+    TerminationCondition.provenInfeasible: (PlanStatus.INFEASIBLE, PlanStatus.INFEASIBLE),
+    TerminationCondition.infeasibleOrUnbounded: (PlanStatus.INFEASIBLE, PlanStatus.INFEASIBLE),
 }
 
 
@@ -101,12 +100,6 @@ def use_threads(threads: int | None) -> None:
     if _SCHEDULER.get("threads", threads) != threads:
         highspy.Highs.resetGlobalScheduler(True)
     _SCHEDULER["threads"] = threads
-
-
-def forget_threads() -> None:
-    """Restart the thread pool now (after solves that did not go through :func:`use_threads`)."""
-    highspy.Highs.resetGlobalScheduler(True)
-    _SCHEDULER.clear()
 
 
 @dataclass(frozen=True)
@@ -222,8 +215,8 @@ class HighsSession:
         tick = time.perf_counter()
         results = self._run(budget.remaining())
         infeasible = results.termination_condition in (
-            TC.provenInfeasible,
-            TC.infeasibleOrUnbounded,
+            TerminationCondition.provenInfeasible,
+            TerminationCondition.infeasibleOrUnbounded,
         )
         if infeasible and not self.trial and not signals.should_interrupt():
             first = (self.verdict, time.perf_counter() - tick)
@@ -233,7 +226,10 @@ class HighsSession:
         if self.mip and self.highs is not None and has_solution(results):
             gap = float(self.highs.getInfo().mip_gap)  # HiGHS reports inf without an integer
             if not math.isfinite(gap):
-                optimal = results.termination_condition == TC.convergenceCriteriaSatisfied
+                optimal = (
+                    results.termination_condition
+                    == TerminationCondition.convergenceCriteriaSatisfied
+                )
                 gap = 0.0 if optimal else None
         if has_solution(results):
             results.solution_loader.load_vars()

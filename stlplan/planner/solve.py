@@ -30,12 +30,10 @@ from stlplan.planner.components import solve_parts
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import PlanModel, build_model
 from stlplan.planner.encoding.readout import plan_result
-from stlplan.planner.finish import Finish, enforced_predicates, finish, fix_decisions
+from stlplan.planner.finish import Finish, finish
 from stlplan.planner.lazy import Step1, solve_step1
 from stlplan.result import Fallback, ModelSize, PlanResult, PlanStatus
 from stlplan.runtime import signals
-
-__all__ = ["enforced_predicates", "fix_decisions", "model_size", "plan"]
 
 
 def model_size(model: ConcreteModel) -> ModelSize:

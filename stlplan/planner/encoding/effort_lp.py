@@ -77,9 +77,9 @@ class EffortLp:
             self.gains[k + 1][:, k * m : (k + 1) * m] = agent.B
         self.highs = highspy.Highs()
         self.highs.setOptionValue("output_flag", False)
-        self._base(agent, horizon)
+        self._base()
 
-    def _base(self, agent: AgentModel, horizon: int) -> None:
+    def _base(self) -> None:
         lower, upper, cost, matrix, lo, hi = self.base_block()
         width = len(cost)
         self.highs.addVars(width, lower, upper)
