@@ -15,7 +15,7 @@ from stlplan.planner.clock import Clock
 from stlplan.planner.components import Part, _tighten, solve_parts
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.lazy import Step1
+from stlplan.planner.outcome import Outcome
 from stlplan.planner.parts import agent_parts, sub_problem
 from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
@@ -110,17 +110,17 @@ def test_a_collision_between_parts_merges_them() -> None:
 class _Solver:
     """Stands in for a part's LazySolver: records the absolute gap it is asked for."""
 
-    def __init__(self, tighter: Step1) -> None:
+    def __init__(self, tighter: Outcome) -> None:
         self.tighter = tighter
         self.asked: list[float | None] = []
 
-    def run(self, time_limit: float, abs_gap: float | None = None) -> Step1:
+    def run(self, time_limit: float, abs_gap: float | None = None) -> Outcome:
         self.asked.append(abs_gap)
         return self.tighter
 
 
-def _step(objective: float, bound: float) -> Step1:
-    return Step1(PlanStatus.OPTIMAL, objective, bound, None, 0.0, 1, 0, "optimal")
+def _step(objective: float, bound: float) -> Outcome:
+    return Outcome(PlanStatus.OPTIMAL, objective, bound, None, 0.0, 1, 0, "optimal")
 
 
 def test_tighten_solves_the_loosest_part_again_with_an_absolute_gap() -> None:
@@ -140,10 +140,10 @@ def test_tighten_solves_the_loosest_part_again_with_an_absolute_gap() -> None:
 def test_a_merged_part_is_repaired_with_only_the_colliding_agents_free(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    repairs: list[tuple[frozenset[str], Step1 | None]] = []
+    repairs: list[tuple[frozenset[str], Outcome | None]] = []
     repair = components._repair
 
-    def spy(part: Part, config: PlannerConfig, budget: Budget) -> Step1 | None:
+    def spy(part: Part, config: PlannerConfig, budget: Budget) -> Outcome | None:
         repaired = repair(part, config, budget)
         repairs.append((part.free, repaired))
         return repaired
@@ -256,7 +256,7 @@ def test_parts_are_solved_smallest_first_in_shares_with_a_reserve(
     asked: list[tuple[tuple[str, ...], float]] = []
     start = time.perf_counter()
 
-    def solve_part(part: Part, config: PlannerConfig, share: Budget) -> Step1:
+    def solve_part(part: Part, config: PlannerConfig, share: Budget) -> Outcome:
         asked.append((part.agents, share.remaining()))
         monkeypatch.setattr(time, "perf_counter", lambda: share.deadline)  # the share is spent
         return _step(1.0, 1.0)

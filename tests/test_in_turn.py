@@ -15,7 +15,7 @@ from stlplan.planner.components import Part, solve_parts
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.in_turn import InTurn, agents_of, hold_agents, release
-from stlplan.planner.lazy import Step1
+from stlplan.planner.outcome import Outcome
 from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
 from stlplan.planner.watch import pending_violations
@@ -191,14 +191,14 @@ def test_a_merged_part_colliding_in_a_crowd_is_repaired_in_turn(
     # a's plan crosses the idle e (another part): a crowd of two merges them
     problem = detour_for_free()
     turns: list[set[str]] = []
-    repairs: list[Step1 | None] = []
+    repairs: list[Outcome | None] = []
     run, repair = InTurn.run, components._repair
 
     def spy_run(self: InTurn, bad: Any, budget: Budget) -> bool:
         turns.append(agents_of(self.pm, bad))
         return run(self, bad, budget)
 
-    def spy_repair(part: Part, config: PlannerConfig, budget: Budget) -> Step1 | None:
+    def spy_repair(part: Part, config: PlannerConfig, budget: Budget) -> Outcome | None:
         assert part.pm.deferral is not None
         seeded = {part.pm.deferral.lazy[n].source for n in part.pm.added}
         assert ("separation" in seeded) is not in_turn  # the crossing is left to the turns

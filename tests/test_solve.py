@@ -332,10 +332,10 @@ def test_the_strict_until_needs_no_left_where_right_holds(op: str, status: PlanS
 
 
 def test_a_failed_completion_is_not_called_completed() -> None:
-    from stlplan.planner.lazy import Step1
+    from stlplan.planner.outcome import Outcome
     from stlplan.planner.solve import _completion_text
 
-    done = Step1(PlanStatus.FEASIBLE, 1.0, 2.0, 0.5, 1.0, 3, 4, "maxTimeLimit", completed=True)
+    done = Outcome(PlanStatus.FEASIBLE, 1.0, 2.0, 0.5, 1.0, 3, 4, "maxTimeLimit", completed=True)
     failed = dataclasses.replace(done, status=PlanStatus.NO_PLAN, objective=None, gap=None)
     assert _completion_text(done) == ", completed with step-1 decisions fixed"
     assert "cannot meet" in _completion_text(failed) and "completed with" not in _completion_text(

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from stlplan.mission.problem import Problem
+from stlplan.planner import outcome
 from stlplan.planner.assembly import added_keys, assemble, hold_plans, plan_values
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
@@ -49,7 +50,8 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import Requirement, requirement_key, violated
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
 from stlplan.planner.in_turn import InTurn, release
-from stlplan.planner.lazy import LazySolver, Step1, relative_gap
+from stlplan.planner.lazy import LazySolver
+from stlplan.planner.outcome import Outcome, relative_gap
 from stlplan.planner.parts import agent_parts, sub_problem
 from stlplan.planner.watch import VIOLATION_TOL, trajectory_states
 from stlplan.result import PlanStatus
@@ -63,7 +65,7 @@ class Part:
     agents: tuple[str, ...]
     pm: PlanModel
     solver: LazySolver
-    step1: Step1 | None = None
+    step1: Outcome | None = None
     merged_from: tuple[Part, ...] = ()
     free: frozenset[str] = frozenset()
 
@@ -121,11 +123,7 @@ def _merge(parts: list[Part], linked: list[set[str]]) -> list[list[Part]]:
 
 
 def _totals(parts: Sequence[Part]) -> tuple[float | None, float | None]:
-    objectives = [p.step1.objective for p in parts if p.step1 is not None]
-    bounds = [p.step1.bound for p in parts if p.step1 is not None]
-    if len(objectives) < len(parts) or None in objectives or None in bounds:
-        return None, None
-    return sum(objectives), sum(bounds)  # type: ignore[arg-type]
+    return outcome.totals([p.step1 for p in parts])
 
 
 def _slack(part: Part) -> float:
@@ -163,35 +161,10 @@ def _tighten(
         worst.step1 = worst.solver.run(budget, abs_gap=max(allowed, 1e-9))
 
 
-def _combined(parts: Sequence[Part], config: PlannerConfig, seconds: float, rounds: int) -> Step1:
-    """The parts' results as one :class:`Step1` of the full problem."""
-    steps = [p.step1 for p in parts if p.step1 is not None]
-    failed = [s for s in steps if not s.status.has_plan]
-    if failed or len(steps) < len(parts):
-        first = failed[0] if failed else None
-        status = first.status if first else PlanStatus.ERROR
-        if signals.requested():
-            status = PlanStatus.INTERRUPTED_NO_PLAN
-        added = sum(s.added for s in steps)
-        return Step1(status, None, None, None, seconds, rounds, added, first.stop if first else "")
-    objective, bound = _totals(parts)
-    gap = relative_gap(objective, bound)
-    optimal = all(s.status is PlanStatus.OPTIMAL for s in steps)
-    optimal = optimal and gap is not None and gap <= config.solver.gap * (1 + 1e-9)
-    status = PlanStatus.OPTIMAL if optimal else PlanStatus.FEASIBLE
-    if signals.requested() and not optimal:
-        status = PlanStatus.INTERRUPTED
-    return Step1(
-        status=status,
-        objective=objective,
-        bound=bound,
-        gap=gap,
-        seconds=seconds,
-        rounds=rounds,
-        added=sum(s.added for s in steps),
-        stop=steps[-1].stop,
-        completed=any(s.completed for s in steps),
-    )
+def _combined(parts: Sequence[Part], config: PlannerConfig, seconds: float, rounds: int) -> Outcome:
+    """The parts' results as one :class:`Outcome` of the full problem."""
+    steps = [p.step1 for p in parts]
+    return outcome.combined(steps, config.solver.gap, signals.requested(), seconds, rounds)
 
 
 def _solve_in_shares(parts: Sequence[Part], config: PlannerConfig, budget: Budget) -> None:
@@ -207,7 +180,7 @@ def _solve_in_shares(parts: Sequence[Part], config: PlannerConfig, budget: Budge
         part.step1 = _solve_part(part, config, share)
 
 
-def _solve_part(part: Part, config: PlannerConfig, budget: Budget) -> Step1:
+def _solve_part(part: Part, config: PlannerConfig, budget: Budget) -> Outcome:
     """A part's first solve; a merged part is repaired first (module docstring)."""
     if not part.merged_from:
         return part.solver.run(budget)
@@ -215,15 +188,10 @@ def _solve_part(part: Part, config: PlannerConfig, budget: Budget) -> Step1:
     _, ceiling = _totals(part.merged_from)
     assert part.solver.watch is not None
     part.solver.watch.ceiling = ceiling
-    if repaired is not None and repaired.objective is not None and ceiling is not None:
-        objective = repaired.objective
-        if ceiling - objective <= config.solver.gap * abs(objective):
-            gap = relative_gap(objective, ceiling)
-            return dataclasses.replace(repaired, status=PlanStatus.OPTIMAL, bound=ceiling, gap=gap)
-    return part.solver.run(budget)
+    return outcome.proven(repaired, ceiling, config.solver.gap) or part.solver.run(budget)
 
 
-def _repair(part: Part, config: PlannerConfig, budget: Budget) -> Step1 | None:
+def _repair(part: Part, config: PlannerConfig, budget: Budget) -> Outcome | None:
     """Repair the parts' plans together (module docstring); then tighten the bounds of the
     parts the merged part comes from towards the repaired plan (None: no plan)."""
     tick = time.perf_counter()
@@ -263,7 +231,7 @@ def _in_turn(part: Part, config: PlannerConfig, budget: Budget) -> bool:
 
 def solve_parts(
     problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
-) -> tuple[PlanModel, Step1] | None:
+) -> tuple[PlanModel, Outcome] | None:
     """Solve step 1 part by part (module docstring) within ``budget``; None when the problem
     has one part.
 
@@ -292,15 +260,8 @@ def solve_parts(
     done = _combined(parts, config, time.perf_counter() - tick, clock.round or 1)
     objective = assemble(full, [p.pm for p in parts], config, clock, budget.finishing())
     seconds = time.perf_counter() - tick
-    if objective is None:
-        return full, dataclasses.replace(done, status=PlanStatus.ERROR, stop="assembly failed")
-    gap = relative_gap(objective, done.bound)
-    status = done.status
-    if status is PlanStatus.OPTIMAL and (gap is None or gap > config.solver.gap * (1 + 1e-9)):
-        status = PlanStatus.INTERRUPTED if signals.requested() else PlanStatus.FEASIBLE
-    return full, dataclasses.replace(
-        done, status=status, objective=objective, gap=gap, seconds=seconds
-    )
+    stopped = signals.requested()
+    return full, outcome.assembled(done, objective, config.solver.gap, stopped, seconds)
 
 
 def _merged(

@@ -26,66 +26,26 @@ deadline (:meth:`stlplan.planner.budget.Budget.finishing`).
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import time
-from dataclasses import dataclass
 
 from pyomo.contrib.solver.common.results import TerminationCondition
 from pyomo.environ import Var
 
+from stlplan.planner import outcome
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import best_side, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
 from stlplan.planner.in_turn import InTurn, agents_of
+from stlplan.planner.outcome import Outcome, lowest, relative_gap
 from stlplan.planner.session import HighsSession, Solved, has_solution, plan_status
-from stlplan.planner.watch import Watch, lowest, pending_violations, trajectory_states
+from stlplan.planner.watch import Watch, pending_violations, trajectory_states
 from stlplan.result import PlanStatus
 
 _log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class Step1:
-    """How step 1 ended.
-
-    Attributes
-    ----------
-    status
-        Optimal, feasible (time limit), infeasible, no plan or error.
-    objective, bound, gap
-        Best plan's objective, the bound proven for the full problem, their relative gap.
-    seconds
-        Wall time of every round (and of a completion).
-    rounds
-        Solves of the loop (1 without lazy requirements).
-    added
-        Lazy requirements added to the model.
-    stop
-        HiGHS's termination condition of the last round, by name.
-    completed
-        Whether the plan's decisions were completed by a last small solve.
-    """
-
-    status: PlanStatus
-    objective: float | None
-    bound: float | None
-    gap: float | None
-    seconds: float
-    rounds: int
-    added: int
-    stop: str
-    completed: bool = False
-
-
-def relative_gap(objective: float | None, bound: float | None) -> float | None:
-    """``(bound - objective) / |objective|`` (HiGHS's relative gap, for a maximization)."""
-    if objective is None or bound is None:
-        return None
-    return max(0.0, bound - objective) / max(abs(objective), 1e-9)
 
 
 class LazySolver:
@@ -113,10 +73,10 @@ class LazySolver:
             self.session.highs.cbMipInterrupt += self.watch.maybe_stop
         self.trial = False
 
-    def run(self, budget: Budget, abs_gap: float | None = None, trial: bool = False) -> Step1:
+    def run(self, budget: Budget, abs_gap: float | None = None, trial: bool = False) -> Outcome:
         """Solve within ``budget``, to the relative gap (or to ``abs_gap`` alone).
 
-        The plan of the returned :class:`Step1` (when there is one) is loaded into ``pm``. A
+        The plan of the returned :class:`Outcome` (when there is one) is loaded into ``pm``. A
         ``trial`` neither confirms an infeasible verdict nor completes a plan at the time limit
         (no plan then).
         """
@@ -131,19 +91,13 @@ class LazySolver:
             return _ended(self.session.solve(budget), time.perf_counter() - tick, 1, 0)
         return self._capped(self._rounds(budget, tick))
 
-    def _capped(self, step1: Step1) -> Step1:
+    def _capped(self, step1: Outcome) -> Outcome:
         """``step1`` with the watch's ceiling as its bound when that is tighter."""
         assert self.watch is not None
-        bound = lowest(step1.bound, self.watch.ceiling)
-        if bound == step1.bound:
-            return step1
-        gap = relative_gap(step1.objective, bound)
-        status = step1.status
-        if status is PlanStatus.FEASIBLE and self.watch.closed(bound):
-            status = PlanStatus.OPTIMAL
-        return dataclasses.replace(step1, status=status, bound=bound, gap=gap)
+        ceiling = self.watch.ceiling
+        return outcome.capped(step1, ceiling, self.watch.closed(lowest(step1.bound, ceiling)))
 
-    def _rounds(self, budget: Budget, tick: float) -> Step1:
+    def _rounds(self, budget: Budget, tick: float) -> Outcome:
         pm, clock, watch = self.pm, self.clock, self.watch
         assert pm.deferral is not None and watch is not None
         first = clock.round or 1
@@ -203,28 +157,22 @@ class LazySolver:
             return True
         return crowd is not None and len(agents_of(self.pm, bad)) >= crowd
 
-    def _last(self, last: Solved, tick: float, rounds: int, budget: Budget) -> Step1:
+    def _last(self, last: Solved, tick: float, rounds: int, budget: Budget) -> Outcome:
         """The loop ends short of the optimum (time, a stop request, infeasible, an error).
 
         The best plan feasible for the full problem is kept. Without one, the last round's plan
         (which violates some requirement left out) is completed (:func:`_complete`), unless the
         user asked to stop: then there is no plan.
         """
-        status = PlanStatus.INTERRUPTED if last.stopped else PlanStatus.FEASIBLE
         if self.watch is not None and self.watch.best is not None:
-            return self._from_best(last, tick, rounds, status)
+            return self._from_best(last, tick, rounds, outcome.kept_status(last.stopped))
         ended = _ended(last, time.perf_counter() - tick, rounds, len(self.pm.added))
-        if last.stopped:
-            return dataclasses.replace(
-                ended, status=PlanStatus.INTERRUPTED_NO_PLAN, objective=None, gap=None
-            )
-        if not has_solution(last.results):
-            return ended
-        if self.trial:
-            return dataclasses.replace(ended, status=PlanStatus.NO_PLAN, objective=None, gap=None)
+        given_up = outcome.cut_short(ended, last.stopped, has_solution(last.results), self.trial)
+        if given_up is not None:
+            return given_up
         return _complete(self.pm, self.session, last, tick, rounds, budget.finishing())
 
-    def _from_best(self, last: Solved, tick: float, rounds: int, status: PlanStatus) -> Step1:
+    def _from_best(self, last: Solved, tick: float, rounds: int, status: PlanStatus) -> Outcome:
         """Load the best plan feasible for the full problem; the bound is the last round's.
 
         Requirements added after the plan was found get the side the plan meets best
@@ -232,7 +180,7 @@ class LazySolver:
         """
         objective = self._load_best()
         bound = last.results.objective_bound
-        return Step1(
+        return Outcome(
             status=status,
             objective=objective,
             bound=bound,
@@ -243,13 +191,13 @@ class LazySolver:
             stop=last.results.termination_condition.name,
         )
 
-    def kept(self, seconds: float) -> Step1 | None:
+    def kept(self, seconds: float) -> Outcome | None:
         """The best plan feasible for the full problem found so far (by a repair between runs),
         loaded into ``pm``, as a result without a bound; None without one."""
         if self.watch is None or self.watch.best is None:
             return None
         objective = self._load_best()
-        return Step1(PlanStatus.FEASIBLE, objective, None, None, seconds, 0, len(self.pm.added),
+        return Outcome(PlanStatus.FEASIBLE, objective, None, None, seconds, 0, len(self.pm.added),
                      "repaired")  # fmt: skip
 
     def _load_best(self) -> float:
@@ -269,15 +217,15 @@ class LazySolver:
         return objective
 
 
-def solve_step1(pm: PlanModel, config: PlannerConfig, clock: Clock, budget: Budget) -> Step1:
+def solve_step1(pm: PlanModel, config: PlannerConfig, clock: Clock, budget: Budget) -> Outcome:
     """Solve problem (step1) of ``pm`` within ``budget``, lazily when ``pm`` was built with
     ``lazy=True``."""
     return LazySolver(pm, config, clock).run(budget)
 
 
-def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Step1:
+def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Outcome:
     results = solved.results
-    return Step1(
+    return Outcome(
         status=plan_status(results, solved.stopped),
         objective=results.incumbent_objective,
         bound=results.objective_bound,
@@ -317,7 +265,7 @@ def _complete(
     tick: float,
     rounds: int,
     budget: Budget,
-) -> Step1:
+) -> Outcome:
     """Out of time with no plan feasible for the full problem: complete the last round's plan
     (within ``budget``, a finishing one).
 
@@ -329,11 +277,9 @@ def _complete(
     solved = _fix_and_solve(pm, session, values, budget)
     seconds = time.perf_counter() - tick
     stop = last.results.termination_condition.name
-    if not has_solution(solved.results):  # (an interrupt by the watch still leaves a plan)
-        status = PlanStatus.INTERRUPTED_NO_PLAN if solved.stopped else PlanStatus.NO_PLAN
-        return Step1(status, None, bound, None, seconds, rounds + 1, len(pm.added),
-                     stop, completed=True)  # fmt: skip
-    objective = float(solved.results.incumbent_objective)
-    status = PlanStatus.INTERRUPTED if solved.stopped else PlanStatus.FEASIBLE
-    return Step1(status, objective, bound, relative_gap(objective, bound), seconds,
-                 rounds + 1, len(pm.added), stop, completed=True)  # fmt: skip
+    base = Outcome(PlanStatus.NO_PLAN, None, bound, None, seconds, rounds + 1, len(pm.added), stop,
+                 completed=True)  # fmt: skip
+    # (an interrupt by the watch still leaves a plan)
+    found = has_solution(solved.results)
+    objective = float(solved.results.incumbent_objective) if found else None
+    return outcome.completed(objective, bound, solved.stopped, base)

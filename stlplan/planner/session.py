@@ -32,6 +32,7 @@ from stlplan.planner import confirm
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock, Phase
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.outcome import of_solve
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
 
@@ -55,10 +56,7 @@ def plan_status(results: Results, stopped: bool = False) -> PlanStatus:
     with_plan, without = _STATUS.get(
         results.termination_condition, (PlanStatus.ERROR, PlanStatus.ERROR)
     )
-    status = with_plan if has_solution(results) else without
-    if stopped and status not in (PlanStatus.OPTIMAL, PlanStatus.INFEASIBLE):
-        return PlanStatus.INTERRUPTED if has_solution(results) else PlanStatus.INTERRUPTED_NO_PLAN
-    return status
+    return of_solve(has_solution(results), stopped, with_plan, without)
 
 
 def has_solution(results: Results) -> bool:

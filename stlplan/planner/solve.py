@@ -31,7 +31,8 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import PlanModel, build_model
 from stlplan.planner.encoding.readout import plan_result
 from stlplan.planner.finish import Finish, finish
-from stlplan.planner.lazy import Step1, solve_step1
+from stlplan.planner.lazy import solve_step1
+from stlplan.planner.outcome import Outcome
 from stlplan.result import Fallback, ModelSize, PlanResult, PlanStatus
 from stlplan.runtime import signals
 
@@ -60,7 +61,7 @@ def _strict_note(config: PlannerConfig) -> str:
 
 def _solved(
     problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
-) -> tuple[PlanModel, Step1, Finish, bool, ModelSize]:
+) -> tuple[PlanModel, Outcome, Finish, bool, ModelSize]:
     """Step 1, then the continuous stage: the model with the plan loaded, how step 1 and the
     continuous stage ended, whether step 1 was solved strictly, and the size of step 1's last
     MILP (taken before the continuous stage fixes its decisions).
@@ -86,7 +87,7 @@ def _solved(
 
 def _step1(
     problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
-) -> tuple[PlanModel, Step1]:
+) -> tuple[PlanModel, Outcome]:
     """Build and solve problem (step 1), part by part when it splits; returns the model with
     the plan loaded and how step 1 ended (building is timed on the clock)."""
     clock.report("build")
@@ -168,7 +169,7 @@ def plan(
     return dataclasses.replace(result, confirmations=tuple(clock.confirmations), fallback=fallback)
 
 
-def _message(step1: Step1, config: PlannerConfig, clock: Clock) -> str:
+def _message(step1: Outcome, config: PlannerConfig, clock: Clock) -> str:
     """One line on how step 1 ended (with its lazy rounds)."""
     bound, gap = step1.bound, step1.gap
     known = gap is not None and bound is not None and math.isfinite(bound)
@@ -194,7 +195,7 @@ def _message(step1: Step1, config: PlannerConfig, clock: Clock) -> str:
     return text
 
 
-def _completion_text(step1: Step1) -> str:
+def _completion_text(step1: Outcome) -> str:
     """How the last round's plan was completed at the time limit (when it was)."""
     if not step1.completed:
         return ""

@@ -16,16 +16,10 @@ from pyomo.environ import value
 
 from stlplan.planner.encoding.deferred import violated
 from stlplan.planner.encoding.model import PlanModel
+from stlplan.planner.outcome import lowest
 
 VIOLATION_TOL = 1e-7
 """A requirement counts as violated when ``max_i alpha_i - r`` is below ``-VIOLATION_TOL``."""
-
-
-def lowest(bound: float | None, ceiling: float | None) -> float | None:
-    """The tighter of two upper bounds (either may be unknown)."""
-    if bound is None or ceiling is None:
-        return ceiling if bound is None else bound
-    return min(bound, ceiling)
 
 
 def trajectory_states(pm: PlanModel) -> dict[str, np.ndarray]:

@@ -1,0 +1,196 @@
+"""How step 1 ended: one :class:`Outcome` type, and every rule that decides its status and gap.
+
+A solve ends with HiGHS's termination and, maybe, a plan; the lazy loop, the parts and the
+repairs turn those into an outcome of the full problem. The rules, all here:
+
+* a HiGHS result: its termination and whether it has a plan (:func:`of_solve`); a stop request
+  turns a plan cut short into ``interrupted`` and no plan into ``interrupted_no_plan``;
+* a known bound of the full problem (a ceiling) tightens an outcome's bound, and proves it
+  optimal when the plan is within the gap (:func:`capped`, :func:`proven`);
+* the loop cut short keeps its best plan (feasible, or interrupted), else has none
+  (:func:`cut_short`); a completed plan (its decisions fixed, every requirement added) is
+  feasible at best (:func:`completed`);
+* parts: optimal together only when each is and their sum is within the gap; a part without a
+  plan leaves the whole without one (:func:`combined`); the assembled plan keeps the parts'
+  status only within the gap of their bound (:func:`assembled`).
+
+Gaps are relative, as HiGHS's: ``(bound - objective) / |objective|`` for a maximization.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from stlplan.result import PlanStatus
+
+SLACK = 1 + 1e-9
+"""A gap within ``gap * SLACK`` counts as within the gap (round-off of sums of objectives)."""
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """How step 1 ended.
+
+    Attributes
+    ----------
+    status
+        Optimal, feasible (time limit), infeasible, no plan or error.
+    objective, bound, gap
+        Best plan's objective, the bound proven for the full problem, their relative gap.
+    seconds
+        Wall time of every round (and of a completion).
+    rounds
+        Solves of the loop (1 without lazy requirements).
+    added
+        Lazy requirements added to the model.
+    stop
+        HiGHS's termination condition of the last round, by name.
+    completed
+        Whether the plan's decisions were completed by a last small solve.
+    """
+
+    status: PlanStatus
+    objective: float | None
+    bound: float | None
+    gap: float | None
+    seconds: float
+    rounds: int
+    added: int
+    stop: str
+    completed: bool = False
+
+
+def relative_gap(objective: float | None, bound: float | None) -> float | None:
+    """``(bound - objective) / |objective|`` (HiGHS's relative gap, for a maximization)."""
+    if objective is None or bound is None:
+        return None
+    return max(0.0, bound - objective) / max(abs(objective), 1e-9)
+
+
+def lowest(bound: float | None, ceiling: float | None) -> float | None:
+    """The tighter of two upper bounds (either may be unknown)."""
+    if bound is None or ceiling is None:
+        return ceiling if bound is None else bound
+    return min(bound, ceiling)
+
+
+def of_solve(
+    has_plan: bool, stopped: bool, with_plan: PlanStatus, without: PlanStatus
+) -> PlanStatus:
+    """The status of one solve, given what its termination means with and without a plan;
+    a stop request makes a solve cut short ``interrupted`` (or ``interrupted_no_plan``)."""
+    status = with_plan if has_plan else without
+    if stopped and status not in (PlanStatus.OPTIMAL, PlanStatus.INFEASIBLE):
+        return PlanStatus.INTERRUPTED if has_plan else PlanStatus.INTERRUPTED_NO_PLAN
+    return status
+
+
+def capped(outcome: Outcome, ceiling: float | None, closed: bool) -> Outcome:
+    """``outcome`` with ``ceiling`` as its bound when that is tighter; a feasible outcome is
+    optimal when ``closed`` (its plan within the gap of that bound)."""
+    bound = lowest(outcome.bound, ceiling)
+    if bound == outcome.bound:
+        return outcome
+    status = (
+        PlanStatus.OPTIMAL if outcome.status is PlanStatus.FEASIBLE and closed else outcome.status
+    )
+    gap = relative_gap(outcome.objective, bound)
+    return dataclasses.replace(outcome, status=status, bound=bound, gap=gap)
+
+
+def proven(outcome: Outcome | None, ceiling: float | None, gap: float) -> Outcome | None:
+    """``outcome`` proven optimal by a known ``ceiling`` of its problem when its plan is within
+    ``gap`` of it (None otherwise)."""
+    if outcome is None or outcome.objective is None or ceiling is None:
+        return None
+    if ceiling - outcome.objective > gap * abs(outcome.objective):
+        return None
+    found = relative_gap(outcome.objective, ceiling)
+    return dataclasses.replace(outcome, status=PlanStatus.OPTIMAL, bound=ceiling, gap=found)
+
+
+def cut_short(ended: Outcome, stopped: bool, has_plan: bool, trial: bool) -> Outcome | None:
+    """The loop ended without a plan meeting every requirement: the outcome when nothing more
+    is tried (a stop request, no plan at all, a trial), or None when the last round's plan is
+    to be completed."""
+    if stopped:
+        return dataclasses.replace(
+            ended, status=PlanStatus.INTERRUPTED_NO_PLAN, objective=None, gap=None
+        )
+    if not has_plan:
+        return ended
+    if trial:
+        return dataclasses.replace(ended, status=PlanStatus.NO_PLAN, objective=None, gap=None)
+    return None
+
+
+def kept_status(stopped: bool) -> PlanStatus:
+    """The status of the best plan kept when the loop is cut short."""
+    return PlanStatus.INTERRUPTED if stopped else PlanStatus.FEASIBLE
+
+
+def completed(
+    objective: float | None, bound: float | None, stopped: bool, base: Outcome
+) -> Outcome:
+    """The outcome of completing the last round's plan (``objective`` None: no plan), with
+    ``base``'s figures; the bound stays the last round's."""
+    if objective is None:
+        status = PlanStatus.INTERRUPTED_NO_PLAN if stopped else PlanStatus.NO_PLAN
+        return dataclasses.replace(base, status=status, objective=None, bound=bound, gap=None)
+    status = kept_status(stopped)
+    gap = relative_gap(objective, bound)
+    return dataclasses.replace(base, status=status, objective=objective, bound=bound, gap=gap)
+
+
+def combined(
+    steps: Sequence[Outcome | None], gap: float, stopped: bool, seconds: float, rounds: int
+) -> Outcome:
+    """The parts' outcomes as one outcome of the full problem: the sums of their objectives
+    and bounds, optimal only when every part is and the sum is within ``gap``."""
+    done = [s for s in steps if s is not None]
+    failed = [s for s in done if not s.status.has_plan]
+    if failed or len(done) < len(steps):
+        first = failed[0] if failed else None
+        status = first.status if first else PlanStatus.ERROR
+        if stopped:
+            status = PlanStatus.INTERRUPTED_NO_PLAN
+        added = sum(s.added for s in done)
+        return Outcome(
+            status, None, None, None, seconds, rounds, added, first.stop if first else ""
+        )
+    objective, bound = totals(done)
+    found = relative_gap(objective, bound)
+    optimal = all(s.status is PlanStatus.OPTIMAL for s in done)
+    optimal = optimal and found is not None and found <= gap * SLACK
+    status = PlanStatus.OPTIMAL if optimal else PlanStatus.FEASIBLE
+    if stopped and not optimal:
+        status = PlanStatus.INTERRUPTED
+    return Outcome(
+        status, objective, bound, found, seconds, rounds, sum(s.added for s in done),
+        done[-1].stop, any(s.completed for s in done),
+    )  # fmt: skip
+
+
+def totals(steps: Sequence[Outcome | None]) -> tuple[float | None, float | None]:
+    """The sums of the parts' objectives and bounds (None while any is unknown)."""
+    objectives = [s.objective for s in steps if s is not None]
+    bounds = [s.bound for s in steps if s is not None]
+    if len(objectives) < len(steps) or None in objectives or None in bounds:
+        return None, None
+    return sum(objectives), sum(bounds)  # type: ignore[arg-type]
+
+
+def assembled(
+    done: Outcome, objective: float | None, gap: float, stopped: bool, seconds: float
+) -> Outcome:
+    """The outcome of the parts' plans assembled in one model (``objective`` None: the
+    assembly failed, an error); optimal only within ``gap`` of the parts' bound."""
+    if objective is None:
+        return dataclasses.replace(done, status=PlanStatus.ERROR, stop="assembly failed")
+    found = relative_gap(objective, done.bound)
+    status = done.status
+    if status is PlanStatus.OPTIMAL and (found is None or found > gap * SLACK):
+        status = PlanStatus.INTERRUPTED if stopped else PlanStatus.FEASIBLE
+    return dataclasses.replace(done, status=status, objective=objective, gap=found, seconds=seconds)
