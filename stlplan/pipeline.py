@@ -18,7 +18,7 @@ from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
 from stlplan.native_output import discard_highs_banner
 from stlplan.planner.budget import Budget
-from stlplan.planner.config import Overrides, PlannerConfig, describe
+from stlplan.planner.config import Overrides, PlannerConfig
 from stlplan.result import PlanResult, PlanStatus
 from stlplan.runtime import signals
 from stlplan.verify import verified
@@ -56,6 +56,7 @@ def plan(
     one outside a solve, raises :class:`stlplan.runtime.signals.Interrupted`.
     """
     from stlplan.planner.solve import plan as solve_plan
+    from stlplan.planner.strategy import describe
 
     discard_highs_banner()  # the first HiGHS object of a process prints it on stdout
     overrides = overrides or Overrides()

@@ -53,6 +53,7 @@ from stlplan.planner.in_turn import InTurn, release
 from stlplan.planner.lazy import LazySolver
 from stlplan.planner.outcome import Outcome, relative_gap
 from stlplan.planner.parts import agent_parts, sub_problem
+from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.watch import VIOLATION_TOL, trajectory_states
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
@@ -77,6 +78,7 @@ def _part(
     clock: Clock,
     budget: Budget,
     seed: set[tuple[Any, ...]] = frozenset(),  # type: ignore[assignment]
+    policy: RepairPolicy | None = None,
 ) -> Part:
     """Build (and seed with known requirements) the lazy model of one part."""
     sub = sub_problem(problem, agents)
@@ -84,7 +86,7 @@ def _part(
         pm = build_model(sub, config, budget.share(config.model.floors_share).deadline)
     assert pm.deferral is not None
     add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
-    return Part(tuple(agents), pm, LazySolver(pm, config, clock))
+    return Part(tuple(agents), pm, LazySolver(pm, config, clock, policy))
 
 
 def _crossing(full: PlanModel, parts: Sequence[Part]) -> list[Requirement]:
@@ -197,7 +199,7 @@ def _repair(part: Part, config: PlannerConfig, budget: Budget) -> Outcome | None
     tick = time.perf_counter()
     repaired = None
     crowd = budget.share(config.parts.crowd_repair_share)
-    if _crowded(part.free, config) and _in_turn(part, config, crowd):
+    if part.solver.policy.on_merge(len(part.free)) and _in_turn(part, config, crowd):
         repaired = part.solver.kept(time.perf_counter() - tick)
     if repaired is None:
         merged_from = [p.pm for p in part.merged_from]
@@ -210,11 +212,6 @@ def _repair(part: Part, config: PlannerConfig, budget: Budget) -> Outcome | None
         return None
     _tighten(part.merged_from, config, budget, plan=repaired.objective)
     return repaired
-
-
-def _crowded(free: frozenset[str], config: PlannerConfig) -> bool:
-    """Whether a merged part whose collisions name the agents ``free`` is repaired in turn."""
-    return config.repair.crowd_agents is not None and len(free) >= config.repair.crowd_agents
 
 
 def _in_turn(part: Part, config: PlannerConfig, budget: Budget) -> bool:
@@ -230,10 +227,14 @@ def _in_turn(part: Part, config: PlannerConfig, budget: Budget) -> bool:
 
 
 def solve_parts(
-    problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
+    problem: Problem,
+    config: PlannerConfig,
+    clock: Clock,
+    budget: Budget,
+    policy: RepairPolicy | None = None,
 ) -> tuple[PlanModel, Outcome] | None:
-    """Solve step 1 part by part (module docstring) within ``budget``; None when the problem
-    has one part.
+    """Solve step 1 part by part (module docstring) within ``budget``, repairing in turn by
+    ``policy`` (default: ``config``'s); None when the problem has one part.
 
     Returns the full problem's model with the plan loaded (when there is one) and the result.
     """
@@ -243,7 +244,7 @@ def solve_parts(
     tick = time.perf_counter()
     with clock.building():
         full = build_model(problem, config.with_overrides({"model.floors": False}))
-    parts = [_part(problem, agents, config, clock, budget) for agents in names]
+    parts = [_part(problem, agents, config, clock, budget, policy=policy) for agents in names]
     while True:
         _solve_in_shares(parts, config, budget)
         done = _combined(parts, config, time.perf_counter() - tick, clock.round or 1)
@@ -278,11 +279,12 @@ def _merged(
         agents = {a for p in group for a in p.agents}
         free = frozenset(a for r in crossing for a in r.binding.values()) & agents
         seed = set().union(*(added_keys(p.pm) for p in group))
-        if not _crowded(free, config):  # (a repair in turn adds them as its plans cross)
+        # (a repair in turn adds them as its plans cross)
+        if not group[0].solver.policy.on_merge(len(free)):
             seed |= {requirement_key(r) for r in crossing if set(r.binding.values()) <= agents}
         order = [a.name for a in problem.agents if a.name in agents]
         out = [p for p in out if p not in group]
-        merged = _part(problem, order, config, clock, budget, seed)
+        merged = _part(problem, order, config, clock, budget, seed, group[0].solver.policy)
         merged.merged_from = tuple(group)
         merged.free = free
         out.append(merged)

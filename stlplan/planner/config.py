@@ -10,7 +10,8 @@ stay beside the code that applies them.
 A run's configuration is the mission's settings (:meth:`PlannerConfig.from_mission`) with dotted
 overrides applied (:meth:`PlannerConfig.with_overrides`, e.g. ``{"repair.crowd_agents": 5}``);
 an unknown key or a value of the wrong type is a :class:`ConfigError` naming it. ``summary.json``
-records the whole tree and :func:`describe`'s one line.
+records the whole tree and the composed strategy's line
+(:func:`stlplan.planner.strategy.describe`).
 
 This module imports neither Pyomo nor HiGHS.
 """
@@ -266,27 +267,6 @@ def knob_docs() -> list[tuple[str, str, Any, str]]:
                 (f"{section}.{knob}", str(info.annotation), default, info.description or "")
             )
     return rows
-
-
-def describe(config: PlannerConfig) -> str:
-    """The composed strategy of step 1 in one line (as CP-SAT logs its parameters)."""
-    m, r = config.model, config.repair
-    cuts = [name for name, on in (("floors", m.floors), ("symmetry", m.symmetry)) if on]
-    model = f"model({m.encoding}, {m.tasks}" + "".join(f", {c}" for c in cuts) + ")"
-    step = "direct"
-    if config.lazy.enabled:
-        triggers = []
-        if r.after_round_seconds is not None:
-            triggers.append(f"round >= {r.after_round_seconds:g} s")
-        if r.crowd_agents is not None:
-            triggers.append(f">= {r.crowd_agents} agents")
-        repair = f", repair in turn if {' or '.join(triggers)}" if triggers else ""
-        step = f"lazy rounds(direct{repair})"
-        if config.parts.enabled:
-            crowd = f"in turn if >= {r.crowd_agents} agents, " if r.crowd_agents else ""
-            step = f"parts({step}; merge: {crowd}held)"
-    after = "step 2" if config.continuous.two_step else "polish"
-    return f"{model} -> {step} -> {after} -> strict retry if needed"
 
 
 _NAMED = {

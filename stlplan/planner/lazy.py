@@ -41,6 +41,7 @@ from stlplan.planner.encoding.deferred import best_side, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
 from stlplan.planner.in_turn import InTurn, agents_of
 from stlplan.planner.outcome import Outcome, lowest, relative_gap
+from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.session import HighsSession, Solved, has_solution, plan_status
 from stlplan.planner.watch import Watch, pending_violations, trajectory_states
 from stlplan.result import PlanStatus
@@ -56,13 +57,22 @@ class LazySolver:
     pm
         A model built with ``lazy=True`` (or without: then a run is one solve).
     config
-        The run's configuration (solver settings, ``lazy.window``, the repair's triggers).
+        The run's configuration (solver settings, ``lazy.window``, the repair's share).
     clock
         Progress reporting; ``clock.round`` counts the solves.
+    policy
+        When a round's plan is repaired in turn (default: ``config``'s).
     """
 
-    def __init__(self, pm: PlanModel, config: PlannerConfig, clock: Clock) -> None:
+    def __init__(
+        self,
+        pm: PlanModel,
+        config: PlannerConfig,
+        clock: Clock,
+        policy: RepairPolicy | None = None,
+    ) -> None:
         self.pm, self.config, self.clock = pm, config, clock
+        self.policy = policy or RepairPolicy.of(config)
         self.min_solve = config.budget.min_solve_seconds
         clock.round = (clock.round or 0) + 1
         self.session = HighsSession(pm.model, config, clock, "step1")
@@ -141,21 +151,14 @@ class LazySolver:
     def _between_rounds(self, bad: list[int], budget: Budget, seconds: float) -> bool:
         """Add the requirements the round's plan violates (``bad``), first repairing that plan
         in turn while no plan meets every requirement and the round (of ``seconds``) was long or
-        crowded (:meth:`_crowded`); whether the best plan closes the gap."""
+        crowded (the repair policy); whether the best plan closes the gap."""
         pm, config, watch = self.pm, self.config, self.watch
         assert pm.deferral is not None and watch is not None
-        if watch.best is None and self._crowded(bad, seconds):
+        crowd = len(agents_of(pm, bad))
+        if watch.best is None and self.policy.after_round(seconds, crowd):
             InTurn(pm, self.session, config).run(bad, budget.share(config.repair.share))
         add_requirements(pm, neighbours(pm.deferral.lazy, bad, config.lazy.window))
         return watch.closed(watch.ceiling)
-
-    def _crowded(self, bad: list[int], seconds: float) -> bool:
-        """Whether a round of ``seconds`` whose plan violates ``bad`` is to be repaired in turn
-        (``repair.after_round_seconds``, ``repair.crowd_agents``)."""
-        after, crowd = self.config.repair.after_round_seconds, self.config.repair.crowd_agents
-        if after is not None and seconds >= after:
-            return True
-        return crowd is not None and len(agents_of(self.pm, bad)) >= crowd
 
     def _last(self, last: Solved, tick: float, rounds: int, budget: Budget) -> Outcome:
         """The loop ends short of the optimum (time, a stop request, infeasible, an error).
@@ -217,10 +220,16 @@ class LazySolver:
         return objective
 
 
-def solve_step1(pm: PlanModel, config: PlannerConfig, clock: Clock, budget: Budget) -> Outcome:
+def solve_step1(
+    pm: PlanModel,
+    config: PlannerConfig,
+    clock: Clock,
+    budget: Budget,
+    policy: RepairPolicy | None = None,
+) -> Outcome:
     """Solve problem (step1) of ``pm`` within ``budget``, lazily when ``pm`` was built with
-    ``lazy=True``."""
-    return LazySolver(pm, config, clock).run(budget)
+    ``lazy=True`` (repairing in turn by ``policy``)."""
+    return LazySolver(pm, config, clock, policy).run(budget)
 
 
 def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Outcome:

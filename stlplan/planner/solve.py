@@ -20,19 +20,20 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 
 from pyomo.environ import ConcreteModel, Constraint, Var
 
 from stlplan.mission.problem import Problem
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock, ProgressCallback
-from stlplan.planner.components import solve_parts
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.encoding.model import PlanModel, build_model
+from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.readout import plan_result
 from stlplan.planner.finish import Finish, finish
-from stlplan.planner.lazy import solve_step1
 from stlplan.planner.outcome import Outcome
+from stlplan.planner.strategy import build_strategy
 from stlplan.result import Fallback, ModelSize, PlanResult, PlanStatus
 from stlplan.runtime import signals
 
@@ -59,46 +60,60 @@ def _strict_note(config: PlannerConfig) -> str:
     )
 
 
-def _solved(
-    problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
-) -> tuple[PlanModel, Outcome, Finish, bool, ModelSize]:
-    """Step 1, then the continuous stage: the model with the plan loaded, how step 1 and the
-    continuous stage ended, whether step 1 was solved strictly, and the size of step 1's last
-    MILP (taken before the continuous stage fixes its decisions).
+@dataclass
+class _Run:
+    """What the stages of one run hand on: the problem, the configuration (made strict by a
+    retry), the clock, the budget, and what each stage found."""
 
-    When step 1's decisions, taken exactly, admit no plan, its plan met them only within HiGHS's
-    integrality tolerance (a binary at ``1e-6`` from 0 or 1 relaxes a big-M row by ``M 1e-6``,
-    more than ``EPSILON``): step 1 is solved again with :func:`strict` options.
-    """
-    with budget.stage("step 1"):
-        pm, step1 = _step1(problem, config, clock, budget)
-    size = model_size(pm.model)
-    if not step1.status.has_plan:
-        return pm, step1, Finish(), False, size
+    problem: Problem
+    config: PlannerConfig
+    clock: Clock
+    budget: Budget
+    pm: PlanModel | None = None
+    step1: Outcome | None = None
+    size: ModelSize | None = None
+    ended: Finish = dataclasses.field(default_factory=Finish)
+    strictly: bool = False
+
+
+def _step_one(run: _Run) -> None:
+    """Build and solve problem (step 1) by the strategy the configuration composes."""
+    run.clock.report("build")
+    strategy = build_strategy(run.config)
+    with run.budget.stage("step 1"):
+        run.pm, run.step1 = strategy.solve(run.problem, run.config, run.clock, run.budget)
+    run.size = model_size(run.pm.model)  # before the continuous stage fixes its decisions
+
+
+def _continuous(run: _Run) -> None:
+    """Step 2 (or the polish) with step 1's decisions fixed, when step 1 has a plan."""
+    if run.pm is None or run.step1 is None or not run.step1.status.has_plan:
+        run.ended = Finish()
+        return
     # after a stop request too: step 2 is a quick LP or QP
-    with signals.finishing(), budget.stage("continuous"):
-        ended = finish(pm, config, clock, budget.finishing())
-    tolerance = config.solver.highs_options.get("mip_feasibility_tolerance")
-    if not ended.infeasible or tolerance == config.solver.strict_integrality:
-        return pm, step1, ended, False, size
-    pm, step1, ended, _, size = _solved(problem, strict(config), clock, budget)
-    return pm, step1, ended, True, size
+    with signals.finishing(), run.budget.stage("continuous"):
+        run.ended = finish(run.pm, run.config, run.clock, run.budget.finishing())
 
 
-def _step1(
-    problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
-) -> tuple[PlanModel, Outcome]:
-    """Build and solve problem (step 1), part by part when it splits; returns the model with
-    the plan loaded and how step 1 ended (building is timed on the clock)."""
-    clock.report("build")
-    by_parts = None
-    if config.lazy.enabled and config.parts.enabled:
-        by_parts = solve_parts(problem, config, clock, budget)
-    if by_parts is not None:
-        return by_parts
-    with clock.building():
-        pm = build_model(problem, config, budget.share(config.model.floors_share).deadline)
-    return pm, solve_step1(pm, config, clock, budget)
+def _strict_retry(run: _Run) -> None:
+    """When step 1's decisions, taken exactly, admit no plan, its plan met them only within
+    HiGHS's integrality tolerance (a binary at ``1e-6`` from 0 or 1 relaxes a big-M row by
+    ``M 1e-6``, more than ``EPSILON``): step 1 and the continuous stage again, with
+    ``solver.strict_integrality``."""
+    tolerance = run.config.solver.highs_options.get("mip_feasibility_tolerance")
+    if not run.ended.infeasible or tolerance == run.config.solver.strict_integrality:
+        return
+    run.config, run.strictly = strict(run.config), True
+    _step_one(run)
+    _continuous(run)
+
+
+STAGES: tuple[tuple[str, Callable[[_Run], None]], ...] = (
+    ("step 1", _step_one),
+    ("continuous", _continuous),
+    ("strict retry", _strict_retry),
+)
+"""The stages of a run, in order; the readout (:func:`plan`) follows them."""
 
 
 def plan(
@@ -129,8 +144,11 @@ def plan(
     """
     config = config or PlannerConfig.from_mission(problem.mission)
     clock = Clock.started(progress)
-    budget = budget or Budget.for_run(config)
-    pm, step1, ended, strictly, size = _solved(problem, config, clock, budget)
+    run = _Run(problem, config, clock, budget or Budget.for_run(config))
+    for _, stage in STAGES:
+        stage(run)
+    assert run.pm is not None and run.step1 is not None and run.size is not None
+    pm, step1, ended, strictly, size = run.pm, run.step1, run.ended, run.strictly, run.size
     failed = ended.failed
     redone = _strict_note(config) if strictly else ""
     if not step1.status.has_plan:

@@ -1,0 +1,120 @@
+"""Step 1's strategy, composed in one place from the configuration (:func:`build_strategy`).
+
+Three strategies, each wrapping the one before:
+
+* :class:`Direct`: build the MILP with every requirement and solve it once;
+* :class:`LazyRounds`: build it with the step requirements of constraints and separation left
+  out, and solve in rounds, adding what each round's plan violates
+  (:mod:`stlplan.planner.lazy`); while no plan meets every requirement, a round's plan may be
+  repaired agent by agent, as the :class:`~stlplan.planner.repair_policy.RepairPolicy` says;
+* :class:`Parts`: solve the independent parts of the team apart, each by the strategy inside,
+  merging parts whose plans collide (a merge repaired by the same policy) and assembling the
+  parts' plans in one model (:mod:`stlplan.planner.components`).
+
+Each strategy takes the problem, the configuration, the run's clock and a budget, and returns
+the model with the plan loaded and the :class:`~stlplan.planner.outcome.Outcome`. Each describes
+itself; ``summary.json`` records the line (``strategy``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+from stlplan.mission.problem import Problem
+from stlplan.planner.budget import Budget
+from stlplan.planner.clock import Clock
+from stlplan.planner.components import solve_parts
+from stlplan.planner.config import PlannerConfig
+from stlplan.planner.encoding.model import PlanModel, build_model
+from stlplan.planner.lazy import solve_step1
+from stlplan.planner.outcome import Outcome
+from stlplan.planner.repair_policy import RepairPolicy
+
+
+class Strategy(Protocol):
+    """A way to solve step 1."""
+
+    def solve(
+        self, problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
+    ) -> tuple[PlanModel, Outcome]:
+        """The model of ``problem`` with the plan loaded, and how step 1 ended."""
+        ...
+
+    def describe(self) -> str:
+        """The strategy in words."""
+        ...
+
+
+def _built(problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget) -> PlanModel:
+    """The model as ``config`` declares it, its effort floors within ``model.floors_share``."""
+    with clock.building():
+        return build_model(problem, config, budget.share(config.model.floors_share).deadline)
+
+
+@dataclass(frozen=True)
+class Direct:
+    """Every requirement in the model; one solve."""
+
+    def solve(
+        self, problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
+    ) -> tuple[PlanModel, Outcome]:
+        up_front = config.with_overrides({"lazy.enabled": False})
+        pm = _built(problem, up_front, clock, budget)
+        return pm, solve_step1(pm, up_front, clock, budget)
+
+    def describe(self) -> str:
+        return "direct"
+
+
+@dataclass(frozen=True)
+class LazyRounds:
+    """Step requirements added as rounds' plans violate them; repairs by ``policy``."""
+
+    policy: RepairPolicy
+
+    def solve(
+        self, problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
+    ) -> tuple[PlanModel, Outcome]:
+        pm = _built(problem, config, clock, budget)
+        return pm, solve_step1(pm, config, clock, budget, self.policy)
+
+    def describe(self) -> str:
+        triggers = self.policy.describe()
+        return f"lazy rounds(direct{f', repair in turn if {triggers}' if triggers else ''})"
+
+
+@dataclass(frozen=True)
+class Parts:
+    """Independent parts solved apart by ``inner``, merged where their plans collide."""
+
+    inner: LazyRounds
+
+    def solve(
+        self, problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
+    ) -> tuple[PlanModel, Outcome]:
+        by_parts = solve_parts(problem, config, clock, budget, self.inner.policy)
+        return by_parts or self.inner.solve(problem, config, clock, budget)
+
+    def describe(self) -> str:
+        crowd = self.inner.policy.crowd_agents
+        merge = f"in turn if >= {crowd} agents, held" if crowd is not None else "held"
+        return f"parts({self.inner.describe()}; merge: {merge})"
+
+
+def build_strategy(config: PlannerConfig) -> Strategy:
+    """Step 1's strategy as ``config`` composes it (module docstring)."""
+    if not config.lazy.enabled:
+        return Direct()
+    rounds = LazyRounds(RepairPolicy.of(config))
+    return Parts(rounds) if config.parts.enabled else rounds
+
+
+def describe(config: PlannerConfig) -> str:
+    """The whole run in one line, the model and step 1's strategy included (as CP-SAT logs its
+    parameters)."""
+    m = config.model
+    cuts = [name for name, on in (("floors", m.floors), ("symmetry", m.symmetry)) if on]
+    model = f"model({m.encoding}, {m.tasks}" + "".join(f", {c}" for c in cuts) + ")"
+    after = "step 2" if config.continuous.two_step else "polish"
+    return f"{model} -> {build_strategy(config).describe()} -> {after} -> strict retry if needed"

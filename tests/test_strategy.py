@@ -1,0 +1,69 @@
+"""Step 1's composed strategies (stlplan.planner.strategy): composed from the configuration,
+and every one reaches the up-front optimum, accepted by the monitor."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import pytest
+
+from stlplan.mission.problem import Problem
+from stlplan.planner.budget import Budget
+from stlplan.planner.clock import Clock
+from stlplan.planner.config import PlannerConfig
+from stlplan.planner.repair_policy import RepairPolicy
+from stlplan.planner.solve import STAGES, plan
+from stlplan.planner.strategy import Direct, LazyRounds, Parts, build_strategy, describe
+from stlplan.result import PlanStatus
+from tests.helpers.missions import detour_for_free, swap_problem
+from tests.helpers.solving import accepted, up_front_optimum
+
+EXACT = PlannerConfig().with_overrides({"solver.time_limit": 60.0, "solver.gap": 1e-6})
+POLICY = RepairPolicy.of(EXACT)
+
+
+def test_the_configuration_composes_the_strategy() -> None:
+    assert build_strategy(EXACT) == Parts(LazyRounds(POLICY))
+    assert build_strategy(EXACT.with_overrides({"parts.enabled": False})) == LazyRounds(POLICY)
+    assert build_strategy(EXACT.with_overrides({"lazy.enabled": False})) == Direct()
+    line = describe(EXACT)
+    assert build_strategy(EXACT).describe() in line and line.startswith("model(standard")
+
+
+def test_the_stages_run_in_order() -> None:
+    assert [name for name, _ in STAGES] == ["step 1", "continuous", "strict retry"]
+
+
+def test_the_repair_policy_decides_both_triggers() -> None:
+    policy = RepairPolicy(after_round_seconds=8.0, crowd_agents=7)
+    assert policy.after_round(8.0, 1) and policy.after_round(0.1, 7)
+    assert not policy.after_round(7.9, 6)
+    assert policy.on_merge(7) and not policy.on_merge(6)
+    never = RepairPolicy(None, None)
+    assert not never.after_round(1e6, 100) and not never.on_merge(100) and never.describe() == ""
+
+
+PROBLEMS: dict[str, Callable[[], Problem]] = {
+    "swap": lambda: swap_problem(separation=0.5),
+    "detour_for_free": detour_for_free,
+}
+
+
+@pytest.mark.parametrize("name", sorted(PROBLEMS))
+@pytest.mark.parametrize("strategy", [Direct(), LazyRounds(POLICY), Parts(LazyRounds(POLICY))])
+def test_every_strategy_reaches_the_up_front_optimum(name: str, strategy: object) -> None:
+    problem = PROBLEMS[name]()
+    reference = up_front_optimum(problem)
+    assert reference.status is PlanStatus.OPTIMAL and reference.objective is not None
+    pm, outcome = strategy.solve(problem, EXACT, Clock.started(None), Budget.for_run(EXACT))  # type: ignore[attr-defined]
+    assert outcome.status is PlanStatus.OPTIMAL, outcome
+    assert outcome.objective == pytest.approx(reference.objective, abs=1e-5)
+    assert pm.problem is problem
+
+
+@pytest.mark.parametrize("name", sorted(PROBLEMS))
+def test_a_planned_run_is_accepted_by_the_monitor(name: str) -> None:
+    problem = PROBLEMS[name]()
+    result = plan(problem, EXACT)
+    assert result.status is PlanStatus.OPTIMAL and accepted(problem, result)
+    assert result.objective == pytest.approx(up_front_optimum(problem).objective, abs=1e-5)
