@@ -246,6 +246,13 @@ class PlanResult:
     """The planner's whole configuration for this run, by section and knob."""
     strategy: str = ""
     """The composed strategy of the run in one line."""
+    rounds: int = 1
+    """Solves of step 1's lazy loop (and of its parts)."""
+    requirements_added: int = 0
+    """Lazy requirements the plan's model holds."""
+    events: tuple[str, ...] = ()
+    """What happened on the way, in words (lazy rounds, a completion, overturned verdicts, a
+    strict retry, a landed step 2)."""
     stage_seconds: Mapping[str, float] = field(default_factory=dict)
     """Wall time of each stage of the run (step 1, the continuous stage, a diagnosis, the
     monitor's verification), s."""

@@ -230,10 +230,12 @@ def test_an_intermediate_infeasible_verdict_beside_a_plan_is_a_note() -> None:
     _, result = api.plan(MISSIONS / "reach-avoid.yaml")
     checks = (Check((), "Infeasible", 0.01), Check((("presolve", "off"),), "Infeasible", 0.01))
     confirmed = Confirmation("step2", checks, "confirmed")
+    noted = dataclasses.replace(result, confirmations=(confirmed,))
     buffer = io.StringIO()
-    print_plan(
-        Console(file=buffer, width=400), dataclasses.replace(result, confirmations=(confirmed,))
-    )
+    print_plan(Console(file=buffer, width=400), noted)
+    assert "infeasible" not in buffer.getvalue()  # an internal event: --verbose only
+    buffer = io.StringIO()
+    print_plan(Console(file=buffer, width=400), noted, verbose=True)
     lines = buffer.getvalue().splitlines()
     assert not [line for line in lines if line.startswith("infeasible")]
     notes = [line for line in lines if line.startswith("note ")]

@@ -332,13 +332,20 @@ def test_the_strict_until_needs_no_left_where_right_holds(op: str, status: PlanS
 
 
 def test_a_failed_completion_is_not_called_completed() -> None:
+    from stlplan.planner.clock import Clock
+    from stlplan.planner.finish import Finish
     from stlplan.planner.outcome import Outcome
-    from stlplan.planner.solve import _completion_text
+    from stlplan.planner.solve import _events, _message
 
+    config, clock = PlannerConfig(), Clock(0.0, None)
     done = Outcome(PlanStatus.FEASIBLE, 1.0, 2.0, 0.5, 1.0, 3, 4, "maxTimeLimit", completed=True)
     failed = dataclasses.replace(done, status=PlanStatus.NO_PLAN, objective=None, gap=None)
-    assert _completion_text(done) == ", completed with step-1 decisions fixed"
-    assert "cannot meet" in _completion_text(failed) and "completed with" not in _completion_text(
-        failed
+    completion = "the last round's plan completed with its step-1 decisions fixed"
+    assert completion in _events(done, Finish(), config, clock, False)
+    assert "cannot meet" in _message(failed, config, clock)
+    assert not any("completed" in e for e in _events(failed, Finish(), config, clock, False))
+    assert "cannot meet" not in _message(done, config, clock)
+    plain = dataclasses.replace(done, completed=False)
+    assert _events(plain, Finish(), config, clock, False) == (
+        "3 lazy rounds, 4 requirements added",
     )
-    assert _completion_text(dataclasses.replace(done, completed=False)) == ""

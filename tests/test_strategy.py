@@ -67,3 +67,35 @@ def test_a_planned_run_is_accepted_by_the_monitor(name: str) -> None:
     result = plan(problem, EXACT)
     assert result.status is PlanStatus.OPTIMAL and accepted(problem, result)
     assert result.objective == pytest.approx(up_front_optimum(problem).objective, abs=1e-5)
+
+
+def test_a_strict_retry_that_finds_nothing_keeps_the_first_plan(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import dataclasses
+
+    import stlplan.planner.solve as solve_module
+    from stlplan.planner.finish import Finish
+
+    problem = swap_problem(separation=0.5)
+    real = build_strategy(EXACT)
+    calls: list[int] = []
+
+    class Once:
+        """The real strategy the first time; no plan when step 1 is solved again strictly."""
+
+        def solve(self, *args: object) -> object:
+            pm, found = real.solve(*args)  # type: ignore[arg-type]
+            calls.append(1)
+            if len(calls) > 1:
+                found = dataclasses.replace(found, status=PlanStatus.NO_PLAN, objective=None)
+            return pm, found
+
+    monkeypatch.setattr(solve_module, "build_strategy", lambda config: Once())
+    infeasible = Finish("the continuous solve ended provenInfeasible", infeasible=True)
+    monkeypatch.setattr(solve_module, "finish", lambda *args: infeasible)
+    result = plan(problem, EXACT)
+    assert len(calls) == 2  # the retry ran, and found nothing
+    assert result.status.has_plan and result.trajectory is not None
+    assert result.fallback is not None and "step-1 plan" in result.fallback.kept
+    assert accepted(problem, result)

@@ -19,6 +19,7 @@ from stlplan.cli.shell import (
     JsonOption,
     Output,
     QuietOption,
+    VerboseOption,
     handled,
     solver_output,
 )
@@ -166,6 +167,7 @@ def solve(
     no_html: NoHtmlOption = False,
     as_json: JsonOption = False,
     quiet: QuietOption = False,
+    verbose: VerboseOption = False,
 ) -> None:
     """Plan a mission: solve the MILP, verify with the monitor, write CSV, JSON, plots, the
     animation and the interactive viewer (plan.html).
@@ -204,7 +206,7 @@ def solve(
         output.document(api.summary(problem, result, overrides))
         raise typer.Exit(code)
     if output.full:  # the status line and the monitor's verdict are in the plan's report
-        print_plan(output.out, result)
+        print_plan(output.out, result, verbose)
         output.line(f"outputs in {out}")
     else:  # --quiet: one line on stdout, whatever the outcome (the exit code tells it apart)
         verdict = "satisfied" if code == 0 else result.status.value

@@ -44,6 +44,15 @@ JsonOption = Annotated[
     ),
 ]
 QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="Print one line: the result.")]
+VerboseOption = Annotated[
+    bool,
+    typer.Option(
+        "--verbose",
+        "-v",
+        help="Also print what happened on the way: lazy rounds, confirmations of HiGHS's "
+        "verdicts, retries (always in summary.json).",
+    ),
+]
 
 
 def console(stderr: bool = False) -> Console:

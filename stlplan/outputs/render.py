@@ -89,8 +89,9 @@ def print_report(console: Console, report: MonitorReport) -> None:
             console.print(f"  {v.name}: {v.detail}")
 
 
-def print_plan(console: Console, result: PlanResult) -> None:
-    """Status, objective, synchronous robustness, effort, assignments, sizes and times."""
+def print_plan(console: Console, result: PlanResult, verbose: bool = False) -> None:
+    """Status, objective, synchronous robustness, effort, assignments, sizes and times; with
+    ``verbose``, what happened on the way too (events, confirmations beside a plan)."""
     status = result.status.value
     if result.status.value == "feasible":
         status += f" (not proven optimal, gap {_num(result.gap)})"
@@ -124,7 +125,10 @@ def print_plan(console: Console, result: PlanResult) -> None:
         f"[bold]time[/]       build {result.build_seconds:.2f} s, solve "
         f"{result.solve_seconds:.2f} s"
     )
-    print_confirmations(console, result)
+    if verbose:
+        for event in result.events:
+            console.print(f"[bold]run[/]        {event}")
+    print_confirmations(console, result, verbose)
     if result.report is not None:
         print_report(console, result.report)
     if result.diagnosis is not None:
@@ -160,13 +164,15 @@ def print_figures(console: Console, result: PlanResult) -> None:
         )
 
 
-def print_confirmations(console: Console, result: PlanResult) -> None:
+def print_confirmations(console: Console, result: PlanResult, verbose: bool = False) -> None:
     """Each infeasible verdict of HiGHS and how it was checked. Beside a plan, a verdict came
     from an intermediate solve (a lazy round, a step 2 redone after a stricter step 1): it is a
-    note, not the outcome."""
+    note, not the outcome, printed only when ``verbose``."""
     for confirmation in result.confirmations:
         if result.trajectory is None:
             console.print(f"[bold]infeasible[/] {confirmation_text(confirmation)}")
+            continue
+        if not verbose:
             continue
         later = "; the plan comes from a later solve" if confirmation.outcome == "confirmed" else ""
         console.print(f"[bold]note[/]       infeasible {confirmation_text(confirmation)}{later}")

@@ -22,6 +22,7 @@ import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 from pyomo.environ import ConcreteModel, Constraint, Var
 
@@ -55,8 +56,8 @@ def strict(config: PlannerConfig) -> PlannerConfig:
 def _strict_note(config: PlannerConfig) -> str:
     tolerance = config.solver.strict_integrality
     return (
-        f" (step 1 solved again with integrality tolerance {tolerance:g}: its first plan met"
-        " its decisions only within HiGHS's default tolerance)"
+        f"step 1 solved again with integrality tolerance {tolerance:g}: its first plan met"
+        " its decisions only within HiGHS's default tolerance"
     )
 
 
@@ -99,13 +100,17 @@ def _strict_retry(run: _Run) -> None:
     """When step 1's decisions, taken exactly, admit no plan, its plan met them only within
     HiGHS's integrality tolerance (a binary at ``1e-6`` from 0 or 1 relaxes a big-M row by
     ``M 1e-6``, more than ``EPSILON``): step 1 and the continuous stage again, with
-    ``solver.strict_integrality``."""
+    ``solver.strict_integrality``. When that finds no plan, the first one is kept (its
+    continuous stage failed: the step-1 plan stands, for the monitor to judge)."""
     tolerance = run.config.solver.highs_options.get("mip_feasibility_tolerance")
     if not run.ended.infeasible or tolerance == run.config.solver.strict_integrality:
         return
+    first = dataclasses.replace(run)
     run.config, run.strictly = strict(run.config), True
     _step_one(run)
     _continuous(run)
+    if run.step1 is None or not run.step1.status.has_plan:
+        run.pm, run.step1, run.size, run.ended = first.pm, first.step1, first.size, first.ended
 
 
 STAGES: tuple[tuple[str, Callable[[_Run], None]], ...] = (
@@ -149,30 +154,26 @@ def plan(
         stage(run)
     assert run.pm is not None and run.step1 is not None and run.size is not None
     pm, step1, ended, strictly, size = run.pm, run.step1, run.ended, run.strictly, run.size
-    failed = ended.failed
-    redone = _strict_note(config) if strictly else ""
+    events = _events(step1, ended, config, clock, strictly)
+    found: dict[str, Any] = {
+        "rounds": step1.rounds,
+        "requirements_added": step1.added,
+        "events": events,
+    }
     if not step1.status.has_plan:
         clock.report("done")
         return PlanResult(
             status=step1.status,
-            message=_message(step1, config, clock) + redone,
+            message=_message(step1, config, clock),
             bound=step1.bound,
             model_size=size,
             build_seconds=clock.build_seconds,
             solve_seconds=clock.elapsed() - clock.build_seconds,
             confirmations=tuple(clock.confirmations),
+            **found,
         )
     clock.report("done", step1.objective, step1.bound, step1.gap)
-    message = _message(step1, config, clock) + redone
-    fallback = None
-    if failed is not None:
-        step = "step 2" if config.continuous.two_step else "polish"
-        message += f"; the continuous re-solve failed ({failed}), {ended.kept} is kept"
-        fallback = Fallback(step, failed, ended.kept)
-    elif config.continuous.two_step:
-        message += f"; step 2 minimized the {problem.mission.objective.effort} effort"
-    if ended.note:
-        message += f" ({ended.note})"
+    message, fallback = _finished(_message(step1, config, clock), ended, config, problem)
     figures = {"objective": step1.objective, "bound": step1.bound, "gap": step1.gap}
     result = plan_result(
         pm,
@@ -182,13 +183,27 @@ def plan(
         size,
         clock.build_seconds,
         clock.elapsed() - clock.build_seconds,
-        steps=2 if config.continuous.two_step and failed is None else 1,
+        steps=2 if config.continuous.two_step and fallback is None else 1,
     )
-    return dataclasses.replace(result, confirmations=tuple(clock.confirmations), fallback=fallback)
+    confirmations = tuple(clock.confirmations)
+    return dataclasses.replace(result, confirmations=confirmations, fallback=fallback, **found)
+
+
+def _finished(
+    message: str, ended: Finish, config: PlannerConfig, problem: Problem
+) -> tuple[str, Fallback | None]:
+    """The message with how the continuous stage ended, and its fallback when it failed."""
+    if ended.failed is not None:
+        step = "step 2" if config.continuous.two_step else "polish"
+        message += f"; the continuous re-solve failed ({ended.failed}), {ended.kept} is kept"
+        return message, Fallback(step, ended.failed, ended.kept)
+    if config.continuous.two_step:
+        message += f"; step 2 minimized the {problem.mission.objective.effort} effort"
+    return message, None
 
 
 def _message(step1: Outcome, config: PlannerConfig, clock: Clock) -> str:
-    """One line on how step 1 ended (with its lazy rounds)."""
+    """One line on how step 1 ended (the run's internal events apart: :func:`_events`)."""
     bound, gap = step1.bound, step1.gap
     known = gap is not None and bound is not None and math.isfinite(bound)
     where = f"gap {gap:.2%}, bound {bound:.6g}" if known else "no bound yet"
@@ -203,23 +218,31 @@ def _message(step1: Outcome, config: PlannerConfig, clock: Clock) -> str:
     }
     text = texts[step1.status]
     outcomes = [c.outcome for c in clock.confirmations]
-    if "overturned" in outcomes:
-        text += f" ({outcomes.count('overturned')} infeasible verdict(s) of HiGHS overturned)"
     if "undecided" in outcomes and not step1.status.has_plan:
         text += " (HiGHS said infeasible, but a confirmation solve ended without a verdict)"
-    if config.lazy.enabled and step1.rounds > 1:
-        text += f" ({step1.rounds} lazy rounds, {step1.added} requirements added"
-        text += _completion_text(step1) + ")"
+    if step1.completed and not step1.status.has_plan:
+        text += (
+            "; at the time limit the last round's plan violated requirements that its "
+            "decisions, fixed, cannot meet"
+        )
     return text
 
 
-def _completion_text(step1: Outcome) -> str:
-    """How the last round's plan was completed at the time limit (when it was)."""
-    if not step1.completed:
-        return ""
-    if step1.status.has_plan:
-        return ", completed with step-1 decisions fixed"
-    return (
-        "; at the time limit the last round's plan violated requirements that its decisions, "
-        "fixed, cannot meet"
-    )
+def _events(
+    step1: Outcome, ended: Finish, config: PlannerConfig, clock: Clock, strictly: bool
+) -> tuple[str, ...]:
+    """What happened on the way, in words: lazy rounds, a completion, confirmations that
+    overturned HiGHS, a strict retry, a landed step 2 (``summary.json`` and ``--verbose``)."""
+    events = []
+    if config.lazy.enabled and step1.rounds > 1:
+        events.append(f"{step1.rounds} lazy rounds, {step1.added} requirements added")
+    if step1.completed and step1.status.has_plan:
+        events.append("the last round's plan completed with its step-1 decisions fixed")
+    overturned = [c for c in clock.confirmations if c.outcome == "overturned"]
+    if overturned:
+        events.append(f"{len(overturned)} infeasible verdict(s) of HiGHS overturned by a check")
+    if strictly:
+        events.append(_strict_note(config))
+    if ended.note:
+        events.append(ended.note)
+    return tuple(events)

@@ -1,0 +1,34 @@
+"""A successful solve prints its status, figures and the monitor's table; what happened on the
+way (lazy rounds, confirmations, retries) goes to summary.json, and to the terminal only with
+--verbose."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from typer.testing import CliRunner
+
+from stlplan.cli import app
+from tests.helpers.paths import MISSIONS
+
+WAREHOUSE = MISSIONS / "warehouse.yaml"
+
+
+def _solve(out: Path, *extra: str) -> str:
+    args = ["solve", str(WAREHOUSE), "--out", str(out), "--no-animation", "--no-html", *extra]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    return result.output
+
+
+def test_the_internal_events_go_to_the_summary_and_verbose(tmp_path: Path) -> None:
+    plain = _solve(tmp_path / "plain")
+    summary = json.loads((tmp_path / "plain" / "summary.json").read_text())
+    assert summary["rounds"] > 1 and summary["requirements_added"] > 0
+    assert any("lazy rounds" in event for event in summary["events"])
+    assert "lazy rounds" not in plain and "infeasible" not in plain
+    assert plain.splitlines()[0].startswith("status     optimal: optimal plan;")
+    verbose = _solve(tmp_path / "verbose", "--verbose")
+    events = [line for line in verbose.splitlines() if line.startswith("run ")]
+    assert events and "lazy rounds" in events[0]
