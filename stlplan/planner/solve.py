@@ -152,41 +152,33 @@ def plan(
     run = _Run(problem, config, clock, budget or Budget.for_run(config))
     for _, stage in STAGES:
         stage(run)
+    return _readout(run)
+
+
+def _readout(run: _Run) -> PlanResult:
+    """The plan of the run's model as a result, with how the run ended and what it did."""
     assert run.pm is not None and run.step1 is not None and run.size is not None
-    pm, step1, ended, strictly, size = run.pm, run.step1, run.ended, run.strictly, run.size
-    events = _events(step1, ended, config, clock, strictly)
+    step1, clock, config = run.step1, run.clock, run.config
     found: dict[str, Any] = {
         "rounds": step1.rounds,
         "requirements_added": step1.added,
-        "events": events,
+        "events": _events(step1, run.ended, config, clock, run.strictly),
+        "confirmations": tuple(clock.confirmations),
     }
+    build, solve = clock.build_seconds, clock.elapsed() - clock.build_seconds
     if not step1.status.has_plan:
         clock.report("done")
+        message = _message(step1, config, clock)
         return PlanResult(
-            status=step1.status,
-            message=_message(step1, config, clock),
-            bound=step1.bound,
-            model_size=size,
-            build_seconds=clock.build_seconds,
-            solve_seconds=clock.elapsed() - clock.build_seconds,
-            confirmations=tuple(clock.confirmations),
-            **found,
-        )
+            step1.status, message, bound=step1.bound, model_size=run.size,
+            build_seconds=build, solve_seconds=solve, **found,
+        )  # fmt: skip
     clock.report("done", step1.objective, step1.bound, step1.gap)
-    message, fallback = _finished(_message(step1, config, clock), ended, config, problem)
+    message, fallback = _finished(_message(step1, config, clock), run.ended, config, run.problem)
     figures = {"objective": step1.objective, "bound": step1.bound, "gap": step1.gap}
-    result = plan_result(
-        pm,
-        step1.status,
-        message,
-        figures,
-        size,
-        clock.build_seconds,
-        clock.elapsed() - clock.build_seconds,
-        steps=2 if config.continuous.two_step and fallback is None else 1,
-    )
-    confirmations = tuple(clock.confirmations)
-    return dataclasses.replace(result, confirmations=confirmations, fallback=fallback, **found)
+    steps = 2 if config.continuous.two_step and fallback is None else 1
+    result = plan_result(run.pm, step1.status, message, figures, run.size, build, solve, steps)
+    return dataclasses.replace(result, fallback=fallback, **found)
 
 
 def _finished(
