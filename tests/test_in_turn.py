@@ -81,7 +81,9 @@ def test_a_round_repaired_in_turn_meets_every_requirement(monkeypatch: pytest.Mo
 
     monkeypatch.setattr(InTurn, "_solve_free", spy)
     repaired = InTurn(pm, session, PlannerConfig()).run(bad, Budget.of_seconds(30.0))
-    assert repaired
+    assert repaired is not None  # the repair returns its plan: the loaded one, as a value
+    assert repaired.objective == pytest.approx(float(value(pm.model.step1)), abs=1e-6)
+    assert repaired.added == frozenset(pm.added)
     assert {"a"} in freed  # the first agent is solved alone
     assert pending_violations(pm) == []  # a plan of the full problem
     # the trial settings and the held bounds are given back

@@ -12,7 +12,8 @@ from stlplan.formula.tree import step_parts
 from stlplan.mission.problem import Problem
 from stlplan.planner.encoding.deferred import SEPARATION, defer, neighbours, violated
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.watch import Watch, lowest
+from stlplan.planner.outcome import Plan, lowest
+from stlplan.planner.watch import Watch
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model
 from tests.helpers.missions import mission, swap_problem
@@ -186,7 +187,7 @@ def test_segment_violations_between_safe_samples() -> None:
 
 def test_a_known_ceiling_closes_the_loop() -> None:
     watch = Watch(pm=None, columns={}, gap=1e-4, ceiling=2.0)  # type: ignore[arg-type]
-    watch.best = (1.9999, np.zeros(0), frozenset())
+    watch.best = Plan(1.9999, np.zeros(0), frozenset())
     assert watch.closed(5.0)  # HiGHS's own bound is loose; the ceiling is within the gap
     assert watch.closed(None)  # the ceiling alone bounds the problem
     watch.ceiling = None

@@ -51,7 +51,7 @@ from stlplan.planner.encoding.deferred import Requirement, requirement_key, viol
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
 from stlplan.planner.in_turn import InTurn, release
 from stlplan.planner.lazy import LazySolver
-from stlplan.planner.outcome import Outcome, relative_gap
+from stlplan.planner.outcome import Outcome, Plan, relative_gap
 from stlplan.planner.parts import agent_parts, sub_problem
 from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.watch import VIOLATION_TOL, trajectory_states
@@ -199,8 +199,9 @@ def _repair(part: Part, config: PlannerConfig, budget: Budget) -> Outcome | None
     tick = time.perf_counter()
     repaired = None
     crowd = budget.share(config.parts.crowd_repair_share)
-    if part.solver.policy.on_merge(len(part.free)) and _in_turn(part, config, crowd):
-        repaired = part.solver.kept(time.perf_counter() - tick)
+    plan = _in_turn(part, config, crowd) if part.solver.policy.on_merge(len(part.free)) else None
+    if plan is not None:
+        repaired = part.solver.repaired(plan, time.perf_counter() - tick)
     if repaired is None:
         merged_from = [p.pm for p in part.merged_from]
         held = hold_plans(part.pm, merged_from, config.repair.hold, part.free)
@@ -214,16 +215,15 @@ def _repair(part: Part, config: PlannerConfig, budget: Budget) -> Outcome | None
     return repaired
 
 
-def _in_turn(part: Part, config: PlannerConfig, budget: Budget) -> bool:
+def _in_turn(part: Part, config: PlannerConfig, budget: Budget) -> Plan | None:
     """Load the plans of the parts a merged part comes from and repair their collisions agent
-    by agent (:class:`stlplan.planner.in_turn.InTurn`); whether that found a plan."""
+    by agent (:class:`stlplan.planner.in_turn.InTurn`); the repaired plan (None: none)."""
     pm = part.pm
-    assert pm.deferral is not None and part.solver.watch is not None
+    assert pm.deferral is not None
     for var, planned in plan_values(pm, [p.pm for p in part.merged_from]):
         var.set_value(planned, skip_validation=True)
     bad = violated(pm.deferral.lazy, trajectory_states(pm), _margin(pm), VIOLATION_TOL)
-    InTurn(pm, part.solver.session, config).run(bad, budget)
-    return part.solver.watch.best is not None
+    return InTurn(pm, part.solver.session, config).run(bad, budget)
 
 
 def solve_parts(

@@ -33,12 +33,13 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
-from pyomo.environ import Var
+from pyomo.environ import Var, value
 
 from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements
+from stlplan.planner.outcome import Plan
 from stlplan.planner.session import HighsSession, has_solution
 from stlplan.planner.watch import pending_violations
 
@@ -100,8 +101,9 @@ class InTurn:
     def __init__(self, pm: PlanModel, session: HighsSession, config: PlannerConfig) -> None:
         self.pm, self.session, self.repair = pm, session, config.repair
 
-    def run(self, bad: Sequence[int], budget: Budget) -> bool:
-        """Repair the agents ``bad`` names within ``budget``; whether every turn found a plan."""
+    def run(self, bad: Sequence[int], budget: Budget) -> Plan | None:
+        """Repair the agents ``bad`` names within ``budget``; the repaired plan, when every turn
+        found one and it meets every requirement (None otherwise)."""
         names = [a.name for a in self.pm.problem.agents]
         involved = agents_of(self.pm, bad)
         turns = [n for n in names if n in involved]
@@ -110,10 +112,10 @@ class InTurn:
         gap, self.session.trial = config.rel_gap, True
         config.rel_gap = max(self.repair.gap, gap or 0.0)
         try:
-            repaired = self._repair(turns, done, budget)
-            if repaired:
-                self._improve(turns, set(names), budget)
-            return repaired
+            if not self._repair(turns, done, budget):
+                return None
+            self._improve(turns, set(names), budget)
+            return self._plan()
         finally:
             self.session.trial, config.rel_gap = trial, gap
 
@@ -139,6 +141,13 @@ class InTurn:
             self.session.start_from(self._loaded())  # the plan so far: no turn makes it worse
             if self._solve_free({name}, everyone - {name}, share):
                 return
+
+    def _plan(self) -> Plan | None:
+        """The loaded plan as a value, when it meets every requirement left out of the model."""
+        if pending_violations(self.pm):
+            return None
+        objective = float(value(self.pm.model.step1))
+        return Plan(objective, self._loaded(), frozenset(self.pm.added))
 
     def _loaded(self) -> np.ndarray:
         """The loaded plan as HiGHS's column vector."""

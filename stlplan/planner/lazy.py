@@ -40,7 +40,7 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import best_side, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
 from stlplan.planner.in_turn import InTurn, agents_of
-from stlplan.planner.outcome import Outcome, lowest, relative_gap
+from stlplan.planner.outcome import Outcome, Plan, lowest, relative_gap
 from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.session import HighsSession, Solved, has_solution, plan_status
 from stlplan.planner.watch import Watch, pending_violations, trajectory_states
@@ -114,7 +114,7 @@ class LazySolver:
         while True:
             watch.stopped = False  # (the session clears HiGHS's stale interrupt flag)
             if watch.best is not None:
-                self.session.start_from(watch.best[1])
+                self.session.start_from(watch.best.values)
             solved = self.session.solve(budget)
             rounds, seconds = (clock.round or 1) - first + 1, time.perf_counter() - tick
             results = solved.results
@@ -127,7 +127,7 @@ class LazySolver:
                 solved.seconds,
                 results.termination_condition.name,
                 results.objective_bound,
-                watch.best and watch.best[0],
+                watch.best and watch.best.objective,
                 len(pm.added),
             )
             if watch.best is not None and watch.closed(results.objective_bound):
@@ -156,7 +156,9 @@ class LazySolver:
         assert pm.deferral is not None and watch is not None
         crowd = len(agents_of(pm, bad))
         if watch.best is None and self.policy.after_round(seconds, crowd):
-            InTurn(pm, self.session, config).run(bad, budget.share(config.repair.share))
+            repaired = InTurn(pm, self.session, config).run(bad, budget.share(config.repair.share))
+            if repaired is not None:
+                watch.offer(repaired)
         add_requirements(pm, neighbours(pm.deferral.lazy, bad, config.lazy.window))
         return watch.closed(watch.ceiling)
 
@@ -194,11 +196,11 @@ class LazySolver:
             stop=last.results.termination_condition.name,
         )
 
-    def kept(self, seconds: float) -> Outcome | None:
-        """The best plan feasible for the full problem found so far (by a repair between runs),
-        loaded into ``pm``, as a result without a bound; None without one."""
-        if self.watch is None or self.watch.best is None:
-            return None
+    def repaired(self, plan: Plan, seconds: float) -> Outcome:
+        """The best of ``plan`` (a repair's, meeting every requirement) and the plans found so
+        far, loaded into ``pm``, as a result without a bound."""
+        assert self.watch is not None
+        self.watch.offer(plan)
         objective = self._load_best()
         return Outcome(PlanStatus.FEASIBLE, objective, None, None, seconds, 0, len(self.pm.added),
                      "repaired")  # fmt: skip
@@ -208,7 +210,7 @@ class LazySolver:
         plan meets best. Returns its objective."""
         pm, watch = self.pm, self.watch
         assert watch is not None and watch.best is not None and pm.deferral is not None
-        objective, x, added_then = watch.best
+        objective, x, added_then = watch.best.objective, watch.best.values, watch.best.added
         columns = self.session.columns()
         for v in pm.model.component_data_objects(Var):
             column = columns.get(id(v))

@@ -23,6 +23,8 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from stlplan.result import PlanStatus
 
 SLACK = 1 + 1e-9
@@ -60,6 +62,22 @@ class Outcome:
     added: int
     stop: str
     completed: bool = False
+
+
+@dataclass(frozen=True, eq=False)
+class Plan:
+    """A plan of one model, as a value: its objective, the value of each of the model's HiGHS
+    columns (a variable's column stays its own as requirements add columns), and the lazy
+    requirements the model held when the plan was found (those added later get the side the
+    plan meets best when it is loaded)."""
+
+    objective: float
+    values: np.ndarray
+    added: frozenset[int]
+
+    def better_than(self, other: Plan | None) -> bool:
+        """Whether this plan's objective exceeds ``other``'s (any plan beats none)."""
+        return other is None or self.objective > other.objective
 
 
 def relative_gap(objective: float | None, bound: float | None) -> float | None:

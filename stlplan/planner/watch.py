@@ -16,7 +16,7 @@ from pyomo.environ import value
 
 from stlplan.planner.encoding.deferred import violated
 from stlplan.planner.encoding.model import PlanModel
-from stlplan.planner.outcome import lowest
+from stlplan.planner.outcome import Plan, lowest
 
 VIOLATION_TOL = 1e-7
 """A requirement counts as violated when ``max_i alpha_i - r`` is below ``-VIOLATION_TOL``."""
@@ -45,8 +45,7 @@ class Watch:
     Attributes
     ----------
     best
-        ``(objective, column values, requirements in the model then)`` of the best plan
-        feasible for the full problem.
+        The best plan feasible for the full problem (met every requirement left out).
     abs_gap
         An absolute gap that also closes the loop (None: the relative gap only).
     ceiling
@@ -58,7 +57,7 @@ class Watch:
     pm: PlanModel
     columns: dict[int, int]
     gap: float
-    best: tuple[float, np.ndarray, frozenset[int]] | None = None
+    best: Plan | None = None
     abs_gap: float | None = None
     ceiling: float | None = None
     stopped: bool = False
@@ -79,13 +78,13 @@ class Watch:
         """An improving plan: keep it when it violates no requirement left out of the model."""
         assert self.pm.deferral is not None
         objective = float(event.data_out.objective_function_value)
-        if self.best is None or objective > self.best[0]:
+        if self.best is None or objective > self.best.objective:
             x = np.array(event.data_out.mip_solution)
             margin = self.pm.margin
             r = margin if isinstance(margin, float) else self._value(margin, x)
             bad = violated(self.pm.deferral.lazy, self.states(x), r, VIOLATION_TOL)
             if all(n in self.pm.added for n in bad):
-                self.best = (objective, x, frozenset(self.pm.added))
+                self.offer(Plan(objective, x, frozenset(self.pm.added)))
         self.maybe_stop(event)
 
     def closed(self, bound: float | None) -> bool:
@@ -93,8 +92,13 @@ class Watch:
         bound = lowest(bound, self.ceiling)
         if self.best is None or bound is None:
             return False
-        slack = bound - self.best[0]
-        return slack <= max(self.gap * abs(self.best[0]), self.abs_gap or 0.0)
+        slack = bound - self.best.objective
+        return slack <= max(self.gap * abs(self.best.objective), self.abs_gap or 0.0)
+
+    def offer(self, plan: Plan) -> None:
+        """Keep ``plan`` (one that meets every requirement) when it is the best so far."""
+        if plan.better_than(self.best):
+            self.best = plan
 
     def maybe_stop(self, event: Any) -> None:
         """Interrupt the round once the best full plan is within the gap of its bound."""
