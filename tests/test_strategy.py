@@ -69,8 +69,9 @@ def test_a_planned_run_is_accepted_by_the_monitor(name: str) -> None:
     assert result.objective == pytest.approx(up_front_optimum(problem).objective, abs=1e-5)
 
 
-def test_a_strict_retry_that_finds_nothing_keeps_the_first_plan(
-    monkeypatch: pytest.MonkeyPatch,
+@pytest.mark.parametrize("strictly", [PlanStatus.NO_PLAN, PlanStatus.INFEASIBLE])
+def test_a_strict_retry_out_of_time_keeps_the_first_plan(
+    strictly: PlanStatus, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     import dataclasses
 
@@ -88,7 +89,7 @@ def test_a_strict_retry_that_finds_nothing_keeps_the_first_plan(
             pm, found = real.solve(*args)  # type: ignore[arg-type]
             calls.append(1)
             if len(calls) > 1:
-                found = dataclasses.replace(found, status=PlanStatus.NO_PLAN, objective=None)
+                found = dataclasses.replace(found, status=strictly, objective=None)
             return pm, found
 
     monkeypatch.setattr(solve_module, "build_strategy", lambda config: Once())
@@ -96,6 +97,9 @@ def test_a_strict_retry_that_finds_nothing_keeps_the_first_plan(
     monkeypatch.setattr(solve_module, "finish", lambda *args: infeasible)
     result = plan(problem, EXACT)
     assert len(calls) == 2  # the retry ran, and found nothing
+    if strictly is PlanStatus.INFEASIBLE:  # a strict verdict stands
+        assert result.status is PlanStatus.INFEASIBLE and result.trajectory is None
+        return
     assert result.status.has_plan and result.trajectory is not None
     assert result.fallback is not None and "step-1 plan" in result.fallback.kept
     assert accepted(problem, result)

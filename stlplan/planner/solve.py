@@ -100,8 +100,9 @@ def _strict_retry(run: _Run) -> None:
     """When step 1's decisions, taken exactly, admit no plan, its plan met them only within
     HiGHS's integrality tolerance (a binary at ``1e-6`` from 0 or 1 relaxes a big-M row by
     ``M 1e-6``, more than ``EPSILON``): step 1 and the continuous stage again, with
-    ``solver.strict_integrality``. When that finds no plan, the first one is kept (its
-    continuous stage failed: the step-1 plan stands, for the monitor to judge)."""
+    ``solver.strict_integrality``. When that runs out of time without a plan, the first one is
+    kept (its continuous stage failed: the step-1 plan stands, for the monitor to judge); a
+    strict verdict of infeasibility stands."""
     tolerance = run.config.solver.highs_options.get("mip_feasibility_tolerance")
     if not run.ended.infeasible or tolerance == run.config.solver.strict_integrality:
         return
@@ -109,7 +110,8 @@ def _strict_retry(run: _Run) -> None:
     run.config, run.strictly = strict(run.config), True
     _step_one(run)
     _continuous(run)
-    if run.step1 is None or not run.step1.status.has_plan:
+    out_of_time = (PlanStatus.NO_PLAN, PlanStatus.INTERRUPTED_NO_PLAN)
+    if run.step1 is None or run.step1.status in out_of_time:
         run.pm, run.step1, run.size, run.ended = first.pm, first.step1, first.size, first.ended
 
 
