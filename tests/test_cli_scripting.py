@@ -280,3 +280,10 @@ def test_check_says_how_the_dynamics_were_checked(
     assert document["trajectory_gives"] == gives and says in document["dynamics"]
     code, stdout, _ = _invoke("check", str(PAIR), str(other), "--tolerance", "1e-3")
     assert code == 0 and says in stdout
+
+
+def test_a_quiet_validation_is_one_short_line_whatever_the_team() -> None:
+    valid = _process("validate", str(MISSIONS / "scale" / "farm-x4.yaml"), "-q")
+    assert valid.returncode == 0 and valid.stdout.count("\n") == 1
+    assert valid.stdout.strip().endswith("(32 agents, 4 tasks, 1 constraint)")
+    assert "groups" not in valid.stdout  # the per-task counts are the full output's

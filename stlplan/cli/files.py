@@ -83,14 +83,16 @@ def validate(mission: MissionArg, as_json: JsonOption = False, quiet: QuietOptio
     if as_json:
         output.document(problem_counts(problem, mission))
         return
-    groups = "; ".join(_groups_text(t) for t in problem.tasks)
-    output.line(
-        f"[green]valid[/]: {escape(str(mission))} ({counted(len(problem.agents), 'agent')}, "
-        f"{counted(len(problem.tasks), 'task')}, "
-        f"{counted(len(problem.constraints), 'constraint')}; "
-        f"{groups or 'no tasks'})",
-        markup=True,
+    sizes = (
+        f"{counted(len(problem.agents), 'agent')}, {counted(len(problem.tasks), 'task')}, "
+        f"{counted(len(problem.constraints), 'constraint')}"
     )
+    if output.quiet:  # one short line, whatever the team's size
+        output.line(f"[green]valid[/]: {escape(str(mission))} ({sizes})", markup=True)
+        return
+    groups = "; ".join(_groups_text(t) for t in problem.tasks)
+    text = f"[green]valid[/]: {escape(str(mission))} ({sizes}; {groups or 'no tasks'})"
+    output.line(text, markup=True)
 
 
 TrajectoryArg = Annotated[
