@@ -103,3 +103,19 @@ def test_a_strict_retry_out_of_time_keeps_the_first_plan(
     assert result.status.has_plan and result.trajectory is not None
     assert result.fallback is not None and "step-1 plan" in result.fallback.kept
     assert accepted(problem, result)
+
+
+def test_the_policy_names_the_repairs_and_their_shares() -> None:
+    from stlplan.planner.repairs import HeldRepair, InTurnRepair
+
+    policy = RepairPolicy.of(EXACT)
+    assert policy.round_repairs(10.0, 1) == ((InTurnRepair(), EXACT.repair.share),)
+    assert policy.round_repairs(1.0, 1) == ()
+    crowd = EXACT.repair.crowd_agents
+    assert crowd is not None
+    assert [r.describe() for r, _ in policy.merge_repairs(crowd)] == ["in turn", "held"]
+    assert [share for _, share in policy.merge_repairs(crowd)] == [
+        EXACT.parts.crowd_repair_share,
+        EXACT.parts.held_repair_share,
+    ]
+    assert policy.merge_repairs(crowd - 1) == ((HeldRepair(), EXACT.parts.held_repair_share),)

@@ -43,17 +43,17 @@ from typing import Any
 
 from stlplan.mission.problem import Problem
 from stlplan.planner import outcome
-from stlplan.planner.assembly import added_keys, assemble, hold_plans, plan_values
+from stlplan.planner.assembly import added_keys, assemble, plan_values
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import Requirement, requirement_key, violated
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
-from stlplan.planner.in_turn import InTurn, release
 from stlplan.planner.lazy import LazySolver
-from stlplan.planner.outcome import Outcome, Plan, relative_gap
+from stlplan.planner.outcome import Outcome, relative_gap
 from stlplan.planner.parts import agent_parts, sub_problem
 from stlplan.planner.repair_policy import RepairPolicy
+from stlplan.planner.repairs import Broken
 from stlplan.planner.watch import VIOLATION_TOL, trajectory_states
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
@@ -194,36 +194,30 @@ def _solve_part(part: Part, config: PlannerConfig, budget: Budget) -> Outcome:
 
 
 def _repair(part: Part, config: PlannerConfig, budget: Budget) -> Outcome | None:
-    """Repair the parts' plans together (module docstring); then tighten the bounds of the
-    parts the merged part comes from towards the repaired plan (None: no plan)."""
+    """Repair the parts' plans together by the repairs the policy names for the merge (module
+    docstring); then tighten the bounds of the parts the merged part comes from towards the
+    repaired plan (None: no plan)."""
     tick = time.perf_counter()
-    repaired = None
-    crowd = budget.share(config.parts.crowd_repair_share)
-    plan = _in_turn(part, config, crowd) if part.solver.policy.on_merge(len(part.free)) else None
-    if plan is not None:
-        repaired = part.solver.repaired(plan, time.perf_counter() - tick)
-    if repaired is None:
-        merged_from = [p.pm for p in part.merged_from]
-        held = hold_plans(part.pm, merged_from, config.repair.hold, part.free)
-        try:
-            repaired = part.solver.run(budget.share(config.parts.held_repair_share), trial=True)
-        finally:
-            release(held)
-    if repaired.objective is None:
-        return None
-    _tighten(part.merged_from, config, budget, plan=repaired.objective)
-    return repaired
+    broken = _broken(part)
+    for repair, share in part.solver.policy.merge_repairs(len(part.free)):
+        plan = repair.repair(broken, config, budget.share(share))
+        if plan is not None:
+            repaired = part.solver.repaired(plan, time.perf_counter() - tick)
+            _tighten(part.merged_from, config, budget, plan=repaired.objective)
+            return repaired
+    return None
 
 
-def _in_turn(part: Part, config: PlannerConfig, budget: Budget) -> Plan | None:
-    """Load the plans of the parts a merged part comes from and repair their collisions agent
-    by agent (:class:`stlplan.planner.in_turn.InTurn`); the repaired plan (None: none)."""
+def _broken(part: Part) -> Broken:
+    """The plans of the parts a merged part comes from, loaded into its model, with the
+    requirements they break together."""
     pm = part.pm
     assert pm.deferral is not None
-    for var, planned in plan_values(pm, [p.pm for p in part.merged_from]):
+    models = [p.pm for p in part.merged_from]
+    for var, planned in plan_values(pm, models):
         var.set_value(planned, skip_validation=True)
     bad = violated(pm.deferral.lazy, trajectory_states(pm), _margin(pm), VIOLATION_TOL)
-    return InTurn(pm, part.solver.session, config).run(bad, budget)
+    return Broken(part.solver, bad, models, part.free)
 
 
 def solve_parts(

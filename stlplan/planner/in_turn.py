@@ -32,16 +32,13 @@ import logging
 from collections.abc import Iterable, Sequence
 from typing import Any
 
-import numpy as np
-from pyomo.environ import Var, value
-
 from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.outcome import Plan
 from stlplan.planner.session import HighsSession, has_solution
-from stlplan.planner.watch import pending_violations
+from stlplan.planner.watch import loaded_plan, loaded_values, pending_violations
 
 _log = logging.getLogger(__name__)
 
@@ -138,26 +135,13 @@ class InTurn:
         for name, share in zip(turns, budget.split(len(turns)), strict=True):
             if share.expired():
                 return
-            self.session.start_from(self._loaded())  # the plan so far: no turn makes it worse
+            self.session.start_from(loaded_values(self.pm, self.session.columns()))  # no worse
             if self._solve_free({name}, everyone - {name}, share):
                 return
 
     def _plan(self) -> Plan | None:
         """The loaded plan as a value, when it meets every requirement left out of the model."""
-        if pending_violations(self.pm):
-            return None
-        objective = float(value(self.pm.model.step1))
-        return Plan(objective, self._loaded(), frozenset(self.pm.added))
-
-    def _loaded(self) -> np.ndarray:
-        """The loaded plan as HiGHS's column vector."""
-        columns = self.session.columns()
-        x = np.zeros(max(columns.values(), default=-1) + 1)
-        for v in self.pm.model.component_data_objects(Var):
-            column = columns.get(id(v))
-            if column is not None and v.value is not None:
-                x[column] = float(v.value)
-        return x
+        return loaded_plan(self.pm, self.session.columns())
 
     def _turn(self, free: set[str], done: set[str], budget: Budget, left: int) -> set[str] | None:
         """Agents ``free`` solved again (every other agent held); when that fails, once more

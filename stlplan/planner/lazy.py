@@ -39,9 +39,10 @@ from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import best_side, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
-from stlplan.planner.in_turn import InTurn, agents_of
+from stlplan.planner.in_turn import agents_of
 from stlplan.planner.outcome import Outcome, Plan, lowest, relative_gap
 from stlplan.planner.repair_policy import RepairPolicy
+from stlplan.planner.repairs import Broken
 from stlplan.planner.session import HighsSession, Solved, has_solution, plan_status
 from stlplan.planner.watch import Watch, pending_violations, trajectory_states
 from stlplan.result import PlanStatus
@@ -154,11 +155,12 @@ class LazySolver:
         crowded (the repair policy); whether the best plan closes the gap."""
         pm, config, watch = self.pm, self.config, self.watch
         assert pm.deferral is not None and watch is not None
-        crowd = len(agents_of(pm, bad))
-        if watch.best is None and self.policy.after_round(seconds, crowd):
-            repaired = InTurn(pm, self.session, config).run(bad, budget.share(config.repair.share))
-            if repaired is not None:
-                watch.offer(repaired)
+        repairs = self.policy.round_repairs(seconds, len(agents_of(pm, bad)))
+        for repair, share in repairs if watch.best is None else ():
+            plan = repair.repair(Broken(self, bad), config, budget.share(share))
+            if plan is not None:
+                watch.offer(plan)
+                break
         add_requirements(pm, neighbours(pm.deferral.lazy, bad, config.lazy.window))
         return watch.closed(watch.ceiling)
 

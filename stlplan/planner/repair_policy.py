@@ -1,9 +1,12 @@
-"""When a plan is repaired agent by agent: one policy for the lazy rounds and the merged parts.
+"""Which repairs run, when, and with what share of the time: one policy for the lazy rounds
+and the merged parts.
 
-While no plan meets every requirement, a repair in turn (:mod:`stlplan.planner.in_turn`) may
-find one where the next solve would not. The policy says when it is worth trying: after a lazy
-round that was long (``repair.after_round_seconds``) or whose violations name a crowd
-(``repair.crowd_agents``), and on a merge of parts whose collisions name a crowd.
+While no plan meets every requirement, a repair (:mod:`stlplan.planner.repairs`) may find one
+where the next solve would not. After a lazy round that was long (``repair.after_round_seconds``)
+or whose violations name a crowd (``repair.crowd_agents``), the round's plan is repaired in
+turn within ``repair.share`` of the loop's time left. A merge of parts is repaired in turn when
+its collisions name a crowd (within ``parts.crowd_repair_share``), then, without a plan, with the
+other agents held (within ``parts.held_repair_share``).
 """
 
 from __future__ import annotations
@@ -11,6 +14,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.repairs import HeldRepair, InTurnRepair, Repair
+
+Planned = tuple[tuple[Repair, float], ...]
+"""Repairs to try in order, each with its share of the time left when it starts."""
 
 
 @dataclass(frozen=True)
@@ -19,11 +26,27 @@ class RepairPolicy:
 
     after_round_seconds: float | None
     crowd_agents: int | None
+    round_share: float = 0.25
+    crowd_share: float = 0.75
+    held_share: float = 0.25
 
     @classmethod
     def of(cls, config: PlannerConfig) -> RepairPolicy:
-        """The policy of ``config``'s ``repair`` section."""
-        return cls(config.repair.after_round_seconds, config.repair.crowd_agents)
+        """The policy of ``config``'s ``repair`` and ``parts`` sections."""
+        repair, parts = config.repair, config.parts
+        return cls(
+            repair.after_round_seconds, repair.crowd_agents, repair.share,
+            parts.crowd_repair_share, parts.held_repair_share,
+        )  # fmt: skip
+
+    def round_repairs(self, seconds: float, agents: int) -> Planned:
+        """The repairs of a lazy round of ``seconds`` whose violations name ``agents``."""
+        return ((InTurnRepair(), self.round_share),) if self.after_round(seconds, agents) else ()
+
+    def merge_repairs(self, agents: int) -> Planned:
+        """The repairs of a merged part whose collisions name ``agents`` agents."""
+        held: Planned = ((HeldRepair(), self.held_share),)
+        return ((InTurnRepair(), self.crowd_share), *held) if self.on_merge(agents) else held
 
     def after_round(self, seconds: float, agents: int) -> bool:
         """Whether a round of ``seconds`` whose violations name ``agents`` agents is repaired."""

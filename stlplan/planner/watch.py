@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from pyomo.environ import value
+from pyomo.environ import Var, value
 
 from stlplan.planner.encoding.deferred import violated
 from stlplan.planner.encoding.model import PlanModel
@@ -36,6 +36,25 @@ def pending_violations(pm: PlanModel) -> list[int]:
     states = trajectory_states(pm)
     found = violated(pm.deferral.lazy, states, float(value(pm.margin)), VIOLATION_TOL)
     return [n for n in found if n not in pm.added]
+
+
+def loaded_values(pm: PlanModel, columns: dict[int, int]) -> np.ndarray:
+    """The plan loaded in ``pm`` as a vector of HiGHS's ``columns`` (by variable ``id``)."""
+    x = np.zeros(max(columns.values(), default=-1) + 1)
+    for v in pm.model.component_data_objects(Var):
+        column = columns.get(id(v))
+        if column is not None and v.value is not None:
+            x[column] = float(v.value)
+    return x
+
+
+def loaded_plan(pm: PlanModel, columns: dict[int, int]) -> Plan | None:
+    """The plan loaded in ``pm`` as a value, when it meets every requirement left out of the
+    model (None otherwise)."""
+    if pending_violations(pm):
+        return None
+    objective = float(value(pm.model.step1))
+    return Plan(objective, loaded_values(pm, columns), frozenset(pm.added))
 
 
 @dataclass(eq=False)

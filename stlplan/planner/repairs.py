@@ -1,0 +1,92 @@
+"""Repairs: ways to turn a plan that breaks requirements into one that meets them all.
+
+A repair is a plug-in: the lazy loop and the parts call the repairs the
+:class:`~stlplan.planner.repair_policy.RepairPolicy` names, each within its share of the time
+left, and take the plan it returns (a :class:`~stlplan.planner.outcome.Plan` that meets every
+requirement, or None). Two repairs:
+
+* :class:`InTurnRepair`: the agents the broken requirements name are solved again one at a
+  time around the others, as prioritized planners do (:mod:`stlplan.planner.in_turn`);
+* :class:`HeldRepair`: the model of a merged part solved once with every agent but those the
+  collisions name held near the parts' plans (``repair.hold``), a small problem.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+from stlplan.planner.assembly import hold_plans
+from stlplan.planner.budget import Budget
+from stlplan.planner.config import PlannerConfig
+from stlplan.planner.encoding.model import PlanModel
+from stlplan.planner.in_turn import InTurn, release
+from stlplan.planner.outcome import Plan
+from stlplan.planner.watch import loaded_plan
+
+
+@dataclass(frozen=True, eq=False)
+class Broken:
+    """What a repair starts from.
+
+    Attributes
+    ----------
+    solver
+        The lazy solver of the model, with a plan loaded that violates ``bad`` (its ``pm``,
+        ``session`` and ``run``).
+    bad
+        The lazy requirements the loaded plan violates.
+    parts
+        For a merged part: the models of the parts it comes from, with their plans.
+    free
+        For a merged part: the agents the collisions name.
+    """
+
+    solver: Any
+    bad: Sequence[int]
+    parts: Sequence[PlanModel] = ()
+    free: frozenset[str] = field(default_factory=frozenset)
+
+
+class Repair(Protocol):
+    """A way to repair a broken plan."""
+
+    def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
+        """A plan that meets every requirement, found within ``budget`` (None: none)."""
+        ...
+
+    def describe(self) -> str:
+        """The repair in words."""
+        ...
+
+
+@dataclass(frozen=True)
+class InTurnRepair:
+    """Agent by agent, each around the agents already repaired (prioritized planning)."""
+
+    def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
+        solver = broken.solver
+        return InTurn(solver.pm, solver.session, config).run(broken.bad, budget)
+
+    def describe(self) -> str:
+        return "in turn"
+
+
+@dataclass(frozen=True)
+class HeldRepair:
+    """One solve with every agent the collisions do not name held near its part's plan."""
+
+    def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
+        solver = broken.solver
+        held = hold_plans(solver.pm, broken.parts, config.repair.hold, broken.free)
+        try:
+            found = solver.run(budget, trial=True)
+        finally:
+            release(held)
+        if found.objective is None:
+            return None
+        return loaded_plan(solver.pm, solver.session.columns())
+
+    def describe(self) -> str:
+        return "held"
