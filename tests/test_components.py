@@ -12,11 +12,12 @@ from stlplan.formula.boundary import EPSILON
 from stlplan.planner import components
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
-from stlplan.planner.components import Part, _tighten, solve_parts
+from stlplan.planner.components import Part, solve_parts
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.outcome import Outcome
+from stlplan.planner.outcome import Outcome, Plan
 from stlplan.planner.parts import agent_parts, sub_problem
+from stlplan.planner.repairs import Broken, HeldRepair
 from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
@@ -107,48 +108,18 @@ def test_a_collision_between_parts_merges_them() -> None:
     assert accepted(problem, result)
 
 
-class _Solver:
-    """Stands in for a part's LazySolver: records the absolute gap it is asked for."""
-
-    def __init__(self, tighter: Outcome) -> None:
-        self.tighter = tighter
-        self.asked: list[float | None] = []
-
-    def run(self, time_limit: float, abs_gap: float | None = None) -> Outcome:
-        self.asked.append(abs_gap)
-        return self.tighter
-
-
-def _step(objective: float, bound: float) -> Outcome:
-    return Outcome(PlanStatus.OPTIMAL, objective, bound, None, 0.0, 1, 0, "optimal")
-
-
-def test_tighten_solves_the_loosest_part_again_with_an_absolute_gap() -> None:
-    # sum F = 4 - 0.3 = 3.7; U - F = 4e-4 + 1e-5 > 1e-4 * 3.7: the first part is re-solved
-    loose = _Solver(_step(4.0, 4.0002))
-    exact = _Solver(_step(-0.3, -0.3))
-    parts = [
-        Part(("v",), None, loose, _step(4.0, 4.0004)),  # type: ignore[arg-type]
-        Part(("u",), None, exact, _step(-0.3, -0.29999)),  # type: ignore[arg-type]
-    ]
-    _tighten(parts, PlannerConfig().with_overrides({"solver.gap": 1e-4}), Budget.of_seconds(1e9))
-    assert exact.asked == []
-    assert loose.asked == [pytest.approx(1e-4 * 3.7 - 1e-5)]
-    assert parts[0].step1 is not None and parts[0].step1.bound == 4.0002
-
-
 def test_a_merged_part_is_repaired_with_only_the_colliding_agents_free(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    repairs: list[tuple[frozenset[str], Outcome | None]] = []
-    repair = components._repair
+    repairs: list[tuple[frozenset[str], Plan | None]] = []
+    repair = HeldRepair.repair
 
-    def spy(part: Part, config: PlannerConfig, budget: Budget) -> Outcome | None:
-        repaired = repair(part, config, budget)
-        repairs.append((part.free, repaired))
+    def spy(self: HeldRepair, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
+        repaired = repair(self, broken, config, budget)
+        repairs.append((broken.free, repaired))
         return repaired
 
-    monkeypatch.setattr(components, "_repair", spy)
+    monkeypatch.setattr(HeldRepair, "repair", spy)
     problem = detour_for_free()
     assert agent_parts(problem) == [("a", "b"), ("e",)]
     options = PlannerConfig().with_overrides({"solver.time_limit": 60.0, "solver.gap": 1e-6})
@@ -158,39 +129,12 @@ def test_a_merged_part_is_repaired_with_only_the_colliding_agents_free(
     whole = up_front_optimum(problem)
     assert [free for free, _ in repairs] == [frozenset({"a", "e"})]  # b was held
     repaired = repairs[0][1]
-    assert repaired is not None and repaired.objective is not None
+    assert repaired is not None
     assert step1.status is PlanStatus.OPTIMAL
     assert step1.objective == pytest.approx(whole.objective, abs=1e-5)
     # the repair found the optimum: a took another monotone path at no cost
     assert repaired.objective == pytest.approx(whole.objective, abs=1e-5)
     assert accepted(problem, plan(problem, options))
-
-
-def test_tighten_towards_a_plan_below_the_parts_sum() -> None:
-    # F = 3.7, a merged plan P = 3.6999: the slacks must fit in 1e-4 * 3.6999 - 1e-4
-    loose = _Solver(_step(4.0, 4.0002))
-    exact = _Solver(_step(-0.3, -0.3))
-    parts = [
-        Part(("v",), None, loose, _step(4.0, 4.0004)),  # type: ignore[arg-type]
-        Part(("u",), None, exact, _step(-0.3, -0.29999)),  # type: ignore[arg-type]
-    ]
-    _tighten(
-        parts,
-        PlannerConfig().with_overrides({"solver.gap": 1e-4}),
-        Budget.of_seconds(1e9),
-        plan=3.6999,
-    )
-    assert loose.asked == [pytest.approx(1e-4 * 3.6999 - 1e-4 - 1e-5)]
-    # a plan that lost more than the gap cannot be helped by tighter parts: nothing is solved
-    costly = _Solver(_step(4.0, 4.0))
-    parts[0] = Part(("v",), None, costly, _step(4.0, 4.0004))  # type: ignore[arg-type]
-    _tighten(
-        parts,
-        PlannerConfig().with_overrides({"solver.gap": 1e-4}),
-        Budget.of_seconds(1e9),
-        plan=3.6,
-    )
-    assert costly.asked == []
 
 
 def test_a_solve_starts_from_a_given_plan() -> None:
@@ -259,7 +203,7 @@ def test_parts_are_solved_smallest_first_in_shares_with_a_reserve(
     def solve_part(part: Part, config: PlannerConfig, share: Budget) -> Outcome:
         asked.append((part.agents, share.remaining()))
         monkeypatch.setattr(time, "perf_counter", lambda: share.deadline)  # the share is spent
-        return _step(1.0, 1.0)
+        return Outcome(PlanStatus.OPTIMAL, 1.0, 1.0, None, 0.0, 1, 0, "optimal")
 
     parts = [Part(agents, None, None) for agents in (("a", "b", "c"), ("d",), ("e", "f"))]  # type: ignore[arg-type]
     monkeypatch.setattr(components, "_solve_part", solve_part)

@@ -8,14 +8,14 @@ import pytest
 from pyomo.environ import value
 
 from stlplan.mission.problem import Problem
-from stlplan.planner import components
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
-from stlplan.planner.components import Part, solve_parts
+from stlplan.planner.components import solve_parts
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.in_turn import InTurn, agents_of, hold_agents, release
-from stlplan.planner.outcome import Outcome, Plan
+from stlplan.planner.outcome import Plan
+from stlplan.planner.repairs import Broken, HeldRepair, InTurnRepair
 from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
 from stlplan.planner.watch import pending_violations
@@ -193,30 +193,35 @@ def test_a_merged_part_colliding_in_a_crowd_is_repaired_in_turn(
     # a's plan crosses the idle e (another part): a crowd of two merges them
     problem = detour_for_free()
     turns: list[set[str]] = []
-    repairs: list[Outcome | None] = []
-    run, repair = InTurn.run, components._repair
+    repairs: list[tuple[str, Plan | None]] = []
+    run = InTurn.run
+    plug_ins = {kind: kind.repair for kind in (InTurnRepair, HeldRepair)}
 
     def spy_run(self: InTurn, bad: Any, budget: Budget) -> Plan | None:
         turns.append(agents_of(self.pm, bad))
         return run(self, bad, budget)
 
-    def spy_repair(part: Part, config: PlannerConfig, budget: Budget) -> Outcome | None:
-        assert part.pm.deferral is not None
-        seeded = {part.pm.deferral.lazy[n].source for n in part.pm.added}
-        assert ("separation" in seeded) is not in_turn  # the crossing is left to the turns
-        repairs.append(repair(part, config, budget))
-        return repairs[-1]
+    def spy(kind: type) -> Any:
+        def repair(self: Any, broken: Broken, config: PlannerConfig, budget: Budget) -> Any:
+            pm = broken.solver.pm
+            seeded = {pm.deferral.lazy[n].source for n in pm.added}
+            assert ("separation" in seeded) is not in_turn  # the crossing is left to the turns
+            repairs.append((self.describe(), plug_ins[kind](self, broken, config, budget)))
+            return repairs[-1][1]
+
+        return repair
 
     monkeypatch.setattr(InTurn, "run", spy_run)
-    monkeypatch.setattr(components, "_repair", spy_repair)
+    for kind in plug_ins:
+        monkeypatch.setattr(kind, "repair", spy(kind))
     options = PlannerConfig().with_overrides(
         {"solver.time_limit": 60.0, "solver.gap": 1e-6, "repair.crowd_agents": crowd}
     )
     found = solve_parts(problem, options, Clock(0.0, None), Budget.of_seconds(60))
     assert found is not None and found[1].status is PlanStatus.OPTIMAL
     assert turns == ([{"a", "e"}] if in_turn else [])
-    repaired = repairs[0]
-    assert repaired is not None and repaired.stop == "repaired"  # either repair's plan
+    name, repaired = repairs[0]
+    assert name == ("in turn" if in_turn else "held") and repaired is not None
     whole = up_front_optimum(problem)
     assert found[1].objective == pytest.approx(whole.objective, abs=1e-5)
     assert accepted(problem, plan(problem, options))

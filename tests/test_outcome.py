@@ -75,3 +75,21 @@ def test_the_assembled_plan_keeps_optimality_only_within_the_gap() -> None:
 def test_a_stop_request_marks_a_solve_cut_short(has_plan: bool, stopped: bool, expected: S) -> None:
     assert outcome.of_solve(has_plan, stopped, S.FEASIBLE, S.NO_PLAN) is expected
     assert outcome.of_solve(has_plan, stopped, S.OPTIMAL, S.INFEASIBLE) in (S.OPTIMAL, S.INFEASIBLE)
+
+
+def test_the_loosest_part_is_tightened_to_what_the_others_leave() -> None:
+    # sum F = 4 - 0.3 = 3.7; U - F = 4e-4 + 1e-5 > 1e-4 * 3.7: the first part, to the rest
+    parts = [_part(S.OPTIMAL, 4.0, 4.0004), _part(S.OPTIMAL, -0.3, -0.29999)]
+    worst, allowed = outcome.tightening(parts, 1e-4)  # type: ignore[misc]
+    assert worst == 0 and allowed == pytest.approx(1e-4 * 3.7 - 1e-5)
+    assert outcome.tightening(parts, 1e-3) is None  # within the gap already
+    assert outcome.tightening([parts[0], None], 1e-4) is None  # a part without a result
+
+
+def test_tightening_towards_a_plan_below_the_parts_sum() -> None:
+    # F = 3.7, a merged plan P = 3.6999: the slacks must fit in 1e-4 * 3.6999 - 1e-4
+    parts = [_part(S.OPTIMAL, 4.0, 4.0004), _part(S.OPTIMAL, -0.3, -0.29999)]
+    worst, allowed = outcome.tightening(parts, 1e-4, plan=3.6999)  # type: ignore[misc]
+    assert worst == 0 and allowed == pytest.approx(1e-4 * 3.6999 - 1e-4 - 1e-5)
+    # a plan that lost more than the gap cannot be helped by tighter parts
+    assert outcome.tightening(parts, 1e-4, plan=3.6) is None

@@ -50,7 +50,7 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import Requirement, requirement_key, violated
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
 from stlplan.planner.lazy import LazySolver
-from stlplan.planner.outcome import Outcome, relative_gap
+from stlplan.planner.outcome import Outcome
 from stlplan.planner.parts import agent_parts, sub_problem
 from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.repairs import Broken
@@ -128,39 +128,20 @@ def _totals(parts: Sequence[Part]) -> tuple[float | None, float | None]:
     return outcome.totals([p.step1 for p in parts])
 
 
-def _slack(part: Part) -> float:
-    """Bound minus objective of a part's last result (0 without one)."""
-    step1 = part.step1
-    if step1 is None:
-        return 0.0
-    return (step1.bound or 0.0) - (step1.objective or 0.0)
-
-
 def _tighten(
     parts: Sequence[Part], config: PlannerConfig, budget: Budget, plan: float | None = None
 ) -> None:
-    """Solve parts again with absolute gaps until ``(U - P) / |P|`` meets the gap (while at
-    least ``budget.min_solve_seconds`` of the budget is left).
-
-    ``P`` is ``plan``, the objective of a plan of the parts together, or the sum ``F`` of the
-    parts' objectives; the parts' slacks must then fit in ``gap |P| - (F - P)``.
-    """
+    """Solve parts again with absolute gaps until their sum (or ``plan``, a plan of the parts
+    together) meets the gap (:func:`stlplan.planner.outcome.tightening`), while at least one
+    least solve of ``budget`` is left."""
     for _ in range(len(parts)):
         if budget.expired():
             return
-        objective, bound = _totals(parts)
-        if objective is None or bound is None:
+        chosen = outcome.tightening([p.step1 for p in parts], config.solver.gap, plan)
+        if chosen is None:
             return
-        reached = objective if plan is None else plan
-        gap = relative_gap(reached, bound)
-        if gap is None or gap <= config.solver.gap:
-            return
-        worst = max(parts, key=_slack)
-        others = sum(_slack(p) for p in parts if p is not worst)
-        allowed = config.solver.gap * abs(reached) - (objective - reached) - others
-        if plan is not None and allowed <= 1e-9:
-            return
-        worst.step1 = worst.solver.run(budget, abs_gap=max(allowed, 1e-9))
+        worst, abs_gap = chosen
+        parts[worst].step1 = parts[worst].solver.run(budget, abs_gap=abs_gap)
 
 
 def _combined(parts: Sequence[Part], config: PlannerConfig, seconds: float, rounds: int) -> Outcome:

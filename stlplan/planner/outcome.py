@@ -12,7 +12,8 @@ repairs turn those into an outcome of the full problem. The rules, all here:
   feasible at best (:func:`completed`);
 * parts: optimal together only when each is and their sum is within the gap; a part without a
   plan leaves the whole without one (:func:`combined`); the assembled plan keeps the parts'
-  status only within the gap of their bound (:func:`assembled`).
+  status only within the gap of their bound (:func:`assembled`); a part is solved again to an
+  absolute gap until their sum meets the gap (:func:`tightening`).
 
 Gaps are relative, as HiGHS's: ``(bound - objective) / |objective|`` for a maximization.
 """
@@ -198,6 +199,32 @@ def totals(steps: Sequence[Outcome | None]) -> tuple[float | None, float | None]
     if len(objectives) < len(steps) or None in objectives or None in bounds:
         return None, None
     return sum(objectives), sum(bounds)  # type: ignore[arg-type]
+
+
+def tightening(
+    steps: Sequence[Outcome | None], gap: float, plan: float | None = None
+) -> tuple[int, float] | None:
+    """Which part to solve again, and to what absolute gap, so that the parts together meet
+    the relative ``gap`` (None: they do, or no part can help).
+
+    ``(U - P) / |P|`` must meet the gap, with ``U`` the sum of the parts' bounds and ``P`` either
+    ``plan`` (a plan of the parts together) or ``F``, the sum of their objectives: the parts'
+    slacks must fit in ``gap |P| - (F - P)``. The part furthest from its bound gets what the
+    others leave of that.
+    """
+    objective, bound = totals(steps)
+    if objective is None or bound is None:
+        return None
+    reached = objective if plan is None else plan
+    found = relative_gap(reached, bound)
+    if found is None or found <= gap:
+        return None
+    slacks = [(s.bound or 0.0) - (s.objective or 0.0) for s in steps if s is not None]
+    worst = max(range(len(slacks)), key=slacks.__getitem__)
+    allowed = gap * abs(reached) - (objective - reached) - (sum(slacks) - slacks[worst])
+    if plan is not None and allowed <= 1e-9:
+        return None
+    return worst, max(allowed, 1e-9)
 
 
 def assembled(
