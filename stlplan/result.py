@@ -251,6 +251,11 @@ class PlanResult:
     requirements_added: int = 0
     """Lazy requirements the plan's model holds."""
     events: tuple[str, ...] = ()
+    round_log: tuple[Mapping[str, Any], ...] = ()
+    """One record per lazy round: ``round``, ``agents`` (of its model: a part's, or the team's),
+    ``at`` (s since planning started), ``seconds``,
+    ``ended`` (HiGHS's termination), ``bound``, ``best`` (the best plan meeting every
+    requirement so far) and ``added`` (requirements in the model by kind)."""
     """What happened on the way, in words (lazy rounds, a completion, overturned verdicts, a
     strict retry, a landed step 2)."""
     stage_seconds: Mapping[str, float] = field(default_factory=dict)

@@ -32,3 +32,22 @@ def test_the_internal_events_go_to_the_summary_and_verbose(tmp_path: Path) -> No
     verbose = _solve(tmp_path / "verbose", "--verbose")
     events = [line for line in verbose.splitlines() if line.startswith("run ")]
     assert events and "lazy rounds" in events[0]
+
+
+def test_the_summary_logs_every_lazy_round(tmp_path: Path) -> None:
+    _solve(tmp_path / "out")
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    log = summary["round_log"]
+    assert len(log) >= summary["rounds"] - 1 >= 1
+    assert [r["at"] for r in log] == sorted(r["at"] for r in log)
+    assert all(r["seconds"] >= 0 and r["ended"] for r in log)
+    kinds = {kind for r in log for kind in r["added"]}
+    assert kinds <= {
+        "separation step",
+        "separation segment",
+        "constraint step",
+        "constraint segment",
+    }
+    # every requirement the plan's models hold is counted in the last round of each part
+    assert sum(sum(r["added"].values()) for r in log) >= summary["requirements_added"] > 0
+    assert log[-1]["best"] is None or log[-1]["best"] <= summary["bound"] + 1e-6

@@ -91,6 +91,7 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "rounds": result.rounds,
         "requirements_added": result.requirements_added,
         "events": list(result.events),
+        "round_log": [dict(record) for record in result.round_log],
         "stage_seconds": dict(result.stage_seconds),
         "config": dict(result.config),
         "fallback": fallback_dict(result.fallback),

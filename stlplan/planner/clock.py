@@ -8,10 +8,11 @@ confirmation of an infeasible verdict (:mod:`stlplan.planner.confirm`).
 from __future__ import annotations
 
 import contextlib
+import math
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 from stlplan.result import Confirmation
 
@@ -60,6 +61,20 @@ class Clock:
     round: int | None = None
     build_seconds: float = 0.0
     confirmations: list[Confirmation] = field(default_factory=list)
+    rounds_log: list[dict[str, Any]] = field(default_factory=list)
+    """One record per lazy round, in the order they ran (parts one after another): the agents of
+    its model, when it ended, how long it took, HiGHS's termination, its bound, the best plan
+    meeting every requirement so far, and the requirements its model held by kind
+    (:meth:`record_round`)."""
+
+    def record_round(self, agents: int, seconds: float, ended: str, bound: float | None,
+                     best: float | None, added: dict[str, int]) -> None:  # fmt: skip
+        """Add a lazy round's record to :attr:`rounds_log`."""
+        finite = bound if bound is not None and math.isfinite(bound) else None
+        self.rounds_log.append(
+            {"round": len(self.rounds_log) + 1, "agents": agents, "at": self.elapsed(),
+             "seconds": seconds, "ended": ended, "bound": finite, "best": best, "added": added}
+        )  # fmt: skip
 
     @classmethod
     def started(cls, progress: ProgressCallback | None) -> Clock:

@@ -26,7 +26,6 @@ deadline (:meth:`stlplan.planner.budget.Budget.finishing`).
 
 from __future__ import annotations
 
-import logging
 import math
 import time
 
@@ -37,7 +36,7 @@ from stlplan.planner import outcome
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.encoding.deferred import best_side, neighbours
+from stlplan.planner.encoding.deferred import SEPARATION, best_side, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
 from stlplan.planner.in_turn import agents_of
 from stlplan.planner.outcome import Outcome, Plan, lowest, relative_gap
@@ -46,8 +45,6 @@ from stlplan.planner.repairs import Broken
 from stlplan.planner.session import HighsSession, Solved, has_solution, plan_status
 from stlplan.planner.watch import Watch, pending_violations, trajectory_states
 from stlplan.result import PlanStatus
-
-_log = logging.getLogger(__name__)
 
 
 class LazySolver:
@@ -122,15 +119,10 @@ class LazySolver:
             bound = results.objective_bound
             if not self.trial and bound is not None and math.isfinite(bound):
                 watch.ceiling = lowest(bound, watch.ceiling)  # every round bounds the problem
-            _log.debug(
-                "round %d: %.1f s, %s, bound %s, best %s, added %d",
-                clock.round,
-                solved.seconds,
-                results.termination_condition.name,
-                results.objective_bound,
-                watch.best and watch.best.objective,
-                len(pm.added),
-            )
+            best = None if watch.best is None else watch.best.objective
+            ended = results.termination_condition.name
+            agents = len(pm.problem.agents)
+            clock.record_round(agents, solved.seconds, ended, bound, best, added_by_kind(pm))
             if watch.best is not None and watch.closed(results.objective_bound):
                 return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
             converged = (
@@ -222,6 +214,19 @@ class LazySolver:
         for n in pm.added - added_then:
             assign_side(pm, n, best_side(pm.deferral.lazy[n], states))
         return objective
+
+
+def added_by_kind(pm: PlanModel) -> dict[str, int]:
+    """The lazy requirements ``pm`` holds, counted by kind: separation or a constraint, at a
+    step or on a segment."""
+    assert pm.deferral is not None
+    counts: dict[str, int] = {}
+    for n in pm.added:
+        requirement = pm.deferral.lazy[n]
+        kind = "separation" if requirement.source == SEPARATION else "constraint"
+        key = f"{kind} {'segment' if requirement.span else 'step'}"
+        counts[key] = counts.get(key, 0) + 1
+    return counts
 
 
 def solve_step1(
