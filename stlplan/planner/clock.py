@@ -61,7 +61,7 @@ class Clock:
     round: int | None = None
     build_seconds: float = 0.0
     confirmations: list[Confirmation] = field(default_factory=list)
-    rounds_log: list[dict[str, Any]] = field(default_factory=list)
+    round_log: list[dict[str, Any]] = field(default_factory=list)
     """One record per lazy round, in the order they ran (parts one after another): the agents of
     its model, when it ended, how long it took, HiGHS's termination, its bound, the best plan
     meeting every requirement so far, and the requirements its model held by kind
@@ -69,10 +69,10 @@ class Clock:
 
     def record_round(self, agents: int, seconds: float, ended: str, bound: float | None,
                      best: float | None, added: dict[str, int]) -> None:  # fmt: skip
-        """Add a lazy round's record to :attr:`rounds_log`."""
+        """Add a lazy round's record to :attr:`round_log`."""
         finite = bound if bound is not None and math.isfinite(bound) else None
-        self.rounds_log.append(
-            {"round": len(self.rounds_log) + 1, "agents": agents, "at": self.elapsed(),
+        self.round_log.append(
+            {"round": len(self.round_log) + 1, "agents": agents, "at": self.elapsed(),
              "seconds": seconds, "ended": ended, "bound": finite, "best": best, "added": added}
         )  # fmt: skip
 

@@ -112,7 +112,7 @@ class InTurn:
             if not self._repair(turns, done, budget):
                 return None
             self._improve(turns, set(names), budget)
-            return self._plan()
+            return loaded_plan(self.pm, self.session.columns())
         finally:
             self.session.trial, config.rel_gap = trial, gap
 
@@ -138,10 +138,6 @@ class InTurn:
             self.session.start_from(loaded_values(self.pm, self.session.columns()))  # no worse
             if self._solve_free({name}, everyone - {name}, share):
                 return
-
-    def _plan(self) -> Plan | None:
-        """The loaded plan as a value, when it meets every requirement left out of the model."""
-        return loaded_plan(self.pm, self.session.columns())
 
     def _turn(self, free: set[str], done: set[str], budget: Budget, left: int) -> set[str] | None:
         """Agents ``free`` solved again (every other agent held); when that fails, once more

@@ -166,7 +166,7 @@ def _readout(run: _Run) -> PlanResult:
         "requirements_added": step1.added,
         "events": _events(step1, run.ended, config, clock, run.strictly),
         "confirmations": tuple(clock.confirmations),
-        "round_log": tuple(clock.rounds_log),
+        "round_log": tuple(clock.round_log),
     }
     build, solve = clock.build_seconds, clock.elapsed() - clock.build_seconds
     if not step1.status.has_plan:
