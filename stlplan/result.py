@@ -261,3 +261,6 @@ class PlanResult:
     stage_seconds: Mapping[str, float] = field(default_factory=dict)
     """Wall time of each stage of the run (step 1, the continuous stage, a diagnosis, the
     monitor's verification), s."""
+    values: Mapping[tuple[str, Any], float] = field(default_factory=dict, repr=False)
+    """Step 1's plan: the value of each of its model's variables, by component name and index
+    (a start for a later solve of the same problem, such as a replan)."""

@@ -187,7 +187,7 @@ def test_segment_violations_between_safe_samples() -> None:
 
 def test_a_known_ceiling_closes_the_loop() -> None:
     watch = Watch(pm=None, columns={}, gap=1e-4, ceiling=2.0)  # type: ignore[arg-type]
-    watch.best = Plan(1.9999, np.zeros(0), frozenset())
+    watch.best = Plan(1.9999, {}, frozenset())
     assert watch.closed(5.0)  # HiGHS's own bound is loose; the ceiling is within the gap
     assert watch.closed(None)  # the ceiling alone bounds the problem
     watch.ceiling = None

@@ -38,7 +38,8 @@ from stlplan.planner.encoding.deferred import neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.outcome import Plan
 from stlplan.planner.session import HighsSession, has_solution
-from stlplan.planner.watch import loaded_plan, loaded_values, pending_violations
+from stlplan.planner.values import plan_of
+from stlplan.planner.watch import loaded_plan, pending_violations
 
 _log = logging.getLogger(__name__)
 
@@ -112,7 +113,7 @@ class InTurn:
             if not self._repair(turns, done, budget):
                 return None
             self._improve(turns, set(names), budget)
-            return loaded_plan(self.pm, self.session.columns())
+            return loaded_plan(self.pm)
         finally:
             self.session.trial, config.rel_gap = trial, gap
 
@@ -135,7 +136,7 @@ class InTurn:
         for name, share in zip(turns, budget.split(len(turns)), strict=True):
             if share.expired():
                 return
-            self.session.start_from(loaded_values(self.pm, self.session.columns()))  # no worse
+            self.session.start_from(plan_of(self.pm.model, self.pm.model.step1))  # no worse
             if self._solve_free({name}, everyone - {name}, share):
                 return
 

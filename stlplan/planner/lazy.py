@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
 
 from pyomo.contrib.solver.common.results import TerminationCondition
 from pyomo.environ import Var
@@ -39,10 +40,11 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import SEPARATION, best_side, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
 from stlplan.planner.in_turn import agents_of
-from stlplan.planner.outcome import Outcome, Plan, lowest, relative_gap
+from stlplan.planner.outcome import Outcome, Plan, VarKey, lowest, relative_gap
 from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.repairs import Broken
 from stlplan.planner.session import HighsSession, Solved, has_solution, plan_status
+from stlplan.planner.values import load_values, model_values, var_key
 from stlplan.planner.watch import Watch, pending_violations, trajectory_states
 from stlplan.result import PlanStatus
 
@@ -76,7 +78,7 @@ class LazySolver:
         self.session = HighsSession(pm.model, config, clock, "step1")
         self.watch: Watch | None = None
         if pm.deferral is not None:
-            self.watch = Watch(pm, self.session.columns(), config.solver.gap)
+            self.watch = Watch(pm, self.session.keys, config.solver.gap)
             self.session.highs.cbMipImprovingSolution += self.watch.on_plan
             self.session.highs.cbMipInterrupt += self.watch.maybe_stop
         self.trial = False
@@ -112,7 +114,7 @@ class LazySolver:
         while True:
             watch.stopped = False  # (the session clears HiGHS's stale interrupt flag)
             if watch.best is not None:
-                self.session.start_from(watch.best.values)
+                self.session.start_from(watch.best)
             solved = self.session.solve(budget)
             rounds, seconds = (clock.round or 1) - first + 1, time.perf_counter() - tick
             results = solved.results
@@ -204,12 +206,8 @@ class LazySolver:
         plan meets best. Returns its objective."""
         pm, watch = self.pm, self.watch
         assert watch is not None and watch.best is not None and pm.deferral is not None
-        objective, x, added_then = watch.best.objective, watch.best.values, watch.best.added
-        columns = self.session.columns()
-        for v in pm.model.component_data_objects(Var):
-            column = columns.get(id(v))
-            if column is not None and column < len(x):
-                v.set_value(float(x[column]), skip_validation=True)
+        objective, added_then = watch.best.objective, watch.best.added
+        load_values(pm.model, watch.best.values)
         states = trajectory_states(pm)
         for n in pm.added - added_then:
             assign_side(pm, n, best_side(pm.deferral.lazy[n], states))
@@ -235,10 +233,14 @@ def solve_step1(
     clock: Clock,
     budget: Budget,
     policy: RepairPolicy | None = None,
+    start: Plan | None = None,
 ) -> Outcome:
     """Solve problem (step1) of ``pm`` within ``budget``, lazily when ``pm`` was built with
-    ``lazy=True`` (repairing in turn by ``policy``)."""
-    return LazySolver(pm, config, clock, policy).run(budget)
+    ``lazy=True`` (repairing in turn by ``policy``), the first solve starting from ``start``."""
+    solver = LazySolver(pm, config, clock, policy)
+    if start is not None:
+        solver.session.start_from(start)
+    return solver.run(budget)
 
 
 def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Outcome:
@@ -256,15 +258,16 @@ def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Outcome:
 
 
 def _fix_and_solve(
-    pm: PlanModel, session: HighsSession, values: dict[int, float], budget: Budget
+    pm: PlanModel, session: HighsSession, decisions: Mapping[VarKey, float], budget: Budget
 ) -> Solved:
-    """Fix the binaries with a value in ``values`` (by id), add every requirement, solve (a
+    """Fix the binaries with a value in ``decisions``, add every requirement, solve (a
     finishing solve whose infeasible verdict says only that those decisions admit no plan, so
     it is neither confirmed nor reported as the mission's)."""
     fixed = []
     for v in pm.model.component_data_objects(Var):
-        if v.is_binary() and not v.fixed and id(v) in values:
-            v.fix(float(round(values[id(v)])))
+        decided = decisions.get(var_key(v)) if v.is_binary() and not v.fixed else None
+        if decided is not None:
+            v.fix(float(round(decided)))
             fixed.append(v)
     add_requirements(pm, pm.pending())
     trial, session.trial = session.trial, True  # fixed decisions: the verdict is not the mission's
@@ -290,9 +293,7 @@ def _complete(
     The bound stays the last round's (it bounds the full problem); the gap is recomputed.
     """
     bound = last.results.objective_bound
-    values = {id(v): float(v.value) for v in pm.model.component_data_objects(Var)
-              if v.is_binary() and v.value is not None}  # fmt: skip
-    solved = _fix_and_solve(pm, session, values, budget)
+    solved = _fix_and_solve(pm, session, model_values(pm.model), budget)
     seconds = time.perf_counter() - tick
     stop = last.results.termination_condition.name
     base = Outcome(PlanStatus.NO_PLAN, None, bound, None, seconds, rounds + 1, len(pm.added), stop,

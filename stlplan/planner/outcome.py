@@ -21,10 +21,8 @@ Gaps are relative, as HiGHS's: ``(bound - objective) / |objective|`` for a maxim
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass
-
-import numpy as np
 
 from stlplan.result import PlanStatus
 
@@ -65,16 +63,32 @@ class Outcome:
     completed: bool = False
 
 
+VarKey = tuple[str, Hashable]
+"""A variable of a model, by its component's name and its index (``("x", ("vis1", 3, 0))``)."""
+
+
 @dataclass(frozen=True, eq=False)
 class Plan:
-    """A plan of one model, as a value: its objective, the value of each of the model's HiGHS
-    columns (a variable's column stays its own as requirements add columns), and the lazy
-    requirements the model held when the plan was found (those added later get the side the
-    plan meets best when it is loaded)."""
+    """A plan as a value (:mod:`stlplan.planner.values` reads and loads it).
+
+    Attributes
+    ----------
+    objective
+        The plan's step-1 objective (nan when not known: a start made of a trajectory).
+    values
+        The value of each variable, by key; a start may give some variables only.
+    added
+        The lazy requirements the model held when the plan was found (those added later get
+        the side the plan meets best when it is loaded).
+    meets_all
+        Whether the plan meets every requirement of the full problem, those left out of the
+        model included.
+    """
 
     objective: float
-    values: np.ndarray
-    added: frozenset[int]
+    values: Mapping[VarKey, float]
+    added: frozenset[int] = frozenset()
+    meets_all: bool = True
 
     def better_than(self, other: Plan | None) -> bool:
         """Whether this plan's objective exceeds ``other``'s (any plan beats none)."""

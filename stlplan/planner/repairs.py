@@ -86,7 +86,7 @@ class HeldRepair:
             release(held)
         if found.objective is None:
             return None
-        return loaded_plan(solver.pm, solver.session.columns())
+        return loaded_plan(solver.pm)
 
     def describe(self) -> str:
         return "held"

@@ -32,7 +32,8 @@ from stlplan.planner import confirm
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock, Phase
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.outcome import of_solve
+from stlplan.planner.outcome import Plan, of_solve
+from stlplan.planner.values import ColumnKeys
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
 
@@ -166,7 +167,9 @@ class HighsSession:
         self.trial = False
         """Whether an infeasible verdict is taken as it is (a trial solve, whose verdict decides
         nothing about the mission)."""
-        self._start: np.ndarray | None = None
+        self._start: tuple[np.ndarray, np.ndarray] | None = None
+        self.keys = ColumnKeys(model, self.columns)
+        """The key of each HiGHS column (plans are values by key)."""
         if self.highs is not None and hasattr(self.highs, "cbMipInterrupt"):
             self.highs.cbMipUserSolution += self._give_start
             self.highs.cbMipInterrupt += self._clear_stale_interrupt
@@ -186,18 +189,19 @@ class HighsSession:
             event.interrupt(False)
             self._fresh = False
 
-    def start_from(self, x: np.ndarray) -> None:
-        """Give the next solve a plan to start from: the values of columns ``0..len(x)-1`` (a
-        plan of an earlier solve; HiGHS repairs the columns added since, or drops the plan)."""
-        self._start = np.asarray(x, dtype=float)
+    def start_from(self, plan: Plan) -> None:
+        """Give the next solve ``plan`` to start from; HiGHS completes the variables it does
+        not give (columns added since it was found, or a start of states and inputs only), or
+        drops it."""
+        self._start = self.keys.start(plan.values)
 
     def _give_start(self, event: Any) -> None:
         start, self._start = self._start, None
-        if start is None or event.data_in is None:
+        if start is None or event.data_in is None or len(start[0]) == 0:
             return
-        count = min(len(start), int(self.highs.getNumCol()))
-        event.data_in.setSolution(np.arange(count, dtype=np.int32), start[:count])
-        if count < self.highs.getNumCol():
+        columns, values = start
+        event.data_in.setSolution(columns, values)
+        if len(columns) < self.highs.getNumCol():
             event.data_in.repairSolution()
 
     def columns(self) -> dict[int, int]:

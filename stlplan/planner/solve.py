@@ -33,8 +33,9 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.readout import plan_result
 from stlplan.planner.finish import Finish, finish
-from stlplan.planner.outcome import Outcome
+from stlplan.planner.outcome import Outcome, Plan
 from stlplan.planner.strategy import build_strategy
+from stlplan.planner.values import load_values, plan_of
 from stlplan.result import Fallback, ModelSize, PlanResult, PlanStatus
 from stlplan.runtime import signals
 
@@ -70,8 +71,10 @@ class _Run:
     config: PlannerConfig
     clock: Clock
     budget: Budget
+    start: Plan | None = None
     pm: PlanModel | None = None
     step1: Outcome | None = None
+    plan: Plan | None = None
     size: ModelSize | None = None
     ended: Finish = dataclasses.field(default_factory=Finish)
     strictly: bool = False
@@ -82,15 +85,20 @@ def _step_one(run: _Run) -> None:
     run.clock.report("build")
     strategy = build_strategy(run.config)
     with run.budget.stage("step 1"):
-        run.pm, run.step1 = strategy.solve(run.problem, run.config, run.clock, run.budget)
+        run.pm, run.step1 = strategy.solve(
+            run.problem, run.config, run.clock, run.budget, run.start
+        )
     run.size = model_size(run.pm.model)  # before the continuous stage fixes its decisions
+    has_plan = run.step1.status.has_plan
+    run.plan = plan_of(run.pm.model, run.pm.model.step1, run.pm.added) if has_plan else None
 
 
 def _continuous(run: _Run) -> None:
     """Step 2 (or the polish) with step 1's decisions fixed, when step 1 has a plan."""
-    if run.pm is None or run.step1 is None or not run.step1.status.has_plan:
+    if run.pm is None or run.plan is None:
         run.ended = Finish()
         return
+    load_values(run.pm.model, run.plan.values)  # the decisions the continuous stage holds
     # after a stop request too: step 2 is a quick LP or QP
     with signals.finishing(), run.budget.stage("continuous"):
         run.ended = finish(run.pm, run.config, run.clock, run.budget.finishing())
@@ -112,7 +120,8 @@ def _strict_retry(run: _Run) -> None:
     _continuous(run)
     out_of_time = (PlanStatus.NO_PLAN, PlanStatus.INTERRUPTED_NO_PLAN)
     if run.step1 is None or run.step1.status in out_of_time:
-        run.pm, run.step1, run.size, run.ended = first.pm, first.step1, first.size, first.ended
+        run.pm, run.step1, run.plan = first.pm, first.step1, first.plan
+        run.size, run.ended = first.size, first.ended
 
 
 STAGES: tuple[tuple[str, Callable[[_Run], None]], ...] = (
@@ -128,6 +137,7 @@ def plan(
     config: PlannerConfig | None = None,
     progress: ProgressCallback | None = None,
     budget: Budget | None = None,
+    start: Plan | None = None,
 ) -> PlanResult:
     """Plan ``problem``: build the MILP, solve step 1, then step 2 (or a polish).
 
@@ -142,16 +152,20 @@ def plan(
     budget
         The run's time (default: ``solver.time_limit`` from now); its ledger gets the seconds
         of step 1 and of the continuous stage.
+    start
+        A plan for step 1 to start from (of an earlier model of the problem, or states and
+        inputs only: HiGHS completes it, or drops it when it meets no plan of this model).
 
     Returns
     -------
     PlanResult
         Status, trajectory and solver figures; ``report`` is left None for the monitor.
-        ``model_size`` is the size of the last MILP step 1 solved (lazy rows included).
+        ``model_size`` is the size of the last MILP step 1 solved (lazy rows included);
+        ``values`` is step 1's plan, a start for a later solve.
     """
     config = config or PlannerConfig.from_mission(problem.mission)
     clock = Clock.started(progress)
-    run = _Run(problem, config, clock, budget or Budget.for_run(config))
+    run = _Run(problem, config, clock, budget or Budget.for_run(config), start)
     for _, stage in STAGES:
         stage(run)
     return _readout(run)
@@ -181,7 +195,8 @@ def _readout(run: _Run) -> PlanResult:
     figures = {"objective": step1.objective, "bound": step1.bound, "gap": step1.gap}
     steps = 2 if config.continuous.two_step and fallback is None else 1
     result = plan_result(run.pm, step1.status, message, figures, run.size, build, solve, steps)
-    return dataclasses.replace(result, fallback=fallback, **found)
+    values = run.plan.values if run.plan is not None else {}
+    return dataclasses.replace(result, fallback=fallback, values=values, **found)
 
 
 def _finished(

@@ -9,7 +9,8 @@ Three strategies, each wrapping the one before:
   repaired agent by agent, as the :class:`~stlplan.planner.repair_policy.RepairPolicy` says;
 * :class:`Parts`: solve the independent parts of the team apart, each by the strategy inside,
   merging parts whose plans collide (a merge repaired by the same policy) and assembling the
-  parts' plans in one model (:mod:`stlplan.planner.components`).
+  parts' plans in one model (:mod:`stlplan.planner.components`); given a plan of the whole
+  team to start from (a replan's), the team is solved whole by the strategy inside.
 
 Each strategy takes the problem, the configuration, the run's clock and a budget, and returns
 the model with the plan loaded and the :class:`~stlplan.planner.outcome.Outcome`. Each describes
@@ -28,7 +29,7 @@ from stlplan.planner.components import solve_parts
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import PlanModel, build_model
 from stlplan.planner.lazy import solve_step1
-from stlplan.planner.outcome import Outcome
+from stlplan.planner.outcome import Outcome, Plan
 from stlplan.planner.repair_policy import RepairPolicy
 
 
@@ -36,9 +37,15 @@ class Strategy(Protocol):
     """A way to solve step 1."""
 
     def solve(
-        self, problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
+        self,
+        problem: Problem,
+        config: PlannerConfig,
+        clock: Clock,
+        budget: Budget,
+        start: Plan | None = None,
     ) -> tuple[PlanModel, Outcome]:
-        """The model of ``problem`` with the plan loaded, and how step 1 ended."""
+        """The model of ``problem`` with the plan loaded, and how step 1 ended; the first solve
+        starts from ``start`` when given."""
         ...
 
     def describe(self) -> str:
@@ -57,11 +64,16 @@ class Direct:
     """Every requirement in the model; one solve."""
 
     def solve(
-        self, problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
+        self,
+        problem: Problem,
+        config: PlannerConfig,
+        clock: Clock,
+        budget: Budget,
+        start: Plan | None = None,
     ) -> tuple[PlanModel, Outcome]:
         up_front = config.with_overrides({"lazy.enabled": False})
         pm = _built(problem, up_front, clock, budget)
-        return pm, solve_step1(pm, up_front, clock, budget)
+        return pm, solve_step1(pm, up_front, clock, budget, start=start)
 
     def describe(self) -> str:
         return "direct"
@@ -74,10 +86,15 @@ class LazyRounds:
     policy: RepairPolicy
 
     def solve(
-        self, problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
+        self,
+        problem: Problem,
+        config: PlannerConfig,
+        clock: Clock,
+        budget: Budget,
+        start: Plan | None = None,
     ) -> tuple[PlanModel, Outcome]:
         pm = _built(problem, config, clock, budget)
-        return pm, solve_step1(pm, config, clock, budget, self.policy)
+        return pm, solve_step1(pm, config, clock, budget, self.policy, start)
 
     def describe(self) -> str:
         triggers = self.policy.describe()
@@ -91,8 +108,15 @@ class Parts:
     inner: LazyRounds
 
     def solve(
-        self, problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget
+        self,
+        problem: Problem,
+        config: PlannerConfig,
+        clock: Clock,
+        budget: Budget,
+        start: Plan | None = None,
     ) -> tuple[PlanModel, Outcome]:
+        if start is not None:  # a plan of the whole team: nothing for the parts to find
+            return self.inner.solve(problem, config, clock, budget, start)
         by_parts = solve_parts(problem, config, clock, budget, self.inner.policy)
         return by_parts or self.inner.solve(problem, config, clock, budget)
 

@@ -12,11 +12,12 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from pyomo.environ import Var, value
+from pyomo.environ import value
 
 from stlplan.planner.encoding.deferred import violated
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.outcome import Plan, lowest
+from stlplan.planner.values import ColumnKeys, plan_of
 
 VIOLATION_TOL = 1e-7
 """A requirement counts as violated when ``max_i alpha_i - r`` is below ``-VIOLATION_TOL``."""
@@ -38,23 +39,12 @@ def pending_violations(pm: PlanModel) -> list[int]:
     return [n for n in found if n not in pm.added]
 
 
-def loaded_values(pm: PlanModel, columns: dict[int, int]) -> np.ndarray:
-    """The plan loaded in ``pm`` as a vector of HiGHS's ``columns`` (by variable ``id``)."""
-    x = np.zeros(max(columns.values(), default=-1) + 1)
-    for v in pm.model.component_data_objects(Var):
-        column = columns.get(id(v))
-        if column is not None and v.value is not None:
-            x[column] = float(v.value)
-    return x
-
-
-def loaded_plan(pm: PlanModel, columns: dict[int, int]) -> Plan | None:
+def loaded_plan(pm: PlanModel) -> Plan | None:
     """The plan loaded in ``pm`` as a value, when it meets every requirement left out of the
     model (None otherwise)."""
     if pending_violations(pm):
         return None
-    objective = float(value(pm.model.step1))
-    return Plan(objective, loaded_values(pm, columns), frozenset(pm.added))
+    return plan_of(pm.model, pm.model.step1, pm.added)
 
 
 @dataclass(eq=False)
@@ -74,7 +64,7 @@ class Watch:
     """
 
     pm: PlanModel
-    columns: dict[int, int]
+    columns: ColumnKeys
     gap: float
     best: Plan | None = None
     abs_gap: float | None = None
@@ -83,15 +73,12 @@ class Watch:
 
     def states(self, x: np.ndarray) -> dict[str, np.ndarray]:
         """Agent states of HiGHS's column vector ``x`` (fixed states keep their value)."""
+        by_id = self.columns.columns()
         out = {}
         for agent in self.pm.problem.agents:
-            rows = [[self._value(v, x) for v in row] for row in self.pm.states(agent)]
+            rows = [[_value(v, x, by_id) for v in row] for row in self.pm.states(agent)]
             out[agent.name] = np.array(rows)
         return out
-
-    def _value(self, var: Any, x: np.ndarray) -> float:
-        column = self.columns.get(id(var))
-        return float(var.value) if column is None else float(x[column])
 
     def on_plan(self, event: Any) -> None:
         """An improving plan: keep it when it violates no requirement left out of the model."""
@@ -100,10 +87,12 @@ class Watch:
         if self.best is None or objective > self.best.objective:
             x = np.array(event.data_out.mip_solution)
             margin = self.pm.margin
-            r = margin if isinstance(margin, float) else self._value(margin, x)
+            by_id = self.columns.columns()
+            r = margin if isinstance(margin, float) else _value(margin, x, by_id)
             bad = violated(self.pm.deferral.lazy, self.states(x), r, VIOLATION_TOL)
             if all(n in self.pm.added for n in bad):
-                self.offer(Plan(objective, x, frozenset(self.pm.added)))
+                values = self.columns.values(x)
+                self.offer(Plan(objective, values, frozenset(self.pm.added)))
         self.maybe_stop(event)
 
     def closed(self, bound: float | None) -> bool:
@@ -124,3 +113,9 @@ class Watch:
         self.stopped = self.stopped or self.closed(float(event.data_out.mip_dual_bound))
         if self.stopped:
             event.interrupt()
+
+
+def _value(var: Any, x: np.ndarray, by_id: dict[int, int]) -> float:
+    """``var``'s value in HiGHS's column vector ``x`` (its own value when it has no column)."""
+    column = by_id.get(id(var))
+    return float(var.value) if column is None else float(x[column])

@@ -1,0 +1,64 @@
+"""Plans as values: keys stable across models, a run's plan handed on, a start taken."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from stlplan.planner.config import PlannerConfig
+from stlplan.planner.encoding.model import build_model
+from stlplan.planner.outcome import Plan
+from stlplan.planner.solve import plan
+from stlplan.planner.values import load_values, model_values, plan_of
+from stlplan.result import PlanStatus
+from tests.helpers.missions import detour_for_free, swap_problem
+
+FIRST_PLAN = {"solver.highs_options": {"mip_max_improving_sols": 1, "mip_heuristic_effort": 0.0}}
+"""HiGHS stops at its first improving plan (without a start, a poor one for these missions)."""
+
+
+def test_a_plan_read_from_one_model_loads_into_another_of_the_same_problem() -> None:
+    problem = swap_problem(0.5, horizon=3, inter_sample=True)
+    result = plan(problem, PlannerConfig().with_overrides({"lazy.enabled": False}))
+    assert result.status is PlanStatus.OPTIMAL and result.values
+    other = build_model(problem, PlannerConfig().with_overrides({"lazy.enabled": False}))
+    load_values(other.model, result.values)
+    loaded = model_values(other.model)
+    shared = set(loaded) & set(result.values)
+    assert {key[0] for key in shared} >= {"x", "u", "s"}
+    assert all(loaded[k] == pytest.approx(result.values[k]) for k in shared)
+    assert plan_of(other.model, other.model.step1).objective == pytest.approx(result.objective)
+
+
+def test_a_run_started_from_the_optimum_returns_it_at_its_first_plan() -> None:
+    problem = detour_for_free()
+    config = PlannerConfig().with_overrides({"lazy.enabled": False})
+    optimum = plan(problem, config)
+    assert optimum.status is PlanStatus.OPTIMAL and optimum.objective is not None
+    first = config.with_overrides(FIRST_PLAN)
+    alone = plan(problem, first)
+    started = plan(problem, first, start=Plan(optimum.objective, optimum.values))
+    assert alone.objective is not None and alone.objective < optimum.objective - 1.0
+    assert started.objective == pytest.approx(optimum.objective, rel=1e-4)
+
+
+def test_a_start_of_states_and_inputs_only_is_completed() -> None:
+    problem = detour_for_free()
+    config = PlannerConfig().with_overrides({"lazy.enabled": False})
+    optimum = plan(problem, config)
+    assert optimum.objective is not None
+    trajectory = {k: v for k, v in optimum.values.items() if k[0] in ("x", "u")}
+    start = Plan(math.nan, trajectory, meets_all=False)
+    started = plan(problem, config.with_overrides(FIRST_PLAN), start=start)
+    assert started.objective == pytest.approx(optimum.objective, rel=1e-4)
+
+
+def test_a_start_of_a_plan_for_the_whole_team_skips_the_parts() -> None:
+    problem = detour_for_free()
+    optimum = plan(problem)
+    assert optimum.objective is not None
+    started = plan(problem, start=Plan(optimum.objective, optimum.values))
+    assert started.objective == pytest.approx(optimum.objective, rel=1e-4)
+    assert any(r["agents"] < 3 for r in optimum.round_log)  # e is a part of its own
+    assert started.round_log and all(r["agents"] == 3 for r in started.round_log)
