@@ -90,7 +90,22 @@ class Job:
     time_limit: float
 
 
-def _initial_problem(case: str, seed: int, run: int) -> Any:
+def initial_problem(case: str, seed: int, run: int) -> Any:
+    """The problem one run of a case solves (module docstring).
+
+    Parameters
+    ----------
+    case
+        The case: a mission file's path under ``missions/``, without ``.yaml``.
+    seed, run
+        The draw of the initial states (:func:`stlplan.sweep.initial.draw_positions`).
+
+    Returns
+    -------
+    Problem
+        A farm case from the run's drawn initial states; a mission without an initial area
+        (the suite, the farms starting at depots) as written, whatever ``seed`` and ``run``.
+    """
     from stlplan.mission.loader import load_problem
     from stlplan.mission.problem import build_problem
     from stlplan.sweep.initial import draw_positions, with_initial_positions
@@ -130,7 +145,7 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
     def on_progress(progress: Any) -> None:
         rounds[0] = max(rounds[0], progress.round or 1)
 
-    problem = _initial_problem(job.case, seed, job.run)
+    problem = initial_problem(job.case, seed, job.run)
     overrides = _overrides(job, threads)
     tick, cpu = time.perf_counter(), time.process_time()
     try:

@@ -55,7 +55,7 @@ def test_suite_cases_run_once_as_written() -> None:
     patrol = [(j.run, j.formulation) for j in jobs if j.case == "stl/patrol"]
     assert patrol == [(0, "log"), (0, "standard")]
     assert len([j for j in jobs if j.case == "farm"]) == 6
-    problem = bench._initial_problem("stl/patrol", seed=0, run=0)
+    problem = bench.initial_problem("stl/patrol", seed=0, run=0)
     assert list(problem.agents[0].initial_state) == [2.0, 2.0]
 
 

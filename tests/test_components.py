@@ -8,12 +8,12 @@ from typing import Any
 import pytest
 
 from stlplan.formula.boundary import EPSILON
-from stlplan.planner import components
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
-from stlplan.planner.components import Part, solve_parts
+from stlplan.planner.components import Part, crossing_requirements, solve_in_shares, solve_parts
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import build_model
+from stlplan.planner.lazy import LazySolver
 from stlplan.planner.outcome import Outcome, Plan
 from stlplan.planner.parts import agent_parts, sub_problem
 from stlplan.planner.repairs import Broken, HeldRepair
@@ -176,23 +176,21 @@ def test_only_requirements_between_parts_are_crossings() -> None:
     # solve_parts would merge nothing and check again, forever
     problem = two_teams()
     options, clock = PlannerConfig().with_overrides({"solver.time_limit": 60.0}), Clock(0.0, None)
-    full = build_model(
-        problem,
-        paper_model(lazy__enabled=True, model__encoding=options.model.encoding),
-    )
-    parts = [
-        components._part(problem, names, options, clock, Budget.of_seconds(60))
-        for names in agent_parts(problem)
-    ]
+    lazy = paper_model(lazy__enabled=True, model__encoding=options.model.encoding)
+    full = build_model(problem, lazy)
+    parts = []
+    for names in agent_parts(problem):
+        pm = build_model(sub_problem(problem, names), lazy)
+        parts.append(Part(names, pm, LazySolver(pm, options, clock)))
     spread = {"a": (0.0, 0.0), "b": (1.0, 0.0), "c": (2.0, 0.0), "d": (3.0, 0.0), "e": (4.0, 0.0)}
     for part in parts:
         _place(part, {n: spread[n] for n in part.agents})
-    assert components._crossing(full, parts) == []
+    assert crossing_requirements(full, parts) == []
     owner = {n: part for part in parts for n in part.agents}
     _place(owner["b"], {"b": (0.0, 0.0)})  # a and b (one part) on the same spot
-    assert components._crossing(full, parts) == []
+    assert crossing_requirements(full, parts) == []
     _place(owner["c"], {"c": (0.0, 0.0)})  # now c (another part) too
-    linked = components._crossing(full, parts)
+    linked = crossing_requirements(full, parts)
     assert linked and all({"c"} < set(r.binding.values()) for r in linked)
 
 
@@ -209,9 +207,9 @@ def test_parts_are_solved_smallest_first_in_shares_with_a_reserve(
         return Outcome(PlanStatus.OPTIMAL, 1.0, 1.0, None, 0.0, 1, 0, "optimal")
 
     parts = [Part(agents, None, None) for agents in (("a", "b", "c"), ("d",), ("e", "f"))]  # type: ignore[arg-type]
-    monkeypatch.setattr(components, "_solve_part", solve_part)
     monkeypatch.setattr(time, "perf_counter", lambda: start)
-    components._solve_in_shares(parts, PlannerConfig(), Budget(start + 100.0, start + 100.0))
+    budget = Budget(start + 100.0, start + 100.0)
+    solve_in_shares(parts, PlannerConfig(), budget, solve=solve_part)
     assert [agents for agents, _ in asked] == [("d",), ("e", "f"), ("a", "b", "c")]
     usable = 100.0 * (1 - PlannerConfig().parts.merge_reserve)
     assert [share for _, share in asked] == pytest.approx([usable / 3] * 3)

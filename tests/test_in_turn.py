@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from functools import partial
 from typing import Any
 
 import pytest
@@ -13,7 +14,7 @@ from stlplan.planner.clock import Clock
 from stlplan.planner.components import solve_parts
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.in_turn import InTurn, agents_of, hold_agents, release
+from stlplan.planner.in_turn import InTurn, agents_of, hold_agents, release, solve_free
 from stlplan.planner.outcome import Plan
 from stlplan.planner.repairs import Broken, HeldRepair, InTurnRepair
 from stlplan.planner.session import HighsSession
@@ -66,21 +67,20 @@ def _first_round(problem: Problem) -> tuple[Any, HighsSession]:
     return pm, session
 
 
-def test_a_round_repaired_in_turn_meets_every_requirement(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_round_repaired_in_turn_meets_every_requirement() -> None:
     problem = crossing_problem()
     pm, session = _first_round(problem)
     bad = pending_violations(pm)
     assert bad and agents_of(pm, bad) >= {"a", "b"}  # the relaxed plan drives through others
     bounds = {id(v): v.bounds for v in pm.model.x.values()}
     freed: list[set[str]] = []
-    solve_free = InTurn._solve_free
+    turn = partial(solve_free, pm, session, PlannerConfig().repair)
 
-    def spy(self: InTurn, free: set[str], done: set[str], budget: Budget) -> set[str]:
+    def spy(free: set[str], done: set[str], budget: Budget) -> set[str]:
         freed.append(set(free))
-        return solve_free(self, free, done, budget)
+        return turn(free, done, budget)
 
-    monkeypatch.setattr(InTurn, "_solve_free", spy)
-    repaired = InTurn(pm, session, PlannerConfig()).run(bad, Budget.of_seconds(30.0))
+    repaired = InTurn(pm, session, PlannerConfig(), solve=spy).run(bad, Budget.of_seconds(30.0))
     assert repaired is not None  # the repair returns its plan: the loaded one, as a value
     assert repaired.objective == pytest.approx(float(value(pm.model.step1)), abs=1e-6)
     assert repaired.added == frozenset(pm.added)
@@ -138,41 +138,64 @@ def test_a_crowded_round_is_repaired_however_short(
     assert all(len(agents) >= crowd for agents in runs)
 
 
-def test_a_turn_that_fails_frees_the_agents_it_could_not_avoid() -> None:
-    # _solve_free stubbed: b alone cannot avoid a (returns a); b with a finds a plan
-    calls: list[set[str]] = []
+def between(pm: Any, agents: set[str]) -> list[int]:
+    """The lazy requirements that name exactly ``agents``."""
+    return [n for n, r in enumerate(pm.deferral.lazy) if set(r.binding.values()) == agents]
 
-    def solve_free(free: set[str], done: set[str], budget: Budget) -> set[str]:
-        calls.append(set(free))
+
+def test_a_turn_that_fails_frees_the_agents_it_could_not_avoid() -> None:
+    # the turns' solves stubbed: b alone cannot avoid a (names a); b with a finds a plan
+    pm, session = _first_round(crossing_problem())
+    calls: list[tuple[set[str], set[str]]] = []
+
+    def stub(free: set[str], done: set[str], budget: Budget) -> set[str]:
+        calls.append((set(free), set(done)))
         return {"a", "b"} if free == {"b"} else set()
 
-    turn = InTurn.__new__(InTurn)
-    turn._solve_free = solve_free  # type: ignore[method-assign]
-    budget = Budget.of_seconds(60)
-    assert turn._turn({"b"}, {"a"}, budget, 1) == {"a", "b"}
-    assert calls == [{"b"}, {"a", "b"}]
-    # no agent to free with it: no plan
-    turn._solve_free = lambda free, done, budget: set(free)  # type: ignore[method-assign]
-    assert turn._turn({"b"}, {"a"}, budget, 1) is None
+    bad = between(pm, {"a", "b"})  # turns of a then b; c and d held throughout
+    InTurn(pm, session, PlannerConfig(), solve=stub).run(bad, Budget.of_seconds(60))
+    assert calls == [
+        ({"a"}, {"c", "d"}),
+        ({"b"}, {"a", "c", "d"}),
+        ({"a", "b"}, {"a", "c", "d"}),  # b's turn again, a freed with it: a plan
+        ({"a"}, {"b", "c", "d"}),  # the second turns: the repair went on
+        ({"b"}, {"a", "c", "d"}),  # (b alone fails again: the second turns stop)
+    ]
+    # no agent to free with it: no plan, and no turn after it
+    calls.clear()
+
+    def alone(free: set[str], done: set[str], budget: Budget) -> set[str]:
+        calls.append((set(free), set(done)))
+        return set(free)
+
+    assert InTurn(pm, session, PlannerConfig(), solve=alone).run(bad, Budget.of_seconds(60)) is None
+    assert calls == [({"a"}, {"c", "d"})]
 
 
-def test_the_second_turns_never_make_the_repaired_plan_worse(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
+def test_the_second_turns_never_make_the_repaired_plan_worse() -> None:
     problem = crossing_problem()
-    scores = []
-    for improve in (False, True):
-        pm, session = _first_round(problem)
-        if not improve:
-            monkeypatch.setattr(InTurn, "_improve", lambda self, turns, everyone, budget: None)
-        assert InTurn(pm, session, PlannerConfig()).run(
-            pending_violations(pm), Budget.of_seconds(30)
-        )
-        assert pending_violations(pm) == []
-        scores.append(value(pm.model.step1))
-        monkeypatch.undo()
-    repaired, improved = scores
-    assert improved >= repaired - 1e-7
+    pm, session = _first_round(problem)
+    bad = pending_violations(pm)
+    involved, repaired = agents_of(pm, bad), set[str]()
+    turn = partial(solve_free, pm, session, PlannerConfig().repair)
+    first: list[float] = []  # the plan's objective once every first turn has found a plan
+    second: list[set[str]] = []  # the agents of the turns after that
+
+    def spy(free: set[str], done: set[str], budget: Budget) -> set[str]:
+        if repaired >= involved:
+            second.append(set(free))
+        partners = turn(free, done, budget)
+        if not partners and not repaired >= involved:
+            repaired.update(free)
+            if repaired >= involved:
+                first.append(float(value(pm.model.step1)))
+        return partners
+
+    assert InTurn(pm, session, PlannerConfig(), solve=spy).run(bad, Budget.of_seconds(30))
+    assert pending_violations(pm) == []
+    assert second and all(len(free) == 1 for free in second)
+    (repaired_objective,) = first
+    assert value(pm.model.step1) >= repaired_objective - 1e-7
 
 
 def test_a_turn_adds_every_step_of_a_pair_it_crosses() -> None:

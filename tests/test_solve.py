@@ -335,17 +335,17 @@ def test_a_failed_completion_is_not_called_completed() -> None:
     from stlplan.planner.clock import Clock
     from stlplan.planner.finish import Finish
     from stlplan.planner.outcome import Outcome
-    from stlplan.planner.solve import _events, _message
+    from stlplan.planner.solve import run_events, step1_message
 
     config, clock = PlannerConfig(), Clock(0.0, None)
     done = Outcome(PlanStatus.FEASIBLE, 1.0, 2.0, 0.5, 1.0, 3, 4, "maxTimeLimit", completed=True)
     failed = dataclasses.replace(done, status=PlanStatus.NO_PLAN, objective=None, gap=None)
     completion = "the last round's plan completed with its step-1 decisions fixed"
-    assert completion in _events(done, Finish(), config, clock, False)
-    assert "cannot meet" in _message(failed, config, clock)
-    assert not any("completed" in e for e in _events(failed, Finish(), config, clock, False))
-    assert "cannot meet" not in _message(done, config, clock)
+    assert completion in run_events(done, Finish(), config, clock, False)
+    assert "cannot meet" in step1_message(failed, config, clock)
+    assert not any("completed" in e for e in run_events(failed, Finish(), config, clock, False))
+    assert "cannot meet" not in step1_message(done, config, clock)
     plain = dataclasses.replace(done, completed=False)
-    assert _events(plain, Finish(), config, clock, False) == (
+    assert run_events(plain, Finish(), config, clock, False) == (
         "3 lazy rounds, 4 requirements added",
     )

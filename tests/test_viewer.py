@@ -22,8 +22,8 @@ from stlplan.monitor.verdicts import check
 from stlplan.outputs.plots import task_presence
 from stlplan.outputs.viewer import hover_texts, viewer_figure, write_viewer
 from stlplan.result import PlanResult, Trajectory
-from tests.helpers.paths import MISSIONS
-from tests.test_plots import FARM, make_report, make_trajectory
+from tests.helpers.paths import FARM, MISSIONS
+from tests.helpers.plans import make_report, make_trajectory
 
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = [

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -71,6 +71,10 @@ class Part:
     free: frozenset[str] = frozenset()
 
 
+PartSolve = Callable[[Part, PlannerConfig, Budget], Outcome]
+"""One part's solve within its share of the time, ``(part, config, budget) -> result``."""
+
+
 def _part(
     problem: Problem,
     agents: Sequence[str],
@@ -89,13 +93,26 @@ def _part(
     return Part(tuple(agents), pm, LazySolver(pm, config, clock, policy))
 
 
-def _crossing(full: PlanModel, parts: Sequence[Part]) -> list[Requirement]:
+def crossing_requirements(full: PlanModel, parts: Sequence[Part]) -> list[Requirement]:
     """Requirements of the full problem linking agents of different parts that the combined
     plan violates.
 
     A requirement within one part is that part's own: its plan meets it as HiGHS meets any row,
     within the solver's tolerances, which may exceed :data:`VIOLATION_TOL`; merging could not
     change that, so such a requirement is not a crossing.
+
+    Parameters
+    ----------
+    full
+        The lazy model of the full problem: its lazy requirements and its margin.
+    parts
+        The parts, each with its plan loaded in its own model.
+
+    Returns
+    -------
+    list[Requirement]
+        The lazy requirements of ``full`` that the parts' plans together violate by more than
+        :data:`VIOLATION_TOL` and that name agents of at least two parts.
     """
     assert full.deferral is not None
     states, owner = {}, {a: i for i, part in enumerate(parts) for a in part.agents}
@@ -150,17 +167,33 @@ def _combined(parts: Sequence[Part], config: PlannerConfig, seconds: float, roun
     return outcome.combined(steps, config.solver.gap, signals.requested(), seconds, rounds)
 
 
-def _solve_in_shares(parts: Sequence[Part], config: PlannerConfig, budget: Budget) -> None:
+def solve_in_shares(
+    parts: Sequence[Part], config: PlannerConfig, budget: Budget, solve: PartSolve | None = None
+) -> None:
     """Solve the parts not solved yet, the smallest first, each within an equal share of the
     time left but ``parts.merge_reserve`` (what one leaves goes to the next); the reserve is for
     merging parts whose plans collide, and :func:`_tighten` spends what is left at the end on
-    the part furthest from its bound."""
+    the part furthest from its bound. A stop request ends the loop before the next part.
+
+    Parameters
+    ----------
+    parts
+        The parts; each one without a result (``step1`` None) gets the result of its solve.
+    config
+        The run's configuration (``parts.merge_reserve``).
+    budget
+        The time the parts share.
+    solve
+        How one part is solved within its share (default: its first solve, a merged part
+        repaired first).
+    """
+    solve = solve or _solve_part
     waiting = sorted((p for p in parts if p.step1 is None), key=lambda p: len(p.agents))
     shares = budget.split(len(waiting), reserve=config.parts.merge_reserve)
     for part, share in zip(waiting, shares, strict=True):
         if signals.requested():
             return
-        part.step1 = _solve_part(part, config, share)
+        part.step1 = solve(part, config, share)
 
 
 def _solve_part(part: Part, config: PlannerConfig, budget: Budget) -> Outcome:
@@ -221,11 +254,11 @@ def solve_parts(
         full = build_model(problem, config.with_overrides({"model.floors": False}))
     parts = [_part(problem, agents, config, clock, budget, policy=policy) for agents in names]
     while True:
-        _solve_in_shares(parts, config, budget)
+        solve_in_shares(parts, config, budget)
         done = _combined(parts, config, time.perf_counter() - tick, clock.round or 1)
         if not done.status.has_plan:
             return full, done
-        crossing = _crossing(full, parts)
+        crossing = crossing_requirements(full, parts)
         if not crossing:
             break
         if signals.requested():  # the parts' plans collide: no plan of the full problem

@@ -29,11 +29,12 @@ solves one agent's plan around held ones (``repair.hold`` of room each), at most
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
+from functools import partial
 from typing import Any
 
 from stlplan.planner.budget import Budget
-from stlplan.planner.config import PlannerConfig
+from stlplan.planner.config import PlannerConfig, RepairConfig
 from stlplan.planner.encoding.deferred import neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.outcome import Plan
@@ -45,6 +46,11 @@ _log = logging.getLogger(__name__)
 
 Held = list[tuple[Any, Any, Any]]
 """``(variable, lower, upper)`` to restore."""
+
+FreeSolve = Callable[[set[str], set[str], Budget], set[str]]
+"""One solve of a turn, ``(free, done, budget) -> agents``: the agents ``free`` solved again,
+every other agent held, around the agents ``done``; no agents when that found a plan
+(:func:`solve_free` and its return value)."""
 
 
 def hold_near(var: Any, value: float, held: Held, width: float) -> None:
@@ -94,10 +100,20 @@ class InTurn:
     ----------
     pm, session, config
         The lazy model, its HiGHS session and the run's configuration.
+    solve
+        One solve of a turn (default: :func:`solve_free` on ``pm`` and ``session`` with the
+        ``repair`` section of ``config``).
     """
 
-    def __init__(self, pm: PlanModel, session: HighsSession, config: PlannerConfig) -> None:
+    def __init__(
+        self,
+        pm: PlanModel,
+        session: HighsSession,
+        config: PlannerConfig,
+        solve: FreeSolve | None = None,
+    ) -> None:
         self.pm, self.session, self.repair = pm, session, config.repair
+        self.solve = solve or partial(solve_free, pm, session, config.repair)
 
     def run(self, bad: Sequence[int], budget: Budget) -> Plan | None:
         """Repair the agents ``bad`` names within ``budget``; the repaired plan, when every turn
@@ -137,7 +153,7 @@ class InTurn:
             if share.expired():
                 return
             self.session.start_from(plan_of(self.pm.model, self.pm.model.step1))  # no worse
-            if self._solve_free({name}, everyone - {name}, share):
+            if self.solve({name}, everyone - {name}, share):
                 return
 
     def _turn(self, free: set[str], done: set[str], budget: Budget, left: int) -> set[str] | None:
@@ -148,7 +164,7 @@ class InTurn:
             share = budget.share(1 / left)
             if share.expired():
                 return None
-            partners = self._solve_free(free, done, share)
+            partners = self.solve(free, done, share)
             if not partners:
                 return free
             if partners <= free:
@@ -156,31 +172,52 @@ class InTurn:
             free = free | partners
         return None
 
-    def _solve_free(self, free: set[str], done: set[str], budget: Budget) -> set[str]:
-        """Solve with only ``free`` free, adding the requirements the plan violates among
-        ``free`` and ``done``; returns no agents when that ends with a plan, else the agents
-        of the requirements added (the free ones, without a plan: they could not be met)."""
-        assert self.pm.deferral is not None
-        lazy, partners = self.pm.deferral.lazy, set(free)
-        others = (a.name for a in self.pm.problem.agents if a.name not in free)
-        held = hold_agents(self.pm, others, self.repair.hold)
-        try:
-            for _ in range(self.repair.solves_per_turn):
-                solved = self.session.solve(budget)
-                if solved.stopped or not has_solution(solved.results):
-                    return partners
-                mine = [
-                    n for n in pending_violations(self.pm) if agents_of(self.pm, [n]) <= done | free
-                ]
-                _log.debug(
-                    "turn of %s: %.1f s, %d violated", sorted(free), solved.seconds, len(mine)
-                )
-                if not mine:
-                    return set()
-                partners |= agents_of(self.pm, mine)
-                if budget.expired():
-                    return partners
-                add_requirements(self.pm, neighbours(lazy, mine, self.repair.window))
-            return partners
-        finally:
-            release(held)
+
+def solve_free(
+    pm: PlanModel,
+    session: HighsSession,
+    repair: RepairConfig,
+    free: set[str],
+    done: set[str],
+    budget: Budget,
+) -> set[str]:
+    """One solve of a turn: the agents ``free`` solved again, every other agent held near its
+    loaded plan, at most ``repair.solves_per_turn`` times, each time adding the requirements the
+    plan violates among ``free`` and ``done`` (every step of their families, ``repair.window``).
+
+    Parameters
+    ----------
+    pm, session, repair
+        The lazy model with the plan to repair loaded, its HiGHS session, and the ``repair``
+        section of the run's configuration.
+    free, done
+        The agents solved again, and the agents already repaired (or never involved).
+    budget
+        The turn's time.
+
+    Returns
+    -------
+    set[str]
+        No agents when a solve ends with a plan that meets every requirement among ``free`` and
+        ``done``; otherwise ``free`` and the agents of the requirements added.
+    """
+    assert pm.deferral is not None
+    lazy, partners = pm.deferral.lazy, set(free)
+    others = (a.name for a in pm.problem.agents if a.name not in free)
+    held = hold_agents(pm, others, repair.hold)
+    try:
+        for _ in range(repair.solves_per_turn):
+            solved = session.solve(budget)
+            if solved.stopped or not has_solution(solved.results):
+                return partners
+            mine = [n for n in pending_violations(pm) if agents_of(pm, [n]) <= done | free]
+            _log.debug("turn of %s: %.1f s, %d violated", sorted(free), solved.seconds, len(mine))
+            if not mine:
+                return set()
+            partners |= agents_of(pm, mine)
+            if budget.expired():
+                return partners
+            add_requirements(pm, neighbours(lazy, mine, repair.window))
+        return partners
+    finally:
+        release(held)

@@ -178,20 +178,22 @@ def _readout(run: _Run) -> PlanResult:
     found: dict[str, Any] = {
         "rounds": step1.rounds,
         "requirements_added": step1.added,
-        "events": _events(step1, run.ended, config, clock, run.strictly),
+        "events": run_events(step1, run.ended, config, clock, run.strictly),
         "confirmations": tuple(clock.confirmations),
         "round_log": tuple(clock.round_log),
     }
     build, solve = clock.build_seconds, clock.elapsed() - clock.build_seconds
     if not step1.status.has_plan:
         clock.report("done")
-        message = _message(step1, config, clock)
+        message = step1_message(step1, config, clock)
         return PlanResult(
             step1.status, message, bound=step1.bound, model_size=run.size,
             build_seconds=build, solve_seconds=solve, **found,
         )  # fmt: skip
     clock.report("done", step1.objective, step1.bound, step1.gap)
-    message, fallback = _finished(_message(step1, config, clock), run.ended, config, run.problem)
+    message, fallback = _finished(
+        step1_message(step1, config, clock), run.ended, config, run.problem
+    )
     figures = {"objective": step1.objective, "bound": step1.bound, "gap": step1.gap}
     steps = 2 if config.continuous.two_step and fallback is None else 1
     result = plan_result(run.pm, step1.status, message, figures, run.size, build, solve, steps)
@@ -212,8 +214,19 @@ def _finished(
     return message, None
 
 
-def _message(step1: Outcome, config: PlannerConfig, clock: Clock) -> str:
-    """One line on how step 1 ended (the run's internal events apart: :func:`_events`)."""
+def step1_message(step1: Outcome, config: PlannerConfig, clock: Clock) -> str:
+    """One line on how step 1 ended (the run's internal events apart: :func:`run_events`).
+
+    Parameters
+    ----------
+    step1, config, clock
+        Step 1's result, the run's configuration and its clock (the confirmations).
+
+    Returns
+    -------
+    str
+        The status in words, with why a run without a plan ended so.
+    """
     bound, gap = step1.bound, step1.gap
     known = gap is not None and bound is not None and math.isfinite(bound)
     where = f"gap {gap:.2%}, bound {bound:.6g}" if known else "no bound yet"
@@ -238,11 +251,26 @@ def _message(step1: Outcome, config: PlannerConfig, clock: Clock) -> str:
     return text
 
 
-def _events(
+def run_events(
     step1: Outcome, ended: Finish, config: PlannerConfig, clock: Clock, strictly: bool
 ) -> tuple[str, ...]:
     """What happened on the way, in words: lazy rounds, a completion, confirmations that
-    overturned HiGHS, a strict retry, a landed step 2 (``summary.json`` and ``--verbose``)."""
+    overturned HiGHS, a strict retry, a landed step 2 (``summary.json`` and ``--verbose``).
+
+    Parameters
+    ----------
+    step1, ended
+        Step 1's result and how the continuous stage ended.
+    config, clock
+        The run's configuration and its clock (the confirmations).
+    strictly
+        Whether step 1 was solved again with ``solver.strict_integrality``.
+
+    Returns
+    -------
+    tuple[str, ...]
+        One sentence per event, in the order above; empty for a run without any.
+    """
     events = []
     if config.lazy.enabled and step1.rounds > 1:
         events.append(f"{step1.rounds} lazy rounds, {step1.added} requirements added")
