@@ -9,12 +9,12 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 from stlplan.analysis.size import check_size
-from stlplan.errors import UsageError
+from stlplan.errors import StlplanError, UsageError
 from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
@@ -35,6 +35,7 @@ __all__ = [
     "export_rtamt",
     "plan",
     "plot_trajectory",
+    "replan",
     "solve",
     "summary",
     "sweep",
@@ -175,21 +176,79 @@ def solve(
     if config.model.tasks == "groups":
         check_enumerable(problem)
     check_size(problem, config.solver.time_limit, config.model.tasks)
-    created = out is not None and not Path(out).exists()
-    if out is not None:
-        prepare_directory(Path(out))
-    try:
-        with signals.stop_on_signals():  # a signal while writing: nothing is written
-            problem, result = plan(problem, overrides, progress=progress)
-            if out is not None:
-                given = (overrides or Overrides()).given()
-                write_plan(problem, result, out, given, animation=animation, viewer=viewer)
-    except KeyboardInterrupt:
-        if created and out is not None:
-            with contextlib.suppress(OSError):
-                Path(out).rmdir()  # only when still empty
-        raise
-    return result
+    written = _written(out, overrides, animation, viewer)
+    return written(lambda: plan(problem, overrides, progress=progress))[1]
+
+
+def _written(
+    out: str | Path | None, overrides: Overrides | None, animation: bool, viewer: bool
+) -> Callable[[Callable[[], tuple[Problem, PlanResult]]], tuple[Problem, PlanResult]]:
+    """Run a planning call and (with ``out``) write its plan directory, all or nothing: the
+    folder is prepared first, and one made for the run is removed again on Ctrl-C."""
+
+    def run(planned: Callable[[], tuple[Problem, PlanResult]]) -> tuple[Problem, PlanResult]:
+        created = out is not None and not Path(out).exists()
+        if out is not None:
+            prepare_directory(Path(out))
+        try:
+            with signals.stop_on_signals():  # a signal while writing: nothing is written
+                problem, result = planned()
+                if out is not None:
+                    given = (overrides or Overrides()).given()
+                    write_plan(problem, result, out, given, animation=animation, viewer=viewer)
+        except KeyboardInterrupt:
+            if created and out is not None:
+                with contextlib.suppress(OSError):
+                    Path(out).rmdir()  # only when still empty
+            raise
+        return problem, result
+
+    return run
+
+
+def replan(
+    mission: str | Path | Problem,
+    executed: str | Path,
+    at: int,
+    lost: Sequence[str] = (),
+    closed: Sequence[str] = (),
+    out: str | Path | None = None,
+    overrides: Overrides | None = None,
+    progress: Callable[[Any], None] | None = None,
+    animation: bool = True,
+    viewer: bool = True,
+) -> tuple[Problem, PlanResult]:
+    """Plan again from step ``at`` of the ``executed`` trajectory file (DESIGN 2.13-14), with
+    agents ``lost`` and regions ``closed`` at that step; verify the whole trajectory and (with
+    ``out``) write the plan directory of steps ``0..H``.
+
+    The file's states of steps ``0..at`` are the executed past (inputs optional, later rows not
+    data); its later rows, when complete, are where the solver starts. Returns the replanned
+    problem (its past, its events as constraints: what the monitor judged) and the result.
+
+    Raises
+    ------
+    EventError, TrajectoryError
+        A step outside ``0..H-1``, unknown or repeated events, an executed file that does not fit
+        the mission or leaves its state bounds (nothing is written).
+    """
+    from stlplan.mission.past import check_step, replanned
+    from stlplan.replanning import replan as replan_problem
+    from stlplan.replanning import trajectory_start
+
+    problem = mission if isinstance(mission, Problem) else load_problem(mission)
+    check_step(problem, at)
+    past = read_trajectory_csv(problem, executed, through=at)
+    again = replanned(problem, past, at, lost, closed)  # every bad input before writing
+    config = PlannerConfig.from_mission(problem.mission, (overrides or Overrides()).dotted())
+    check_size(again, config.solver.time_limit, config.model.tasks)
+    start = None
+    with contextlib.suppress(StlplanError):  # later rows incomplete: no start from them
+        start = trajectory_start(again, read_trajectory_csv(problem, executed), at)
+    written = _written(out, overrides, animation, viewer)
+    return written(
+        lambda: replan_problem(problem, past, at, lost, closed, overrides, progress, start)
+    )
 
 
 def _write_text(path: Path, text: str) -> None:

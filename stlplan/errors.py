@@ -53,6 +53,13 @@ class TrajectoryError(StlplanError):
     exit_code = 3
 
 
+class EventError(StlplanError):
+    """A replan's step or events that do not fit the mission (a step past the horizon, an
+    unknown or repeated agent or region, every agent lost)."""
+
+    exit_code = 3
+
+
 class SolverError(StlplanError):
     """The solver failed, or produced a plan the monitor rejects."""
 

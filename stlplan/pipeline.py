@@ -19,6 +19,7 @@ from stlplan.mission.problem import Problem
 from stlplan.native_output import discard_highs_banner
 from stlplan.planner.budget import Budget
 from stlplan.planner.config import Overrides, PlannerConfig
+from stlplan.planner.outcome import Plan
 from stlplan.result import PlanResult, PlanStatus
 from stlplan.runtime import signals
 from stlplan.verify import verified
@@ -42,6 +43,7 @@ def plan(
     overrides: Overrides | None = None,
     progress: Callable[[Any], None] | None = None,
     diagnose_infeasible: bool = True,
+    start: Plan | None = None,
 ) -> tuple[Problem, PlanResult]:
     """Solve a mission and verify the plan with the monitor.
 
@@ -54,6 +56,8 @@ def plan(
     In the main thread, SIGINT and SIGTERM during a solve stop HiGHS and the best plan so far
     comes back verified with status ``interrupted`` (:mod:`stlplan.runtime.signals`); a second signal, or
     one outside a solve, raises :class:`stlplan.runtime.signals.Interrupted`.
+
+    ``start``: a plan step 1 starts from (:func:`stlplan.planner.solve.plan`).
     """
     from stlplan.planner.solve import plan as solve_plan
     from stlplan.planner.strategy import describe
@@ -74,7 +78,7 @@ def plan(
         message = f"infeasible before solving: {counted(len(reasons), 'requirement')} cannot be met"
         return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis, **used)
     with signals.stop_on_signals(), _quiet_pyomo():
-        result = solve_plan(problem, config, progress=progress, budget=run)
+        result = solve_plan(problem, config, progress=progress, budget=run, start=start)
         if result.status is PlanStatus.INFEASIBLE and diagnose_infeasible:
             with run.stage("diagnosis"):
                 result = _diagnosed(problem, config, result, run)

@@ -195,6 +195,29 @@ class SolverFigures:
 
 
 @dataclass(frozen=True)
+class Replan:
+    """What a replan kept and changed (DESIGN 2.13-14).
+
+    Attributes
+    ----------
+    step
+        ``K``: the executed states of steps ``0..K`` were kept as data.
+    events
+        The events applied at ``K``, in words (``vis1 lost``, ``C closed``).
+    seconds
+        Wall time of the replan, s.
+    past_effort
+        The effort of the executed inputs before ``K`` (0 when the file gave none): the
+        objective counts the planned inputs only.
+    """
+
+    step: int
+    events: tuple[str, ...] = ()
+    seconds: float = 0.0
+    past_effort: float = 0.0
+
+
+@dataclass(frozen=True)
 class Fallback:
     """A step that failed and what the plan kept instead costs."""
 
@@ -261,6 +284,8 @@ class PlanResult:
     stage_seconds: Mapping[str, float] = field(default_factory=dict)
     """Wall time of each stage of the run (step 1, the continuous stage, a diagnosis, the
     monitor's verification), s."""
+    replan: Replan | None = None
+    """For a replan: its step, events and time (None for a plan from the initial states)."""
     values: Mapping[tuple[str, Any], float] = field(default_factory=dict, repr=False)
     """Step 1's plan: the value of each of its model's variables, by component name and index
     (a start for a later solve of the same problem, such as a replan)."""

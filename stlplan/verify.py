@@ -9,7 +9,7 @@ to the step-1 plan). The reported values are therefore recomputed from the writt
   separation);
 * the objective of problem (step1): ``t - beta * sum_{p,k} ||u_p(k)||_1 (+ w * margin when the
   margin is maximized)`` with ``t = min_l min(rho_s^l, gamma_l)`` (absent without synchronous
-  tasks) and the inputs of the trajectory.
+  tasks) and the inputs of the trajectory (a replan's from its step ``K`` on).
 
 The solver's own values are kept as :class:`stlplan.result.SolverFigures`. A solver value the
 plan does not reach (the monitor's value lower by more than the gap, ``tol + gap * |value|``) is
@@ -35,7 +35,8 @@ TOL = 1e-6
 def plan_objective(problem: Problem, trajectory: Trajectory, report: MonitorReport) -> float:
     """The step-1 objective of the written plan (module docstring)."""
     objective = problem.mission.objective
-    effort = sum(float(np.abs(u).sum()) for u in trajectory.inputs.values())
+    first = 0 if problem.past is None else problem.past.step  # a replan's planned inputs
+    effort = sum(float(np.abs(u[first:]).sum()) for u in trajectory.inputs.values())
     score = -objective.beta * effort
     capped = [
         min(float(report.verdict(t.name).rho_s or 0.0), t.sync.gamma)

@@ -22,18 +22,22 @@ def reachable_boxes(problem: Problem) -> dict[str, tuple[np.ndarray, np.ndarray]
     """Interval hull of each agent's reachable states per step, inside its state box.
 
     ``[x(0)] = x^0`` and ``[x(k+1)] = (A [x(k)] + B [u]) cap [x_lo, x_hi]`` in interval
-    arithmetic (``A = A+ + A-`` split by sign). Tightens variable bounds and big-M constants.
+    arithmetic (``A = A+ + A-`` split by sign); a replan's known states are points. Tightens variable bounds and big-M constants.
     """
     boxes = {}
     for a in problem.agents:
         lo = np.empty((problem.horizon + 1, a.n))
         hi = np.empty_like(lo)
-        lo[0] = hi[0] = a.initial_state
+        known = problem.known_through(a.name)
+        for k in range(known + 1):
+            lo[k] = hi[k] = (
+                a.initial_state if problem.past is None else problem.past.state(a.name, k)
+            )
         a_pos, a_neg = np.maximum(a.A, 0), np.minimum(a.A, 0)
         b_pos, b_neg = np.maximum(a.B, 0), np.minimum(a.B, 0)
         u_lo = b_pos @ a.input_lo + b_neg @ a.input_hi
         u_hi = b_pos @ a.input_hi + b_neg @ a.input_lo
-        for k in range(problem.horizon):
+        for k in range(known, problem.horizon):
             lo[k + 1] = np.maximum(a_pos @ lo[k] + a_neg @ hi[k] + u_lo, a.state_lo)
             hi[k + 1] = np.minimum(a_pos @ hi[k] + a_neg @ lo[k] + u_hi, a.state_hi)
         boxes[a.name] = (lo, hi)

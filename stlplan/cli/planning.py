@@ -83,7 +83,8 @@ OutOption = Annotated[
 ]
 
 
-def _exit_code(result: PlanResult) -> int:
+def exit_code(result: PlanResult) -> int:
+    """The exit code of a planning run's result (130 / 143 when a signal stopped it)."""
     code = STATUS_EXIT[result.status]
     stopped_by = signals.last_signal()
     if result.status.interrupted and stopped_by is not None:  # 130 for Ctrl-C, 143 for TERM
@@ -201,7 +202,7 @@ def solve(
             animation=not no_animation,
             viewer=not no_html,
         )
-    code = _exit_code(result)
+    code = exit_code(result)
     if as_json:
         output.document(api.summary(problem, result, overrides))
         raise typer.Exit(code)

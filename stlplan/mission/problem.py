@@ -97,6 +97,40 @@ class ConstraintModel:
     bindings: tuple[Mapping[str, str], ...]
 
 
+@dataclass(frozen=True)
+class Past:
+    """The executed past of a replan and its events.
+
+    Attributes
+    ----------
+    step
+        ``K``: the states of steps ``0..K`` are executed; inputs are planned from ``K`` on.
+    states
+        Agent name to its executed states, shape ``(K+1, n)``.
+    lost
+        Agents lost at ``K``: no inputs from ``K`` on, the state of ``K`` kept to the end.
+    closed
+        Regions closed at ``K``: an obstacle for every agent not lost, from ``K`` on.
+    """
+
+    step: int
+    states: Mapping[str, np.ndarray]
+    lost: frozenset[str] = frozenset()
+    closed: tuple[str, ...] = ()
+
+    def known_through(self, agent: str, horizon: int) -> int:
+        """The last step whose state is data: ``K``, or ``H`` for a lost agent."""
+        return horizon if agent in self.lost else self.step
+
+    def state(self, agent: str, k: int) -> np.ndarray:
+        """The known state of ``agent`` at step ``k`` (a lost agent keeps its state of ``K``)."""
+        return self.states[agent][min(k, self.step)]
+
+    def events(self) -> list[str]:
+        """The events, in words (``vis1 lost``, ``C closed``)."""
+        return [f"{a} lost" for a in sorted(self.lost)] + [f"{r} closed" for r in self.closed]
+
+
 @dataclass(frozen=True, eq=False)
 class Problem:
     """Everything the planner and the monitor need from a mission."""
@@ -111,6 +145,9 @@ class Problem:
     source: str | None = None
     inter_sample: bool = True
     """Safety requirements hold on the segments between steps (DESIGN 2.9), not only at steps."""
+    past: Past | None = None
+    """A replan's executed past and events (:mod:`stlplan.mission.past`); None for a plan from
+    the initial states."""
     _by_name: dict[str, AgentModel] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
@@ -125,6 +162,11 @@ class Problem:
         if on is None or on == self.inter_sample:
             return self
         return replace(self, inter_sample=on, _by_name={})
+
+    def known_through(self, agent: str) -> int:
+        """The last step whose state of ``agent`` is data: 0 (its initial state), a replan's
+        ``K``, or ``H`` for an agent lost."""
+        return 0 if self.past is None else self.past.known_through(agent, self.horizon)
 
     def lowered(self, formula: Formula, binding: Mapping[str, str]) -> Formula:
         """``formula`` with roles bound to agents, as half-space predicates over roles."""

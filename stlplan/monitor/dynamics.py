@@ -20,10 +20,11 @@ not.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 
-from stlplan.mission.problem import AgentModel
+from stlplan.mission.problem import AgentModel, Past
 from stlplan.result import Known, Trajectory, Verdict
 
 DYNAMICS_CHECKED: dict[Known, str] = {
@@ -176,19 +177,57 @@ def _with_positions(agent: AgentModel, x: np.ndarray, tol: float) -> list[Violat
     return found
 
 
-def dynamics_verdict(agent: AgentModel, trajectory: Trajectory, tol: float) -> Verdict:
-    """The agent's physical verdict; robustness ``-(largest violation)``, 0 when all hold."""
+def _found(
+    agent: AgentModel, x: np.ndarray, u: np.ndarray, known: Known, tol: float
+) -> list[Violation]:
+    if known == "inputs":
+        return _with_inputs(agent, x, u, tol) + _at_rest(agent, x, tol)
+    if known == "states":
+        return _with_states(agent, x, tol) + _at_rest(agent, x, tol)
+    return _with_positions(agent, x, tol)
+
+
+def _replanned(
+    agent: AgentModel, x: np.ndarray, u: np.ndarray, known: Known, tol: float, past: Past
+) -> list[Violation]:
+    """A replan's checks: the executed states kept, then the dynamics from ``K`` on (from the
+    executed ``x(K)``), or, for a lost agent, its state of ``K`` kept to the end."""
+    K = past.step
+    executed = past.states[agent.name]
+    found = _violations(
+        np.arange(K + 1), 0, np.abs(x[: K + 1] - executed), slack(x[: K + 1], tol),
+        lambda r, i: f"x[{i}] = {x[r, i]:.6g}, expected the executed {executed[r, i]:.6g}",
+    )  # fmt: skip
+    if agent.name in past.lost:
+        return found + _violations(
+            np.arange(K, len(x)), 1, np.abs(x[K:] - executed[K]), slack(x[K:], tol),
+            lambda r, i: f"x[{i}] = {x[K + r, i]:.6g}: a lost agent stays where it was last seen",
+        )  # fmt: skip
+    rest = replace(agent, initial_state=executed[K])
+    later = _found(rest, x[K:], u[K:], known, tol)
+    return found + [(step + K, *more) for step, *more in later]  # type: ignore[misc]
+
+
+def dynamics_verdict(
+    agent: AgentModel, trajectory: Trajectory, tol: float, past: Past | None = None
+) -> Verdict:
+    """The agent's physical verdict; robustness ``-(largest violation)``, 0 when all hold.
+
+    A replan's trajectory (``past``) is checked against the executed states, and its dynamics
+    from ``K`` on only: the executed past is measured, disturbances included.
+    """
     name = f"dynamics {agent.name}"
     x = np.asarray(trajectory.states[agent.name], dtype=float)
     u = np.asarray(trajectory.inputs[agent.name], dtype=float)
-    if trajectory.known == "inputs":
-        found = _with_inputs(agent, x, u, tol) + _at_rest(agent, x, tol)
-    elif trajectory.known == "states":
-        found = _with_states(agent, x, tol) + _at_rest(agent, x, tol)
+    if past is None:
+        found = _found(agent, x, u, trajectory.known, tol)
     else:
-        found = _with_positions(agent, x, tol)
+        found = _replanned(agent, x, u, trajectory.known, tol, past)
     if not found:
-        detail = f"{agent.name}: {_held(trajectory.known)} for steps 0..{trajectory.horizon}"
+        steps = "0.." if past is None else f"{past.step}.."
+        detail = f"{agent.name}: {_held(trajectory.known)} for steps {steps}{trajectory.horizon}"
+        if past is not None:
+            detail += f" (steps 0..{past.step} executed)"
         return Verdict(name, "dynamics", True, 0.0, detail=detail)
     step, _, _, _, text = min(found)
     worst = max(v[3] for v in found)

@@ -78,7 +78,7 @@ def check(
     if problem.separation is not None:
         verdicts.append(_separation_verdict(problem, trajectory, problem.separation, slack))
     for agent in problem.agents:
-        verdicts.append(dynamics_verdict(agent, trajectory, tol))
+        verdicts.append(dynamics_verdict(agent, trajectory, tol, problem.past))
     return MonitorReport(tuple(verdicts), known=trajectory.known, tolerance=tol)
 
 

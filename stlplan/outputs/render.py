@@ -96,6 +96,13 @@ def print_plan(console: Console, result: PlanResult, verbose: bool = False) -> N
     if result.status.value == "feasible":
         status += f" (not proven optimal, gap {_num(result.gap)})"
     console.print(f"[bold]status[/]     {status}: {result.message}")
+    if result.replan is not None:
+        r = result.replan
+        events = f"; {', '.join(r.events)}" if r.events else ""
+        console.print(
+            f"[bold]replan[/]     from step {r.step}: executed steps 0..{r.step} kept{events} "
+            f"({r.seconds:.2f} s)"
+        )
     print_figures(console, result)
     if result.effort is not None:
         console.print(f"[bold]effort[/]     {_num(result.effort, 6)} after step {result.steps}")

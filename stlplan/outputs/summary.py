@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 from stlplan.mission.problem import Problem
@@ -95,6 +96,7 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "stage_seconds": dict(result.stage_seconds),
         "config": dict(result.config),
         "fallback": fallback_dict(result.fallback),
+        "replan": None if result.replan is None else dataclasses.asdict(result.replan),
         "assignments": [
             {
                 "task": a.task,

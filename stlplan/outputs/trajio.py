@@ -59,8 +59,8 @@ def _rows(problem: Problem, trajectory: Trajectory, width: int) -> Iterator[list
         for k in range(H + 1):
             row = [agent.name, str(k), *(csv_number(v) for v in x[k])]
             row += [""] * (n_max - agent.n)
-            if k < H:
-                row += [csv_number(v) for v in u[k]]
+            if k < H:  # an input not known (a replan's executed past) is an empty cell
+                row += [csv_number(v) if math.isfinite(v) else "" for v in u[k]]
             yield row + [""] * (width - len(row))
 
 
@@ -193,10 +193,13 @@ def header_layout(problem: Problem, fields: list[str]) -> Layout | str:
 class _Reader:
     """Collects the cells of one trajectory file, failing with the file and line."""
 
-    def __init__(self, problem: Problem, path: Path):
+    def __init__(self, problem: Problem, path: Path, through: int | None = None):
         self.problem = problem
         self.path = path
         self.H = problem.horizon
+        self.through = self.H if through is None else through
+        """The last step read: later rows are ignored, and inputs are optional when it is set."""
+        self.optional_inputs = through is not None
         self.states = {a.name: np.full((self.H + 1, a.n), np.nan) for a in problem.agents}
         self.inputs = {a.name: np.full((self.H, a.m), np.nan) for a in problem.agents}
         self.seen: dict[tuple[str, int], int] = {}
@@ -238,6 +241,8 @@ class _Reader:
                 f"{self.seen[name, k]}); expected one row per agent and step",
             )
         self.seen[name, k] = line
+        if k > self.through:
+            return
         agent = self.problem.agent(name)
         for i, column in self.layout.state[name]:
             self.states[name][k, i] = self._number(line, row, column, agent, k)
@@ -284,6 +289,8 @@ class _Reader:
         self, line: int, row: dict[str | None, Any], column: str, agent: AgentModel, k: int
     ) -> float:
         text = (row.get(column) or "").strip()
+        if not text and self.optional_inputs and column.startswith("u"):
+            return math.nan
         if not text:
             need = (
                 f"an input at step {k} (one per step before H = {self.H})"
@@ -304,20 +311,21 @@ class _Reader:
         return value
 
     def finish(self, last_line: int) -> Trajectory:
+        last = self.through
         for agent in self.problem.agents:
-            steps = [k for k in range(self.H + 1) if (agent.name, k) not in self.seen]
-            if len(steps) == self.H + 1:
+            steps = [k for k in range(last + 1) if (agent.name, k) not in self.seen]
+            if len(steps) == last + 1:
                 raise self.fail(
                     last_line,
                     f"end of file: agent '{agent.name}' has no rows; expected one row per "
-                    f"step 0..{self.H}",
+                    f"step 0..{last}",
                 )
             if steps:
                 shown = ", ".join(map(str, steps[:5])) + (", ..." if len(steps) > 5 else "")
                 raise self.fail(
                     last_line,
                     f"end of file: agent '{agent.name}' has no row for step(s) {shown}; "
-                    f"expected one row per step 0..{self.H}",
+                    f"expected one row per step 0..{last}",
                 )
         return Trajectory(self.H, self.states, self.inputs, known=self.layout.known)
 
@@ -340,9 +348,14 @@ def _cell(text: str, limit: int = 40) -> str:
     return shown + (" (a '\"' left open on an earlier line?)" if "\n" in text else "")
 
 
-def read_trajectory_csv(problem: Problem, path: str | Path) -> Trajectory:
+def read_trajectory_csv(
+    problem: Problem, path: str | Path, through: int | None = None
+) -> Trajectory:
     """Read a trajectory of ``problem`` written by :func:`write_trajectory_csv`, by hand or by
     another tool; its ``known`` says whether it gave the inputs, the states or the positions only.
+
+    With ``through``, only steps ``0..through`` are read (an executed past): later rows are
+    ignored, their states and inputs left NaN, and inputs may be left empty.
 
     Raises
     ------
@@ -353,7 +366,7 @@ def read_trajectory_csv(problem: Problem, path: str | Path) -> Trajectory:
         text in a cell that is not read (an input at step ``H``).
     """
     path = Path(path)
-    reader = _Reader(problem, path)
+    reader = _Reader(problem, path, through)
     try:
         raw = path.read_bytes()
     except FileNotFoundError:

@@ -60,7 +60,7 @@ def condensed_states(model: ConcreteModel, pm: PlanModel) -> dict[tuple[str, int
     """Inputs ``model.u`` with their boxes, and the states as affine expressions of them.
 
     ``x_p(k) = A^k x_p^0 + sum_{i<k} A^(k-1-i) B u_p(i)``, with the reachable boxes as ranged rows
-    ``lo <= x_p(k) <= hi``. With the states eliminated, ``sum u^2`` has a positive definite
+    ``lo <= x_p(k) <= hi``; a replan's known states are constants, and the sum starts there. With the states eliminated, ``sum u^2`` has a positive definite
     Hessian, which HiGHS's QP solver needs to converge reliably.
     """
     problem = pm.problem
@@ -77,12 +77,20 @@ def condensed_states(model: ConcreteModel, pm: PlanModel) -> dict[tuple[str, int
     states: dict[tuple[str, int, int], Any] = {}
     boxes = reachable_boxes(problem)
     for a in problem.agents:
-        free = np.asarray(a.initial_state, dtype=float)
-        gains: list[np.ndarray] = []  # gains[i] = A^(k-1-i) B
-        for k in range(problem.horizon + 1):
+        known = problem.known_through(a.name)
+        for k in range(known + 1):
+            x = boxes[a.name][0][k]  # a point: the initial state, or a replan's past
+            states.update({(a.name, k, i): float(x[i]) for i in range(a.n)})
+        for k, j in ((k, j) for k in range(known) for j in range(a.m)):
+            model.u[a.name, k, j].fix(0.0)  # before a replan's step: not planned
+        free = np.asarray(boxes[a.name][0][known], dtype=float)
+        gains: list[np.ndarray] = []  # gains[i] = A^(k-1-i) B, from the last known step
+        for k in range(known + 1, problem.horizon + 1):
+            free = a.A @ free
+            gains = [a.A @ g for g in gains] + [a.B]
             for i in range(a.n):
                 terms = [
-                    g[i, j] * model.u[a.name, t, j]
+                    g[i, j] * model.u[a.name, known + t, j]
                     for t, g in enumerate(gains)
                     for j in range(a.m)
                     if g[i, j]
@@ -91,9 +99,8 @@ def condensed_states(model: ConcreteModel, pm: PlanModel) -> dict[tuple[str, int
                 if terms:
                     lo, hi = boxes[a.name][0][k, i], boxes[a.name][1][k, i]
                     model.box.add((float(lo), states[a.name, k, i], float(hi)))
-            free = a.A @ free
-            gains = [a.A @ g for g in gains] + [a.B]
-        _rest(model, a, states, problem.horizon)
+        if known < problem.horizon:
+            _rest(model, a, states, problem.horizon)
     return states
 
 

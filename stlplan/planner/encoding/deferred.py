@@ -152,12 +152,13 @@ def _all_parts(problem: Problem) -> Iterator[tuple[Formula, int, Mapping[str, st
                 yield formula, k, {"p": p, "q": q}, SEPARATION
 
 
-def on_segments(requirements: Sequence[Requirement]) -> list[Requirement]:
+def on_segments(requirements: Sequence[Requirement], first: int = 0) -> list[Requirement]:
     """Step requirements with their disjunctions at consecutive steps joined into segments.
 
-    A disjunction of one family required at ``k`` and ``k+1`` becomes a requirement on the segment
-    ``[k, k+1]``; a step that no such segment covers stays a step requirement; a single half-plane
-    stays as it is (it holds on a segment whose ends meet it).
+    A disjunction of one family required at ``k`` and ``k+1`` (``k >= first``) becomes a
+    requirement on the segment ``[k, k+1]``; a step that no such segment covers stays a step
+    requirement; a single half-plane stays as it is (it holds on a segment whose ends meet it).
+    Segments before ``first`` (a replan's executed past) are not planned.
     """
     steps: dict[tuple[object, ...], set[int]] = {}
     for req in requirements:
@@ -168,9 +169,11 @@ def on_segments(requirements: Sequence[Requirement]) -> list[Requirement]:
             out.append(req)
             continue
         held = steps[(*req.family, req.formula)]
-        if req.k + 1 in held:
+        if req.k < first:
+            out.append(req)
+        elif req.k + 1 in held:
             out.append(Requirement(req.formula, req.k, req.binding, req.source, span=1))
-        elif req.k - 1 not in held:
+        elif req.k - 1 not in held or req.k - 1 < first:
             out.append(req)
     return out
 
@@ -185,7 +188,8 @@ def step_requirements(problem: Problem) -> tuple[list[Requirement], list[Part]]:
             found.append(Requirement(part, k, binding, source))
         else:
             eager.append((part, k, binding))
-    return (on_segments(found) if problem.inter_sample else found), eager
+    first = 0 if problem.past is None else problem.past.step
+    return (on_segments(found, first) if problem.inter_sample else found), eager
 
 
 def segment_requirements(problem: Problem) -> list[Requirement]:

@@ -139,6 +139,8 @@ def add_agents(
 
     ``x_p(k+1) = A_p x_p(k) + B_p u_p(k)``, ``x_p(0) = x_p^0`` (fixed), ``s >= |u|`` with
     ``0 <= s <= max(|u_lo|, |u_hi|)``, and ``(A_p - I) x_p(H) = 0`` for an agent that ends at rest.
+    In a replan, the states known (:meth:`Problem.known_through`) are fixed and the dynamics and
+    inputs start there.
     """
     H = problem.horizon
     x_box = {
@@ -159,21 +161,33 @@ def add_agents(
     model.dynamics = ConstraintList()
     model.effort_rows = ConstraintList()
     for a in problem.agents:
-        for i in range(a.n):
-            model.x[a.name, 0, i].fix(float(a.initial_state[i]))
-        for k in range(H):
+        known = problem.known_through(a.name)
+        _fix_known(model, problem, a, known)
+        for k in range(known, H):
             for i in range(a.n):
                 drift = sum(a.A[i, c] * model.x[a.name, k, c] for c in range(a.n) if a.A[i, c])
                 push = sum(a.B[i, c] * model.u[a.name, k, c] for c in range(a.m) if a.B[i, c])
                 model.dynamics.add(model.x[a.name, k + 1, i] == drift + push)
-        if a.at_rest:
+        if a.at_rest and known < H:
             for row in a.rest_rows():
                 model.dynamics.add(
                     sum(c * model.x[a.name, H, i] for i, c in enumerate(row) if c) == 0
                 )
-        for k, j in ((k, j) for k in range(H) for j in range(a.m)):
+        for k, j in ((k, j) for k in range(known, H) for j in range(a.m)):
             model.effort_rows.add(model.s[a.name, k, j] >= model.u[a.name, k, j])
             model.effort_rows.add(model.s[a.name, k, j] >= -model.u[a.name, k, j])
+
+
+def _fix_known(model: ConcreteModel, problem: Problem, agent: AgentModel, known: int) -> None:
+    """Fix the states of steps ``0..known`` (the initial state, or a replan's executed past) and
+    the inputs before ``known`` at 0: the objective counts the planned inputs only."""
+    for k in range(known + 1):
+        x = agent.initial_state if problem.past is None else problem.past.state(agent.name, k)
+        for i in range(agent.n):
+            model.x[agent.name, k, i].fix(float(x[i]))
+    for k, j in ((k, j) for k in range(known) for j in range(agent.m)):
+        model.u[agent.name, k, j].fix(0.0)
+        model.s[agent.name, k, j].fix(0.0)
 
 
 def _margin(
@@ -260,12 +274,18 @@ def build_model(
         the paper's) or by selecting elements (``"selection"``,
         :mod:`stlplan.planner.encoding.selection`). ``model.symmetry``: with selection, order
         the task shares of interchangeable agents (:mod:`stlplan.planner.encoding.symmetry`).
+        A replan (``problem.past``) gets neither floors nor symmetry rows: both read the agents
+        as they stand at step 0.
     floors_deadline
         ``time.perf_counter()`` time after which no more floors are computed.
     """
     config = config or PlannerConfig()
     settings = config.model
-    encoding, lazy, floors = settings.encoding, config.lazy.enabled, settings.floors
+    encoding, lazy = settings.encoding, config.lazy.enabled
+    # a replan's agents differ by their pasts, and the floors assume a plan from step 0
+    floors, symmetry = (
+        (settings.floors, settings.symmetry) if problem.past is None else (False, False)
+    )
     model = ConcreteModel(name=problem.mission.name)
     boxes = reachable_boxes(problem)
     add_agents(model, problem, boxes)
@@ -281,7 +301,7 @@ def build_model(
         margin_ceiling=ceiling,
         encoding=encoding,
     )
-    tasks, synchronous = encode_tasks(ctx, problem, settings.tasks, settings.symmetry)
+    tasks, synchronous = encode_tasks(ctx, problem, settings.tasks, symmetry)
     deferral = None
     if lazy:
         deferral = defer(problem, boxes, ceiling)

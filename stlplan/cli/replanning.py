@@ -1,0 +1,102 @@
+"""The command that plans again from a step of an executed trajectory."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from stlplan import api
+from stlplan.cli.files import MissionArg
+from stlplan.cli.planning import (
+    SOLVE_EPILOG,
+    GapOption,
+    NoAnimationOption,
+    NoHtmlOption,
+    OutOption,
+    ThreadsOption,
+    TimeLimitOption,
+    exit_code,
+)
+from stlplan.cli.shell import JsonOption, Output, QuietOption, VerboseOption, handled, solver_output
+
+REPLAN_EPILOG = SOLVE_EPILOG.replace(
+    "3 bad input", "3 bad input (a step outside 0..H-1, an unknown or repeated event, an "
+    "executed file that does not fit the mission)"
+)  # fmt: skip
+
+ExecutedArg = Annotated[
+    Path,
+    typer.Argument(
+        help="The executed trajectory (CSV, any form `stlplan check` reads): its states of "
+        "steps 0..K are kept; later rows are not data.",
+        metavar="EXECUTED.csv",
+        show_default=False,
+    ),
+]
+AtOption = Annotated[
+    int, typer.Option("--at", help="K: the step the team is at (0..H-1).", metavar="K")
+]
+LostOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--lost", help="An agent lost at K: it stays where it was last seen.", metavar="AGENT"
+    ),
+]
+ClosedOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--closed", help="A region closed at K: an obstacle for every agent.", metavar="REGION"
+    ),
+]
+
+
+@handled
+def replan(
+    mission: MissionArg,
+    executed: ExecutedArg,
+    at: AtOption,
+    lost: LostOption = None,
+    closed: ClosedOption = None,
+    out: OutOption = "out/replan",
+    time_limit: TimeLimitOption = None,
+    gap: GapOption = None,
+    threads: ThreadsOption = None,
+    no_animation: NoAnimationOption = False,
+    no_html: NoHtmlOption = False,
+    as_json: JsonOption = False,
+    quiet: QuietOption = False,
+    verbose: VerboseOption = False,
+) -> None:
+    """Plan again from step K of an executed trajectory: the past is kept as data, lost
+    agents stay where they were, closed regions are avoided; verify the whole trajectory and
+    write the plan of steps 0..H.
+
+    With --json the document printed is summary.json.
+    """
+    from stlplan.outputs.progress import ProgressLine
+    from stlplan.outputs.render import print_plan
+
+    output = Output(as_json, quiet)
+    overrides = api.Overrides(time_limit=time_limit, gap=gap, threads=threads)
+    problem = api.validate(mission)
+    with (
+        solver_output(discard=not output.full),
+        ProgressLine(output.err, enabled=output.full) as line,
+    ):
+        again, result = api.replan(
+            problem, executed, at, lost or (), closed or (), out, overrides, line.update,
+            animation=not no_animation, viewer=not no_html,
+        )  # fmt: skip
+    code = exit_code(result)
+    if as_json:
+        output.document(api.summary(again, result, overrides))
+        raise typer.Exit(code)
+    if output.full:
+        print_plan(output.out, result, verbose)
+        output.line(f"outputs in {out}")
+    else:
+        verdict = "satisfied" if code == 0 else result.status.value
+        output.line(f"{verdict}: {result.message}; outputs in {out}")
+    raise typer.Exit(code)

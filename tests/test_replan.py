@@ -1,0 +1,158 @@
+"""Replanning: the executed past is data, lost agents and closed regions are events."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stlplan.errors import EventError, TrajectoryError
+from stlplan.mission.past import replanned
+from stlplan.mission.problem import Problem
+from stlplan.monitor.verdicts import check
+from stlplan.planner.config import Overrides
+from stlplan.replanning import replan
+from stlplan.result import PlanStatus, Trajectory
+from tests.helpers.missions import detour_for_free, mission
+
+R = {"box": [[2.9, 3.1], [-0.1, 0.1]]}
+
+
+def _walk(problem: Problem, moves: dict[str, list[tuple[float, float]]]) -> Trajectory:
+    """A trajectory of single integrators from their initial states by the given inputs (the
+    rest of the horizon standing still)."""
+    H, states, inputs = problem.horizon, {}, {}
+    for agent in problem.agents:
+        u = np.zeros((H, 2))
+        given = moves.get(agent.name, [])
+        if given:
+            u[: len(given)] = given
+        x = np.vstack([agent.initial_state, agent.initial_state + np.cumsum(u, axis=0)])
+        states[agent.name], inputs[agent.name] = x, u
+    return Trajectory(H, states, inputs)
+
+
+def _visit(count: int = 1, agents: int = 1) -> Problem:
+    team = [
+        {"name": n, "dynamics": "si", "capabilities": ["X"], "initial_state": [0, 2 * i]}
+        for i, n in enumerate("ab"[:agents])
+    ]
+    return mission(
+        horizon=6,
+        agents=team,
+        regions={"R": R, "C": {"box": [[0.8, 2.2], [-0.6, 0.6]]}},
+        tasks={"visit": {"formula": "F[0,6] in(p, R)", "count": count, "roles": {"p": "X"}}},
+        objective={"beta": 1.0, "effort": "l1"},
+    )
+
+
+def _replan(problem: Problem, executed: Trajectory, step: int, **events: list[str]):  # type: ignore[no-untyped-def]
+    again, result = replan(problem, executed, step, overrides=Overrides(time_limit=60), **events)
+    assert result.report is not None and result.report.satisfied, result.message
+    return again, result
+
+
+def test_an_eventually_met_in_the_past_is_not_demanded_again() -> None:
+    problem = _visit()
+    # a reaches R at step 3 and steps back out; from step 4 nothing more is needed
+    executed = _walk(problem, {"a": [(1, 0), (1, 0), (1, 0), (-1, 0)]})
+    _, result = _replan(problem, executed, 4)
+    assert result.objective == pytest.approx(0.0, abs=1e-6)  # no input planned
+    assert result.replan is not None and result.replan.past_effort == pytest.approx(4.0)
+
+
+def test_without_the_visit_the_replan_goes_back() -> None:
+    problem = _visit()
+    executed = _walk(problem, {"a": [(1, 0), (1, 0), (0, 0), (0, 0)]})  # stops at x = 2
+    _, result = _replan(problem, executed, 4)
+    assert result.objective is not None and result.objective < -0.85  # back to R: 0.9 at least
+
+
+def test_a_lost_agents_past_contribution_still_counts() -> None:
+    problem = _visit(count=2, agents=2)
+    # b (from (0, 2)) is in R at step 3 and lost at step 4, outside it; a must still go
+    moves = {"b": [(1, -1), (1, -1), (1, 0), (-0.5, 0)], "a": [(1, 0), (1, 0)]}
+    executed = _walk(problem, moves)
+    again, result = _replan(problem, executed, 4, lost=["b"])
+    assert result.trajectory is not None
+    kept = result.trajectory.states["b"][4:]
+    assert np.allclose(kept, executed.states["b"][4])  # stays where it was last seen
+    assert again.past is not None and again.past.lost == {"b"}
+    a_later = result.trajectory.states["a"][5:, 0]
+    assert np.any(np.abs(a_later - 3.0) <= 0.1 + 1e-6)  # a still has to visit R
+
+
+def test_a_closed_region_is_avoided_from_the_replan_on() -> None:
+    problem = _visit()
+    executed = _walk(problem, {})  # a has not moved
+    _, straight = _replan(problem, executed, 1)
+    _, around = _replan(problem, executed, 1, closed=["C"])
+    assert straight.trajectory is not None and around.trajectory is not None
+    inside = [_in_c(p) for p in straight.trajectory.states["a"][1:]]
+    assert any(inside)  # the straight plan crosses C
+    assert not any(_in_c(p) for p in around.trajectory.states["a"][1:])
+    assert around.report is not None and around.report.verdict("closed C").satisfied
+    assert around.objective is not None and straight.objective is not None
+    assert around.objective < straight.objective  # the detour costs effort
+
+
+def _in_c(position: np.ndarray) -> bool:
+    return bool(0.8 < position[0] < 2.2 and -0.6 < position[1] < 0.6)
+
+
+@pytest.mark.parametrize("step", [1, 2, 3])
+def test_a_replan_with_nothing_changed_keeps_the_objective(step: int) -> None:
+    problem = detour_for_free()
+    one_step = Overrides(time_limit=60, two_step=False)
+    from stlplan.pipeline import plan
+
+    problem, first = plan(problem, one_step)
+    assert first.trajectory is not None and first.objective is not None
+    again, result = replan(problem, first.trajectory, step, overrides=one_step)
+    assert result.status is PlanStatus.OPTIMAL and result.objective is not None
+    assert result.replan is not None
+    whole = result.objective - problem.mission.objective.beta * result.replan.past_effort
+    assert whole == pytest.approx(first.objective, rel=1e-4, abs=1e-6)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_replans_verdicts_are_the_missions_on_the_whole_trajectory(seed: int) -> None:
+    problem = _visit(count=2, agents=2)
+    rng = np.random.default_rng(seed)
+    step = int(rng.integers(1, 4))  # every such past leaves the mission feasible
+    toward = {"a": (-0.25, 0.25), "b": (-0.5, 0.0)}
+    moves = {
+        name: [(rng.uniform(0, 1), rng.uniform(*y)) for _ in range(step)]
+        for name, y in toward.items()
+    }
+    executed = _walk(problem, moves)
+    _, result = replan(problem, executed, step, overrides=Overrides(time_limit=60))
+    assert result.trajectory is not None and result.report is not None
+    plain = check(problem, result.trajectory)  # the mission's monitor, knowing no past
+    for task in problem.tasks:
+        assert plain.verdict(task.name).satisfied == result.report.verdict(task.name).satisfied
+    assert plain.verdict("visit").satisfied
+
+
+@pytest.mark.parametrize(
+    ("step", "events", "expected"),
+    [
+        (6, {}, r"--at 6: expected a step in 0\.\.5"),
+        (-1, {}, r"--at -1: expected a step in 0\.\.5"),
+        (2, {"lost": ["z"]}, "--lost z: no such agent; agents: a, b"),
+        (2, {"lost": ["a", "a"]}, "--lost a: the agent is lost twice"),
+        (2, {"lost": ["a", "b"]}, "--lost names every agent"),
+        (2, {"closed": ["Nowhere"]}, "--closed Nowhere: no such region; regions: R, C"),
+    ],
+)
+def test_bad_events_are_refused(step: int, events: dict[str, list[str]], expected: str) -> None:
+    problem = _visit(count=1, agents=2)
+    with pytest.raises(EventError, match=expected):
+        replanned(problem, _walk(problem, {}), step, **events)
+
+
+def test_an_executed_state_outside_its_bounds_names_the_agent_and_step() -> None:
+    problem = _visit()
+    executed = _walk(problem, {})
+    executed.states["a"][2] = (7.0, 0.0)
+    with pytest.raises(TrajectoryError, match=r"agent 'a' step 2: x0 = 7 is outside its state"):
+        replanned(problem, executed, 3)
