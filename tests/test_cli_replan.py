@@ -50,7 +50,9 @@ def test_the_past_alone_may_be_given_without_inputs(planned: Path, tmp_path: Pat
     rows = [r for r in csv.DictReader(planned.open()) if int(r["k"]) <= 2]
     past = tmp_path / "past.csv"
     with past.open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=["agent", "k", "x0", "x1", "x2", "x3"], extrasaction="ignore")
+        writer = csv.DictWriter(
+            f, fieldnames=["agent", "k", "x0", "x1", "x2", "x3"], extrasaction="ignore"
+        )
         writer.writeheader()
         writer.writerows(rows)
     code, text = _run(

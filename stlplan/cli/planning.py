@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from enum import Enum
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any, NoReturn
 
 import typer
 
@@ -176,7 +177,6 @@ def solve(
     With --json the document printed is summary.json.
     """
     from stlplan.outputs.progress import ProgressLine
-    from stlplan.outputs.render import print_plan
 
     output = Output(as_json, quiet)
     overrides = api.Overrides(
@@ -202,11 +202,20 @@ def solve(
             animation=not no_animation,
             viewer=not no_html,
         )
+    finish(output, result, out, verbose, lambda: api.summary(problem, result, overrides))
+
+
+def finish(
+    output: Output, result: PlanResult, out: str, verbose: bool, summary: Callable[[], Any]
+) -> NoReturn:
+    """Print a planning run's result (its ``summary`` document with ``--json``, one line with
+    ``--quiet``) and exit with its code."""
+    from stlplan.outputs.render import print_plan
+
     code = exit_code(result)
-    if as_json:
-        output.document(api.summary(problem, result, overrides))
-        raise typer.Exit(code)
-    if output.full:  # the status line and the monitor's verdict are in the plan's report
+    if output.as_json:
+        output.document(summary())
+    elif output.full:  # the status line and the monitor's verdict are in the plan's report
         print_plan(output.out, result, verbose)
         output.line(f"outputs in {out}")
     else:  # --quiet: one line on stdout, whatever the outcome (the exit code tells it apart)

@@ -17,7 +17,7 @@ from stlplan.cli.planning import (
     OutOption,
     ThreadsOption,
     TimeLimitOption,
-    exit_code,
+    finish,
 )
 from stlplan.cli.shell import JsonOption, Output, QuietOption, VerboseOption, handled, solver_output
 
@@ -76,7 +76,6 @@ def replan(
     With --json the document printed is summary.json.
     """
     from stlplan.outputs.progress import ProgressLine
-    from stlplan.outputs.render import print_plan
 
     output = Output(as_json, quiet)
     overrides = api.Overrides(time_limit=time_limit, gap=gap, threads=threads)
@@ -89,14 +88,4 @@ def replan(
             problem, executed, at, lost or (), closed or (), out, overrides, line.update,
             animation=not no_animation, viewer=not no_html,
         )  # fmt: skip
-    code = exit_code(result)
-    if as_json:
-        output.document(api.summary(again, result, overrides))
-        raise typer.Exit(code)
-    if output.full:
-        print_plan(output.out, result, verbose)
-        output.line(f"outputs in {out}")
-    else:
-        verdict = "satisfied" if code == 0 else result.status.value
-        output.line(f"{verdict}: {result.message}; outputs in {out}")
-    raise typer.Exit(code)
+    finish(output, result, out, verbose, lambda: api.summary(again, result, overrides))
