@@ -14,13 +14,14 @@ from typing import Any
 
 from stlplan.analysis.diagnose import cheap_diagnosis, cheap_reasons, diagnose
 from stlplan.analysis.size import check_size
+from stlplan.degraded import degrade
 from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
 from stlplan.native_output import discard_highs_banner
 from stlplan.planner.budget import Budget
 from stlplan.planner.config import Overrides, PlannerConfig
 from stlplan.planner.outcome import Plan
-from stlplan.result import PlanResult, PlanStatus
+from stlplan.result import Confirmation, PlanResult, PlanStatus
 from stlplan.runtime import signals
 from stlplan.verify import verified
 from stlplan.words import counted
@@ -72,14 +73,15 @@ def plan(
     run = Budget.for_run(config)
     check_size(problem, config.solver.time_limit, config.model.tasks)
     used: dict[str, Any] = {"config": config.model_dump(), "strategy": describe(config)}
-    reasons = cheap_reasons(problem)
-    if reasons:
-        diagnosis = cheap_diagnosis(problem, reasons)
-        message = f"infeasible before solving: {counted(len(reasons), 'requirement')} cannot be met"
-        return problem, PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis, **used)
+    early = _infeasible_before_solving(problem)
+    if early is not None and not config.diagnosis.degrade:
+        return problem, dataclasses.replace(early, **used)
     with signals.stop_on_signals(), _quiet_pyomo():
-        result = solve_plan(problem, config, progress=progress, budget=run, start=start)
-        if result.status is PlanStatus.INFEASIBLE and diagnose_infeasible:
+        result = early or solve_plan(problem, config, progress=progress, budget=run, start=start)
+        if result.status is PlanStatus.INFEASIBLE and config.diagnosis.degrade:
+            with run.stage("degraded"):
+                problem, result = _degraded(problem, config, result, run, progress, start)
+        elif result.status is PlanStatus.INFEASIBLE and diagnose_infeasible:
             with run.stage("diagnosis"):
                 result = _diagnosed(problem, config, result, run)
         with run.stage("verify"):
@@ -87,23 +89,31 @@ def plan(
         return problem, dataclasses.replace(result, stage_seconds=dict(run.ledger), **used)
 
 
+def _infeasible_before_solving(problem: Problem) -> PlanResult | None:
+    """The result of a mission the cheap reasons already rule out (None when none is found)."""
+    reasons = cheap_reasons(problem)
+    if not reasons:
+        return None
+    diagnosis = cheap_diagnosis(problem, reasons)
+    message = f"infeasible before solving: {counted(len(reasons), 'requirement')} cannot be met"
+    return PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis)
+
+
 class _DiagnosisStopped(Exception):
     """A stop request ended the diagnosis."""
 
 
-def _diagnosed(
-    problem: Problem, config: PlannerConfig, result: PlanResult, run: Budget
-) -> PlanResult:
-    """``result`` with a minimal conflict found by feasibility solves (deletion filter), each
-    infeasible verdict confirmed (recorded as a diagnosis probe), all within the ``run``'s
-    budget (``diagnosis.seconds`` of it at most, ``diagnosis.probe_seconds`` a probe)."""
+def _prober(
+    config: PlannerConfig, run: Budget, confirmations: list[Confirmation]
+) -> Callable[[Problem], PlanStatus]:
+    """A feasibility solve of a sub-mission within ``diagnosis.probe_seconds`` and the run's
+    deadline, its confirmations recorded as a diagnosis probe's; a stop request raises
+    :class:`_DiagnosisStopped`."""
     from stlplan.planner.solve import plan as solve_plan
 
-    limits = config.diagnosis
     probe = config.with_overrides(
-        {"solver.time_limit": limits.probe_seconds, "continuous.two_step": False}
-    )
-    confirmations = list(result.confirmations)
+        {"solver.time_limit": config.diagnosis.probe_seconds, "continuous.two_step": False}
+    )  # (a probe with parts falls back to the whole team when their plans do not assemble)
 
     def feasibility(subset: Problem) -> PlanStatus:
         found = solve_plan(subset, probe, budget=Budget.for_run(probe, run.deadline))
@@ -114,10 +124,55 @@ def _diagnosed(
             raise _DiagnosisStopped
         return found.status
 
+    return feasibility
+
+
+def _diagnosed(
+    problem: Problem, config: PlannerConfig, result: PlanResult, run: Budget
+) -> PlanResult:
+    """``result`` with a minimal conflict found by feasibility solves (deletion filter), each
+    infeasible verdict confirmed (recorded as a diagnosis probe), all within the ``run``'s
+    budget (``diagnosis.seconds`` of it at most, ``diagnosis.probe_seconds`` a probe)."""
+    confirmations = list(result.confirmations)
+    feasibility = _prober(config, run, confirmations)
     try:
-        seconds = max(0.0, run.seconds(limits.seconds).remaining())
+        seconds = max(0.0, run.seconds(config.diagnosis.seconds).remaining())
         diagnosis = diagnose(problem, feasibility, seconds)
         out = dataclasses.replace(result, diagnosis=diagnosis)
     except _DiagnosisStopped:
         out = dataclasses.replace(result, message=result.message + " (diagnosis interrupted)")
     return dataclasses.replace(out, confirmations=tuple(confirmations))
+
+
+def _degraded(
+    problem: Problem,
+    config: PlannerConfig,
+    result: PlanResult,
+    run: Budget,
+    progress: Callable[[Any], None] | None,
+    start: Plan | None,
+) -> tuple[Problem, PlanResult]:
+    """The infeasible mission planned without the fewest tasks (by priority) it must drop
+    (:mod:`stlplan.degraded`), within the run's budget; the mission as it was, with a
+    diagnosis, when no set of tasks will do."""
+    from stlplan.planner.solve import plan as solve_plan
+
+    confirmations = list(result.confirmations)
+    try:
+        seconds = max(0.0, run.seconds(config.diagnosis.seconds).remaining())
+        found = degrade(problem, _prober(config, run, confirmations), seconds)
+    except _DiagnosisStopped:
+        found = None
+    if found is None:  # (a cheap diagnosis stands as it is)
+        return problem, result if result.diagnosis else _diagnosed(problem, config, result, run)
+    planned = solve_plan(found.problem, config, progress=progress, budget=run, start=start)
+    status = PlanStatus.DEGRADED if planned.status.has_plan else planned.status
+    names = ", ".join(d.task for d in found.dropped)
+    message = (
+        f"degraded: {counted(len(found.dropped), 'task')} dropped ({names}); " + planned.message
+    )
+    out = dataclasses.replace(
+        planned, status=status, message=message, dropped=found.dropped,
+        confirmations=tuple(confirmations) + planned.confirmations,
+    )  # fmt: skip
+    return found.problem, out

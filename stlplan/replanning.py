@@ -55,12 +55,16 @@ def replan(
     regions ``closed`` at that step, and verify the whole trajectory with the monitor.
 
     ``start`` (default: ``executed``'s own states and inputs past ``step``, where it has them)
-    is where step 1 starts. Returns the replanned problem and the verified result.
+    is where step 1 starts. When the rest of the mission cannot be met, the plan is degraded
+    (``Overrides.degrade`` unless set to False): it drops the fewest tasks it must. Returns the replanned problem and the verified result.
     """
     from stlplan.pipeline import plan
 
     tick = time.perf_counter()
     again = replanned(problem, executed, step, lost, closed)
+    overrides = overrides or Overrides()
+    if overrides.degrade is None:  # a replan degrades unless told not to
+        overrides = dataclasses.replace(overrides, degrade=True)
     if start is None:
         start = trajectory_start(again, executed, step)
     again, result = plan(again, overrides, progress=progress, start=start)

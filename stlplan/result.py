@@ -103,11 +103,14 @@ class PlanStatus(str, Enum):
     ERROR = "error"
     INTERRUPTED = "interrupted"  # stopped by a signal; the best plan so far
     INTERRUPTED_NO_PLAN = "interrupted_no_plan"  # stopped by a signal before any plan
+    DEGRADED = "degraded"  # infeasible; a plan of as many tasks as possible, the rest dropped
 
     @property
     def has_plan(self) -> bool:
         """Whether a trajectory comes with this status."""
-        return self in (PlanStatus.OPTIMAL, PlanStatus.FEASIBLE, PlanStatus.INTERRUPTED)
+        return self in (
+            PlanStatus.OPTIMAL, PlanStatus.FEASIBLE, PlanStatus.INTERRUPTED, PlanStatus.DEGRADED
+        )  # fmt: skip
 
     @property
     def interrupted(self) -> bool:
@@ -192,6 +195,14 @@ class SolverFigures:
     objective: float | None
     margin: float | None
     rho_s: Mapping[str, float] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Dropped:
+    """A task a degraded plan gave up, and why."""
+
+    task: str
+    reason: str
 
 
 @dataclass(frozen=True)
@@ -286,6 +297,8 @@ class PlanResult:
     monitor's verification), s."""
     replan: Replan | None = None
     """For a replan: its step, events and time (None for a plan from the initial states)."""
+    dropped: tuple[Dropped, ...] = ()
+    """For a degraded plan: the tasks given up, each with its reason."""
     values: Mapping[tuple[str, Any], float] = field(default_factory=dict, repr=False)
     """Step 1's plan: the value of each of its model's variables, by component name and index
     (a start for a later solve of the same problem, such as a replan)."""

@@ -25,7 +25,7 @@ LAYERS = (
     ("stlplan.monitor", "stlplan.analysis", "stlplan.planner.config", "stlplan.planner.budget"),
     ("stlplan.planner.encoding",),
     ("stlplan.planner",),
-    ("stlplan.verify", "stlplan.pipeline", "stlplan.replanning"),
+    ("stlplan.verify", "stlplan.degraded", "stlplan.pipeline", "stlplan.replanning"),
     ("stlplan.outputs",),
     ("stlplan.sweep",),
     ("stlplan.api",),

@@ -12,6 +12,7 @@ import typer
 from stlplan import api
 from stlplan.cli.files import InterSampleOption, MissionArg
 from stlplan.cli.shell import (
+    EXIT_DEGRADED,
     EXIT_INFEASIBLE,
     EXIT_INTERRUPTED,
     EXIT_NO_PLAN,
@@ -37,12 +38,13 @@ STATUS_EXIT = {
     PlanStatus.ERROR: EXIT_SOLVER,
     PlanStatus.INTERRUPTED: EXIT_INTERRUPTED,
     PlanStatus.INTERRUPTED_NO_PLAN: EXIT_INTERRUPTED,
+    PlanStatus.DEGRADED: EXIT_DEGRADED,
 }
 
 SOLVE_EPILOG = (
     "Exit codes: 0 a plan (optimal, or feasible at the time limit), 2 usage error, 3 bad input "
     "(or a model too large for this machine or the time limit), 4 infeasible (with a diagnosis in summary.json), 5 no plan within the time limit, 6 solver "
-    "error or a plan the monitor rejects, 70 internal error, 130 / 143 stopped by Ctrl-C / "
+    "error or a plan the monitor rejects, 7 a degraded plan (--degrade: some tasks dropped, named in summary.json), 70 internal error, 130 / 143 stopped by Ctrl-C / "
     "SIGTERM (the best plan so far is written when there is one; Ctrl-C twice writes nothing)."
 )
 SWEEP_EPILOG = (
@@ -137,6 +139,14 @@ TasksOption = Annotated[
     ),
 ]
 
+DegradeOption = Annotated[
+    bool,
+    typer.Option(
+        "--degrade",
+        help="When the mission cannot be met whole, plan as many tasks as possible (by task "
+        "priority, else by count) and name each task dropped (exit 7).",
+    ),
+]
 NoAnimationOption = Annotated[
     bool,
     typer.Option(
@@ -165,6 +175,7 @@ def solve(
     encoding: EncodingOption = None,
     tasks: TasksOption = None,
     inter_sample: InterSampleOption = None,
+    degrade: DegradeOption = False,
     no_animation: NoAnimationOption = False,
     no_html: NoHtmlOption = False,
     as_json: JsonOption = False,
@@ -187,6 +198,7 @@ def solve(
         encoding=None if encoding is None else encoding.value,
         tasks=None if tasks is None else tasks.value,
         two_step=False if one_step else None,
+        degrade=True if degrade else None,
         inter_sample=inter_sample,
     )
     problem = api.validate(mission)

@@ -27,7 +27,7 @@ from stlplan.runtime import signals
 
 EXIT_OK, EXIT_VIOLATED, EXIT_USAGE, EXIT_BAD_INPUT = 0, 1, 2, 3
 EXIT_INFEASIBLE, EXIT_NO_PLAN, EXIT_SOLVER = 4, 5, 6
-EXIT_INTERNAL, EXIT_INTERRUPTED = 70, 130
+EXIT_DEGRADED, EXIT_INTERNAL, EXIT_INTERRUPTED = 7, 70, 130
 
 EXITS_COMMON = (
     "2 usage error (an option, or a file the system refuses to read or write), 3 bad input "

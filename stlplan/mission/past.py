@@ -4,7 +4,8 @@ A replan from step ``K`` keeps the whole horizon and the same encoding; the exec
 steps ``0..K`` are data (measured: their dynamics are not checked), and only the inputs from
 ``K`` on are planned. A lost agent plans nothing from ``K`` on: it stays in the state it was
 last seen in, and the others keep their separation from it. A closed region becomes, for every
-agent that is not lost, the constraint ``G[K,H] !in(p, region)``.
+agent that is not lost, the constraint ``G[K,H] !in(p, region)`` (``G[K+1,H]``, named
+``closed REGION (leaving)``, for an agent inside it at ``K``: it must be out at the next step).
 """
 
 from __future__ import annotations
@@ -98,9 +99,24 @@ def _check_states(problem: Problem, states: Mapping[str, np.ndarray]) -> None:
 
 
 def _closures(problem: Problem, past: Past) -> Iterable[ConstraintModel]:
-    """``G[K,H] !in(p, region)`` for every closed region and every agent not lost."""
+    """``G[K,H] !in(p, region)`` for every closed region and every agent not lost that is
+    outside it at ``K``; an agent inside it then must be out from ``K+1`` on."""
+    H, K = problem.horizon, past.step
     for region in past.closed:
-        text = f"G[{past.step},{problem.horizon}] !in(p, {region})"
-        formula = parse(text, where=f"--closed {region}")
-        bindings = tuple({"p": a.name} for a in problem.agents if a.name not in past.lost)
-        yield ConstraintModel(f"closed {region}", formula, bindings)
+        inside = {a.name for a in problem.agents if _inside(problem, region, a.name, past)}
+        for start, agents, name in ((K, False, region), (K + 1, True, f"{region} (leaving)")):
+            bindings = tuple(
+                {"p": a.name}
+                for a in problem.agents
+                if a.name not in past.lost and (a.name in inside) == agents
+            )
+            if bindings and start <= H:
+                formula = parse(f"G[{start},{H}] !in(p, {region})", where=f"--closed {region}")
+                yield ConstraintModel(f"closed {name}", formula, bindings)
+
+
+def _inside(problem: Problem, region: str, agent: str, past: Past) -> bool:
+    """Whether ``agent``'s position at the replan's step lies in ``region`` (boundary included)."""
+    rows, rhs = problem.regions[region]
+    position = past.state(agent, past.step)[list(problem.agent(agent).position)]
+    return all(float(np.dot(g, position)) <= h for g, h in zip(rows, rhs, strict=True))

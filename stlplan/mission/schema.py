@@ -149,6 +149,9 @@ class Task(_Strict):
     """Allow one agent in several elements of a group (the paper forbids it by default)."""
     synchronous: Synchronous | None = None
     """Synchronization window and hold; absent for an ordinary task."""
+    priority: Integer = 0
+    """When not every task can be met (a degraded plan), tasks of a higher priority are kept
+    first; among equal priorities, as many as possible."""
 
 
 class Constraint(_Strict):

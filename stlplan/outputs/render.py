@@ -2,11 +2,20 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from rich.console import Console
 from rich.table import Table
 
 from stlplan.monitor.dynamics import DYNAMICS_CHECKED
-from stlplan.result import Confirmation, Diagnosis, MonitorReport, PlanResult, Verdict
+from stlplan.result import (
+    Confirmation,
+    Diagnosis,
+    Dropped,
+    MonitorReport,
+    PlanResult,
+    Verdict,
+)
 from stlplan.words import counted
 
 
@@ -47,8 +56,10 @@ def _rows(report: MonitorReport) -> list[Verdict]:
     return rows
 
 
-def verdict_table(report: MonitorReport, title: str = "Monitor") -> Table:
-    """One row per task, constraint and physical check."""
+def verdict_table(
+    report: MonitorReport, title: str = "Monitor", dropped: Sequence[Dropped] = ()
+) -> Table:
+    """One row per task, constraint and physical check; a degraded plan's dropped tasks last."""
     table = Table(title=title, title_justify="left", header_style="bold")
     table.add_column("name", no_wrap=True)
     table.add_column("kind", no_wrap=True)
@@ -60,6 +71,8 @@ def verdict_table(report: MonitorReport, title: str = "Monitor") -> Table:
         mark = "[green]ok[/]" if v.satisfied else "[red]FAIL[/]"
         agents = _group(v) or (v.detail if v.kind == "dynamics" else "")
         table.add_row(v.name, v.kind, mark, _num(v.robustness), agents, _sync(v))
+    for d in dropped:
+        table.add_row(d.task, "task", "[yellow]dropped[/]", "", "", "")
     return table
 
 
@@ -79,11 +92,20 @@ def report_line(report: MonitorReport) -> str:
     )
 
 
-def print_report(console: Console, report: MonitorReport) -> None:
-    """The per-task table, how the dynamics were checked, a one-line verdict and what fails."""
-    console.print(verdict_table(report))
+def print_report(console: Console, report: MonitorReport, dropped: Sequence[Dropped] = ()) -> None:
+    """The per-task table, how the dynamics were checked, a one-line verdict and what fails;
+    for a degraded plan, each task dropped and why."""
+    console.print(verdict_table(report, dropped=dropped))
     console.print(f"{DYNAMICS_CHECKED[report.known]}; tolerance {report.tolerance:g}")
-    console.print(report_line(report))
+    if dropped:
+        console.print(
+            f"[yellow]degraded[/]: not satisfied, {counted(len(dropped), 'task')} dropped; "
+            "the plan meets every other task and every constraint"
+        )
+        for d in dropped:
+            console.print(f"  {d.task} dropped: {d.reason}")
+    else:
+        console.print(report_line(report))
     for v in report.verdicts:
         if not v.satisfied:
             console.print(f"  {v.name}: {v.detail}")
@@ -137,7 +159,7 @@ def print_plan(console: Console, result: PlanResult, verbose: bool = False) -> N
             console.print(f"[bold]run[/]        {event}")
     print_confirmations(console, result, verbose)
     if result.report is not None:
-        print_report(console, result.report)
+        print_report(console, result.report, result.dropped)
     if result.diagnosis is not None:
         print_diagnosis(console, result.diagnosis)
 

@@ -97,6 +97,7 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "config": dict(result.config),
         "fallback": fallback_dict(result.fallback),
         "replan": None if result.replan is None else dataclasses.asdict(result.replan),
+        "dropped": [dataclasses.asdict(d) for d in result.dropped],
         "assignments": [
             {
                 "task": a.task,

@@ -175,6 +175,9 @@ class DiagnosisConfig(_Section):
     """Time limit of one feasibility solve of the diagnosis, s."""
     seconds: float = Field(default=120.0, gt=0)
     """Time limit of the whole diagnosis, s (within what the run has left)."""
+    degrade: bool = False
+    """When the mission is infeasible, plan as many tasks as possible instead (by priority, else
+    by count), naming each task dropped and why (on for a replan)."""
 
 
 class PlannerConfig(_Section):
@@ -277,6 +280,7 @@ _NAMED = {
     "encoding": "model.encoding",
     "tasks": "model.tasks",
     "two_step": "continuous.two_step",
+    "degrade": "diagnosis.degrade",
 }
 """The planner settings a run may change by their command-line names."""
 
@@ -291,6 +295,8 @@ class Overrides:
     time_limit, gap, threads, seed, encoding, tasks, two_step
         As the mission's ``solver`` and ``objective`` settings (:class:`PlannerConfig`'s
         ``solver``, ``model`` and ``continuous`` knobs).
+    degrade
+        Plan as many tasks as possible when the mission is infeasible (``diagnosis.degrade``).
     inter_sample
         Judge safety on the segments between steps (the mission's ``safety.inter_sample``).
     config
@@ -305,6 +311,7 @@ class Overrides:
     encoding: Encoding | None = None
     tasks: TaskForm | None = None
     two_step: bool | None = None
+    degrade: bool | None = None
     inter_sample: bool | None = None
     config: Mapping[str, Any] = field(default_factory=dict)
 

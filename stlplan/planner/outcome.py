@@ -26,6 +26,9 @@ from dataclasses import dataclass
 
 from stlplan.result import PlanStatus
 
+ASSEMBLY_FAILED = "assembly failed"
+"""The ``stop`` of an outcome whose parts' plans did not assemble into a plan of the whole."""
+
 SLACK = 1 + 1e-9
 """A gap within ``gap * SLACK`` counts as within the gap (round-off of sums of objectives)."""
 
@@ -247,7 +250,7 @@ def assembled(
     """The outcome of the parts' plans assembled in one model (``objective`` None: the
     assembly failed, an error); optimal only within ``gap`` of the parts' bound."""
     if objective is None:
-        return dataclasses.replace(done, status=PlanStatus.ERROR, stop="assembly failed")
+        return dataclasses.replace(done, status=PlanStatus.ERROR, stop=ASSEMBLY_FAILED)
     found = relative_gap(objective, done.bound)
     status = done.status
     if status is PlanStatus.OPTIMAL and (found is None or found > gap * SLACK):

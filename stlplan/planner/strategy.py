@@ -10,7 +10,9 @@ Three strategies, each wrapping the one before:
 * :class:`Parts`: solve the independent parts of the team apart, each by the strategy inside,
   merging parts whose plans collide (a merge repaired by the same policy) and assembling the
   parts' plans in one model (:mod:`stlplan.planner.components`); given a plan of the whole
-  team to start from (a replan's), the team is solved whole by the strategy inside.
+  team to start from (a replan's), or when the parts' plans do not assemble into a plan of
+  the whole (a part's plan that met its decisions only within HiGHS's integrality tolerance),
+  the team is solved whole by the strategy inside.
 
 Each strategy takes the problem, the configuration, the run's clock and a budget, and returns
 the model with the plan loaded and the :class:`~stlplan.planner.outcome.Outcome`. Each describes
@@ -29,7 +31,7 @@ from stlplan.planner.components import solve_parts
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import PlanModel, build_model
 from stlplan.planner.lazy import solve_step1
-from stlplan.planner.outcome import Outcome, Plan
+from stlplan.planner.outcome import ASSEMBLY_FAILED, Outcome, Plan
 from stlplan.planner.repair_policy import RepairPolicy
 
 
@@ -118,6 +120,8 @@ class Parts:
         if start is not None:  # a plan of the whole team: nothing for the parts to find
             return self.inner.solve(problem, config, clock, budget, start)
         by_parts = solve_parts(problem, config, clock, budget, self.inner.policy)
+        if by_parts is not None and by_parts[1].stop == ASSEMBLY_FAILED and not budget.expired():
+            return self.inner.solve(problem, config, clock, budget)  # the parts' plans: no plan
         return by_parts or self.inner.solve(problem, config, clock, budget)
 
     def describe(self) -> str:

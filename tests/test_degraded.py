@@ -1,0 +1,110 @@
+"""Degraded plans: the fewest tasks dropped (by priority, else by count), each named with why."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from stlplan.degraded import Conflict, cheapest_hitting_set, drop_costs
+from stlplan.pipeline import plan
+from stlplan.planner.config import Overrides
+from stlplan.result import PlanStatus
+from tests.helpers.missions import mission
+from tests.helpers.paths import MISSIONS
+
+DEGRADE = Overrides(time_limit=60, degrade=True)
+REGIONS = {
+    "West": {"box": [[-2.1, -1.9], [-0.1, 0.1]]},
+    "East": {"box": [[1.9, 2.1], [-0.1, 0.1]]},
+    "North": {"box": [[-0.1, 0.1], [1.9, 2.1]]},
+}
+
+
+def _at(region: str, priority: int = 0, step: int = 2) -> dict[str, Any]:
+    formula = f"F[{step},{step}] in(p, {region})"
+    return {"formula": formula, "roles": {"p": {"agent": "a"}}, "priority": priority}
+
+
+def _one_agent(horizon: int = 2, **tasks: dict[str, Any]) -> Any:
+    agents = [{"name": "a", "dynamics": "si", "capabilities": ["X"], "initial_state": [0, 0]}]
+    return mission(horizon=horizon, agents=agents, regions=REGIONS, tasks=tasks)
+
+
+def test_one_of_two_places_at_once_is_dropped_the_lower_priority_first() -> None:
+    problem = _one_agent(west=_at("West", priority=1), east=_at("East"))
+    planned, result = plan(problem, DEGRADE)
+    assert result.status is PlanStatus.DEGRADED
+    assert [d.task for d in result.dropped] == ["east"]
+    assert "cannot be met together with 'west'" in result.dropped[0].reason
+    assert [t.name for t in planned.tasks] == ["west"]
+    assert result.report is not None and result.report.verdict("west").satisfied
+
+
+def test_among_equal_priorities_the_fewest_tasks_are_dropped() -> None:
+    # west (step 2) conflicts with north (step 2) and east (step 4); north then east can be met
+    problem = _one_agent(
+        horizon=4,
+        west=_at("West", step=2),
+        north=_at("North", step=2),
+        east=_at("East", step=4),
+    )
+    _, result = plan(problem, DEGRADE)
+    assert result.status is PlanStatus.DEGRADED
+    assert [d.task for d in result.dropped] == ["west"]
+
+
+def test_a_task_too_few_agents_can_serve_is_named_with_the_cheap_reason() -> None:
+    agents = [
+        {"name": n, "dynamics": "si", "capabilities": ["X"], "initial_state": [0, 0]}
+        for n in ("a", "b")
+    ]
+    tasks = {
+        "far": {"formula": "F[0,2] in(p, Far)", "count": 2, "roles": {"p": "X"}},
+        "near": {"formula": "F[0,2] in(p, East)", "roles": {"p": "X"}},
+    }
+    regions = {**REGIONS, "Far": {"box": [[4.5, 5], [4.5, 5]]}}
+    problem = mission(horizon=2, agents=agents, regions=regions, tasks=tasks, separation=None)
+    _, result = plan(problem, DEGRADE)
+    assert result.status is PlanStatus.DEGRADED
+    assert [d.task for d in result.dropped] == ["far"]
+    assert "must reach region 'Far'" in result.dropped[0].reason
+
+
+def test_without_degrade_an_infeasible_mission_stays_infeasible() -> None:
+    problem = _one_agent(west=_at("West"), east=_at("East"))
+    _, result = plan(problem, Overrides(time_limit=60))
+    assert result.status is PlanStatus.INFEASIBLE and not result.dropped
+
+
+def test_a_higher_priority_outweighs_every_task_below_it() -> None:
+    problem = _one_agent(
+        west=_at("West", priority=2), east=_at("East", priority=1), north=_at("North")
+    )
+    costs = drop_costs(problem)
+    assert costs["west"] > costs["east"] + costs["north"]
+    assert costs["east"] > costs["north"]
+
+
+def test_the_cheapest_hitting_set_meets_every_conflict() -> None:
+    conflicts = [Conflict(frozenset({"a", "b"})), Conflict(frozenset({"b", "c"}))]
+    assert cheapest_hitting_set(conflicts, {"a": 1, "b": 1, "c": 1}) == {"b"}
+    assert cheapest_hitting_set(conflicts, {"a": 1, "b": 5, "c": 1}) == {"a", "c"}
+    assert (
+        cheapest_hitting_set([*conflicts, Conflict(frozenset())], {"a": 1, "b": 1, "c": 1}) is None
+    )
+
+
+@pytest.mark.parametrize("priority", ["high", 1.5])
+def test_a_priority_must_be_an_integer(tmp_path: Path, priority: Any) -> None:
+    from stlplan.api import validate
+    from stlplan.errors import MissionError
+
+    text = (MISSIONS / "sync-pair.yaml").read_text(encoding="utf-8")
+    bad = text.replace("    count: 2\n", f"    count: 2\n    priority: {priority!r}\n", 1)
+    assert bad != text
+    path = tmp_path / "m.yaml"
+    path.write_text(bad, encoding="utf-8")
+    with pytest.raises(MissionError, match="priority"):
+        validate(path)
