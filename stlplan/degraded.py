@@ -113,7 +113,7 @@ def degrade(problem: Problem, feasibility: Feasibility, seconds: float) -> Degra
     conflicts = _cheap_conflicts(problem)
     while True:
         hit = cheapest_hitting_set(conflicts, costs)
-        if hit is None or len(hit) == len(problem.tasks):
+        if hit is None:
             return None
         kept = without(problem, hit)
         left = seconds - (time.monotonic() - started)

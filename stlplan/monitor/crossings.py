@@ -71,11 +71,15 @@ def _half_planes(part: Formula) -> tuple[Predicate, ...] | None:
 
 
 def worst_segment(
-    formula: Formula, signals: Mapping[str, np.ndarray], horizon: int
+    formula: Formula, signals: Mapping[str, np.ndarray], horizon: int, first: int = 0
 ) -> Crossing | None:
-    """The worst segment of the safety parts of a lowered constraint; None without any."""
+    """The worst segment from step ``first`` on (a replan's step: the executed segments before
+    it were not planned) of the safety parts of a lowered constraint; None without any."""
     worst: Crossing | None = None
-    for part, starts in _segments(formula).items():
+    for part, every in _segments(formula).items():
+        starts = [k for k in every if k >= first]
+        if not starts:
+            continue
         values = _segment_values(part, starts, signals, horizon)
         i = int(np.argmin(values))
         if worst is None or values[i] < worst.value:

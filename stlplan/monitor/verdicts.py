@@ -21,7 +21,8 @@ outside, and the planner enforces every predicate with a margin of at least ``EP
   ``min_{p<q, k} ||z_p(k) - z_q(k)||_inf - d_col``, which must hold;
 * dynamics and bounds hold within the tolerance ``tol`` (relative to the terms' scale);
 * with inter-sample safety (``problem.inter_sample``, the default) avoidance parts of constraints
-  and separation are also judged on the straight segments between steps
+  and separation are also judged on the straight segments between steps (a replan's from its
+  step ``K`` on: the executed segments before it were not planned, and their path is not known)
   (:mod:`stlplan.monitor.crossings`): a constraint's or the separation's robustness is the minimum over
   steps and segments, and a failing segment is named with its step ``k -> k+1``.
 """
@@ -271,7 +272,10 @@ def _binding_value(
     signals = {role: trajectory.states[name] for role, name in binding.items()}
     lowered = problem.lowered(constraint.formula, binding)
     sampled = float(robustness(lowered, signals, problem.horizon)[0])
-    crossing = worst_segment(lowered, signals, problem.horizon) if problem.inter_sample else None
+    first = 0 if problem.past is None else problem.past.step
+    crossing = (
+        worst_segment(lowered, signals, problem.horizon, first) if problem.inter_sample else None
+    )
     if crossing is None or not crossing.value < sampled - 1e-12:
         return sampled, ""
     return crossing.value, f" on the segment {crossing.step} -> {crossing.step + 1}"
@@ -316,12 +320,14 @@ def _separation_verdict(
     p, q, k = np.unravel_index(int(np.argmin(gap)), gap.shape)
     value = float(gap[p, q, k])
     pair = f"{agents[p].name} and {agents[q].name} at step {k}"
-    if problem.inter_sample and gap.shape[2] > 1:
-        seg = separation_segments(z, separation)
+    first = 0 if problem.past is None else problem.past.step  # a replan's segments from K
+    if problem.inter_sample and gap.shape[2] > first + 1:
+        seg = separation_segments(z[:, first:], separation)
         seg = np.where(upper[:, :, None], np.nan_to_num(seg, nan=-np.inf), np.inf)
         sp, sq, sk = np.unravel_index(int(np.argmin(seg)), seg.shape)
         if seg[sp, sq, sk] < value - 1e-12:
             value = float(seg[sp, sq, sk])
+            sk += first
             pair = f"{agents[sp].name} and {agents[sq].name} on the segment {sk} -> {sk + 1}"
     satisfied = holds(value, slack)
     detail = (
