@@ -6,7 +6,7 @@ STAMP  := $(VENV)/.installed
 OUT    ?= out/farm
 
 .DEFAULT_GOAL := help
-.PHONY: help install farm test test-slow fuzz smoke bench bench-quick bench-scale lint format schema clean
+.PHONY: help install farm test test-slow fuzz smoke bench bench-quick bench-scale lint format schema crowd clean
 
 help:  ## List the targets
 	@grep -E '^[a-zA-Z_-]+:.*?## ' $(MAKEFILE_LIST) | awk 'BEGIN {FS = ":.*?## "}; {printf "  %-12s %s\n", $$1, $$2}'
@@ -59,6 +59,9 @@ format: $(STAMP)  ## Apply ruff's formatting and safe fixes
 
 schema: $(STAMP)  ## Regenerate schemas/mission.schema.json
 	$(BIN)/stlplan schema
+
+crowd: $(STAMP)  ## Regenerate missions/crowd/*.yaml (antipodal swaps of 16, 32 and 64 agents)
+	$(BIN)/python -m stlplan.crowd --out missions/crowd
 
 clean:  ## Remove the virtual environment, caches and outputs
 	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache .hypothesis

@@ -5,11 +5,11 @@ draws them (:func:`stlplan.sweep.initial.draw_positions` with a fixed seed, runs
 uniform in the initial area, at rest, pairwise at least ``d_col`` apart. A mission of the suite
 (``missions/stl/``, cases ``stl/<name>``, all of them by ``--cases suite``) has no initial area: it
 is solved once per formulation, as written; so is a farm whose agents start at depots
-(``scale/farm-x2-depot``, ``scale/farm-depot-small``). Every run is solved with the default
-formulation (the planner's defaults: lazy obstacle and collision rows, effort floors) and the first
-few runs of each case also with the straightforward formulation (every row up front, no floors)
-under a generous time limit, so the two can be compared on the same states. Every plan goes
-through the monitor.
+(``scale/farm-x2-depot``, ``scale/farm-depot-small``), and so is a crowd (``crowd/crowd-N``).
+Every run is solved with the default formulation (the planner's defaults: lazy obstacle and
+collision rows, effort floors) and the first few runs of each case also with the straightforward
+formulation (every row up front, no floors) under a generous time limit, so the two can be
+compared on the same states. Every plan goes through the monitor.
 
 This is a benchmark, not a test: it only measures. Solves run one after another (the machine's
 cores go to HiGHS's threads); results are appended to ``bench.csv`` as they come and the table is
@@ -42,6 +42,9 @@ and C's counts multiplied alike; ``farm-x2-same`` keeps Case I's counts for 16 a
 DEPOT_CASES = ("scale/farm-x2-depot", "scale/farm-depot-small")
 """Farms whose agents of one capability share a depot, no separation: classes of interchangeable
 agents (``--formulations no-symmetry symmetry``); solved once, as written, like the suite."""
+CROWD_CASES = ("crowd/crowd-16", "crowd/crowd-32", "crowd/crowd-64")
+"""Antipodal swaps of 16, 32 and 64 single integrators past four pillars, with separation
+(:mod:`stlplan.crowd`); solved once, as written."""
 SUITE = tuple(f"stl/{p.stem}" for p in sorted((missions_dir() / "stl").glob("*.yaml")))
 """The general-STL suite: single- and multi-agent missions, some infeasible, solved as written."""
 NO_PLAN = ("infeasible", "no_plan")
@@ -182,7 +185,8 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
 def plan_jobs(args: argparse.Namespace) -> Iterator[Job]:
     """Every run with each formulation, then the first runs with the comparison ones."""
     for case in args.cases:
-        runs = 1 if case in SUITE + DEPOT_CASES else args.runs  # one initial state, as written
+        as_written = case in SUITE + DEPOT_CASES + CROWD_CASES
+        runs = 1 if as_written else args.runs  # one initial state, as written
         for run in range(args.first_run, args.first_run + runs):
             for name in args.formulations:
                 yield Job(case, run, name, args.time_limit)
@@ -315,9 +319,11 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog="python -m stlplan.bench", description=__doc__.split(
         "\n\n")[0])  # fmt: skip
     parser.add_argument("--cases", nargs="+", default=list(CASES),
-                        choices=(*CASES, *SCALE_CASES, *DEPOT_CASES, *SUITE, "suite"),
-                        help="farm cases, scaled farms (scale/farm-xK), farms with depots, suite "
-                        "missions (stl/NAME), or 'suite' for all of them")  # fmt: skip
+                        choices=(*CASES, *SCALE_CASES, *DEPOT_CASES, *CROWD_CASES, *SUITE,
+                                 "suite"),
+                        help="farm cases, scaled farms (scale/farm-xK), farms with depots, crowds "
+                        "(crowd/crowd-N), suite missions (stl/NAME), or 'suite' for all of "
+                        "them")  # fmt: skip
     parser.add_argument("--runs", type=int, default=30, help="initial states per case")
     parser.add_argument("--first-run", type=int, default=0, help="index of the first state")
     parser.add_argument("--seed", type=int, default=0, help="seed of the initial states")

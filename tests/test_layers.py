@@ -35,7 +35,7 @@ LAYERS = (
     ("stlplan.outputs",),
     ("stlplan.sweep",),
     ("stlplan.api",),
-    ("stlplan.bench", "stlplan.cli", "stlplan.__main__", "stlplan"),
+    ("stlplan.bench", "stlplan.crowd", "stlplan.cli", "stlplan.__main__", "stlplan"),
 )
 """From the bottom up: a module may import its own layer's modules and those below."""
 

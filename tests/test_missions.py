@@ -16,6 +16,7 @@ from tests.helpers.paths import MISSIONS
 
 SHIPPED = sorted(MISSIONS.glob("*.yaml"))
 SCALED = sorted((MISSIONS / "scale").glob("farm-x*.yaml"))
+CROWDS = sorted((MISSIONS / "crowd").glob("*.yaml"))
 FARMS = {"farm": (3, 2, 3), "farm-case2": (3, 2, 4), "farm-case3": (4, 2, 3)}
 GRID = [(x, y) for y in (4.8, 4.5, 4.2) for x in (0.2, 0.5, 0.8)]
 
@@ -33,7 +34,7 @@ def test_the_shipped_missions_are_there() -> None:
     assert {"farm", "farm-case2", "farm-case3", "reach-avoid", "sync-pair"} <= names
 
 
-@pytest.mark.parametrize("path", SHIPPED + SCALED, ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", SHIPPED + SCALED + CROWDS, ids=lambda p: p.stem)
 def test_mission_loads(path: Path) -> None:
     problem = load_problem(path)
     assert problem.agents

@@ -2,12 +2,13 @@
 
 :func:`reachable_boxes` over-approximates each agent's reachable states by interval arithmetic
 (it tightens the model's bounds and big-M constants, and proves regions out of reach);
+:func:`meeting_steps` lists the pairs of agents those boxes let come closer than the separation;
 :func:`needs` lists the region visits every trajectory satisfying a formula must make.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 
 import numpy as np
 
@@ -42,6 +43,46 @@ def reachable_boxes(problem: Problem) -> dict[str, tuple[np.ndarray, np.ndarray]
             hi[k + 1] = np.minimum(a_pos @ hi[k] + a_neg @ lo[k] + u_hi, a.state_hi)
         boxes[a.name] = (lo, hi)
     return boxes
+
+
+def meeting_steps(
+    problem: Problem, boxes: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None
+) -> dict[tuple[str, str], tuple[int, ...]]:
+    """The steps at which two agents' reachable positions come closer than the separation.
+
+    Agents ``p`` and ``q`` can meet at step ``k`` when the infinity-norm distance between their
+    position boxes at ``k`` (the largest gap between the boxes along an axis, 0 where they
+    overlap) is below the mission's separation. A pair that cannot meet at any step keeps its
+    separation whatever either agent does.
+
+    Parameters
+    ----------
+    problem
+        The mission; without a separation no pair needs one, and the answer is empty.
+    boxes
+        Reachable boxes (:func:`reachable_boxes` of ``problem`` when None).
+
+    Returns
+    -------
+    dict
+        ``(p, q)`` in mission order to the steps at which they can meet; pairs that never can
+        are left out.
+    """
+    if problem.separation is None:
+        return {}
+    boxes = reachable_boxes(problem) if boxes is None else boxes
+    names = [a.name for a in problem.agents]
+    lo = np.stack([boxes[a.name][0][:, list(a.position)] for a in problem.agents])
+    hi = np.stack([boxes[a.name][1][:, list(a.position)] for a in problem.agents])
+    found = {}
+    for i, name in enumerate(names[:-1]):
+        # gap between i's box and each later agent's, per step and axis: (N - i - 1, H+1, 2)
+        gap = np.maximum(lo[i + 1 :] - hi[i], lo[i] - hi[i + 1 :])
+        near = np.maximum(gap, 0.0).max(axis=2) < problem.separation
+        for j, steps in enumerate(near, start=i + 1):
+            if steps.any():
+                found[(name, names[j])] = tuple(int(k) for k in np.flatnonzero(steps))
+    return found
 
 
 def needs(formula: Formula, shift: int = 0) -> Iterator[Need]:
