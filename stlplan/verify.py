@@ -26,7 +26,15 @@ import numpy as np
 from stlplan.errors import SolverError
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
-from stlplan.result import MonitorReport, PlanResult, SolverFigures, Trajectory
+from stlplan.result import (
+    Dropped,
+    MonitorReport,
+    PlanResult,
+    PlanStatus,
+    SolverFigures,
+    Trajectory,
+    Verdict,
+)
 
 TOL = 1e-6
 """Absolute tolerance of the comparisons, added to the relative gap."""
@@ -113,12 +121,30 @@ def reported(problem: Problem, result: PlanResult, report: MonitorReport, gap: f
 def verified(problem: Problem, result: PlanResult, gap: float) -> PlanResult:
     """Attach the monitor's report and report the written plan's figures
     (:func:`reported`); a plan the monitor rejects is an error, never an output.
+
+    A replan's report judges the whole trajectory, but the plan is held to what it decided:
+    constraints after the replan's step (the monitor's ``planned_only`` check), whose margin
+    its figures report. A constraint the executed past broke, which no plan can mend, makes
+    the result degraded, and is named.
     """
     if result.trajectory is None:
         return result
     report = monitor_check(problem, result.trajectory)
-    failed = [v for v in report.verdicts if not v.satisfied]
-    if failed:
-        lines = "; ".join(f"{v.name}: {v.detail}" for v in failed)
+    judged = report
+    if problem.past is not None:  # what the plan decided: constraints after the replan's step
+        judged = monitor_check(problem, result.trajectory, planned_only=True)
+    if not judged.satisfied:
+        lines = "; ".join(f"{v.name}: {v.detail}" for v in judged.verdicts if not v.satisfied)
         raise SolverError(f"the solver's plan is rejected by the monitor ({lines})")
-    return reported(problem, result, report, gap)
+    out = dataclasses.replace(reported(problem, result, judged, gap), report=report)
+    failed = [v for v in report.verdicts if not v.satisfied]
+    return _broken_by_the_past(out, failed) if failed else out
+
+
+def _broken_by_the_past(result: PlanResult, failed: list[Verdict]) -> PlanResult:
+    """``result`` degraded by the constraints the executed past broke (``failed``)."""
+    broken = tuple(Dropped(v.name, f"broken by the executed past: {v.detail}") for v in failed)
+    message = f"the executed past breaks {', '.join(v.name for v in failed)}; {result.message}"
+    return dataclasses.replace(
+        result, status=PlanStatus.DEGRADED, dropped=result.dropped + broken, message=message
+    )

@@ -71,6 +71,6 @@ def test_side_by_side_infeasible_on_both_sides_agrees() -> None:
 def test_crowd_cases_run_once_as_written() -> None:
     args = bench.parse_args(["--cases", "crowd/crowd-16", "--runs", "3", "--compare-runs", "0"])
     assert [(j.case, j.run) for j in bench.plan_jobs(args)] == [("crowd/crowd-16", 0)]
-    problem = bench._initial_problem("crowd/crowd-16", seed=0, run=0)
+    problem = bench.initial_problem("crowd/crowd-16", seed=0, run=0)
     assert len(problem.agents) == 16
     assert list(problem.agents[0].initial_state) == [7.5, 4.0]

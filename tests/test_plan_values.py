@@ -62,3 +62,19 @@ def test_a_start_of_a_plan_for_the_whole_team_skips_the_parts() -> None:
     assert started.objective == pytest.approx(optimum.objective, rel=1e-4)
     assert any(r["agents"] < 3 for r in optimum.round_log)  # e is a part of its own
     assert started.round_log and all(r["agents"] == 3 for r in started.round_log)
+
+
+def test_first_plan_stops_at_a_plan_meeting_every_requirement() -> None:
+    from stlplan.pipeline import plan as verified_plan
+    from stlplan.planner.config import Overrides
+
+    problem = swap_problem(0.5, horizon=3, inter_sample=True)
+    _, full = verified_plan(problem, Overrides(time_limit=60))
+    _, first = verified_plan(problem, Overrides(time_limit=60, first_plan=True))
+    assert first.report is not None and first.report.satisfied
+    assert first.status in (PlanStatus.FEASIBLE, PlanStatus.OPTIMAL)
+    assert first.rounds <= full.rounds
+    assert full.objective is not None and first.objective is not None
+    assert first.objective <= full.objective + 1e-6
+    last = first.round_log[-1]
+    assert last["best"] is not None  # the run ended on the round that found the plan

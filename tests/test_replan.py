@@ -156,3 +156,41 @@ def test_an_executed_state_outside_its_bounds_names_the_agent_and_step() -> None
     executed.states["a"][2] = (7.0, 0.0)
     with pytest.raises(TrajectoryError, match=r"agent 'a' step 2: x0 = 7 is outside its state"):
         replanned(problem, executed, 3)
+
+
+def _pair(separation: float = 0.5) -> Problem:
+    team = [
+        {"name": "a", "dynamics": "si", "capabilities": ["X"], "initial_state": [0, 0]},
+        {"name": "b", "dynamics": "si", "capabilities": ["X"], "initial_state": [0, 2]},
+    ]
+    task = {"formula": "F[0,6] in(p, R)", "roles": {"p": {"agent": "a"}}}
+    guard = {"formula": "G[0,6] in(p, Yard)", "roles": {"p": {"agent": "b"}}}
+    regions = {"R": R, "Yard": {"box": [[-1, 1], [1, 3]]}}
+    return mission(
+        horizon=6, agents=team, regions=regions, tasks={"visit": task, "guard": guard},
+        separation=separation, objective={"beta": 1.0, "effort": "l1"},
+    )  # fmt: skip
+
+
+def test_a_separation_the_past_broke_degrades_the_plan_and_is_named() -> None:
+    problem = _pair()
+    executed = _walk(problem, {})
+    executed.states["a"][2] = (0.2, 0.8)  # both drifted: within 0.5 of each other at step 2
+    executed.states["b"][2] = (0.0, 1.1)
+    again, result = replan(problem, executed, 2, overrides=Overrides(time_limit=60))
+    assert result.status is PlanStatus.DEGRADED
+    assert [d.task for d in result.dropped] == ["separation"]
+    assert "broken by the executed past" in result.dropped[0].reason
+    assert result.trajectory is not None  # after the replan's step, the pair is apart again
+    gap = np.abs(result.trajectory.states["a"] - result.trajectory.states["b"]).max(axis=1)
+    assert np.all(gap[3:] >= 0.5 - 1e-6)
+
+
+def test_an_always_the_past_broke_is_named_at_once() -> None:
+    problem = _pair(separation=0.0)
+    executed = _walk(problem, {"b": [(0, 1), (0, 1)]})  # b leaves the Yard at step 2
+    again, result = replan(problem, executed, 3, overrides=Overrides(time_limit=60))
+    assert result.status is PlanStatus.DEGRADED
+    assert [d.task for d in result.dropped] == ["guard"]
+    assert "can no longer be met after the executed past" in result.dropped[0].reason
+    assert result.report is not None and result.report.verdict("visit").satisfied

@@ -22,8 +22,10 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
+from stlplan.analysis.decided import upper_robustness
 from stlplan.analysis.initial import Reason, initial_reasons
 from stlplan.analysis.reach import needs, reachable_boxes
+from stlplan.formula.boundary import HOLDS_AT
 from stlplan.mission.problem import Problem, TaskModel
 from stlplan.result import Diagnosis, PlanStatus
 
@@ -105,14 +107,45 @@ def _constraint_reasons(problem: Problem, boxes: dict) -> Iterator[Reason]:
                 )
 
 
+def _decided_reasons(problem: Problem, boxes: dict, named: set[str]) -> Iterator[Reason]:
+    """Ordinary tasks (not named yet) that fewer elements than their count can still satisfy,
+    whatever the plan (:mod:`stlplan.analysis.decided`); a replan's past decides most."""
+    after = (
+        "" if problem.past is None else f" after the executed past (steps 0..{problem.past.step})"
+    )
+    for task in problem.tasks:
+        if task.sync is not None or task.name in named:
+            continue
+        able = sum(
+            upper_robustness(
+                problem.lowered(task.formula, b), _role_boxes(boxes, b), problem.horizon
+            )[0]
+            >= HOLDS_AT
+            for b in map(task.binding, task.elements)
+        )
+        wanted = 1 if task.reuse_agents else task.count
+        if able < wanted:
+            yield Reason(
+                task.name,
+                f"task '{task.name}' can no longer be met{after}: {able} of its "
+                f"{len(task.elements)} element(s) can still satisfy it, {wanted} needed",
+            )
+
+
+def _role_boxes(boxes: dict, binding: dict[str, str]) -> dict:
+    return {role: boxes[agent] for role, agent in binding.items()}
+
+
 def cheap_reasons(problem: Problem) -> tuple[Reason, ...]:
     """Reasons the mission is infeasible that need no solve (empty when none is found): the
-    conflicts at step 0 first, then the regions no capable agent reaches in time."""
+    conflicts at step 0 first, then the regions no capable agent reaches in time, then the
+    tasks no plan can satisfy any more."""
 
     found = list(initial_reasons(problem))
     boxes = reachable_boxes(problem)
     found += [r for task in problem.tasks for r in _task_reasons(problem, task, boxes)]
     found += list(_constraint_reasons(problem, boxes))
+    found += list(_decided_reasons(problem, boxes, {r.item for r in found}))
     return tuple(found)
 
 

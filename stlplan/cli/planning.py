@@ -147,6 +147,13 @@ DegradeOption = Annotated[
         "priority, else by count) and name each task dropped (exit 7).",
     ),
 ]
+FirstPlanOption = Annotated[
+    bool,
+    typer.Option(
+        "--first-plan",
+        help="Stop at the first plan that meets every requirement (its gap is printed beside it).",
+    ),
+]
 NoAnimationOption = Annotated[
     bool,
     typer.Option(
@@ -176,6 +183,7 @@ def solve(
     tasks: TasksOption = None,
     inter_sample: InterSampleOption = None,
     degrade: DegradeOption = False,
+    first_plan: FirstPlanOption = False,
     no_animation: NoAnimationOption = False,
     no_html: NoHtmlOption = False,
     as_json: JsonOption = False,
@@ -199,6 +207,7 @@ def solve(
         tasks=None if tasks is None else tasks.value,
         two_step=False if one_step else None,
         degrade=True if degrade else None,
+        first_plan=True if first_plan else None,
         inter_sample=inter_sample,
     )
     problem = api.validate(mission)

@@ -11,6 +11,7 @@ from stlplan import api
 from stlplan.cli.files import MissionArg
 from stlplan.cli.planning import (
     SOLVE_EPILOG,
+    FirstPlanOption,
     GapOption,
     NoAnimationOption,
     NoHtmlOption,
@@ -63,6 +64,7 @@ def replan(
     time_limit: TimeLimitOption = None,
     gap: GapOption = None,
     threads: ThreadsOption = None,
+    first_plan: FirstPlanOption = False,
     no_animation: NoAnimationOption = False,
     no_html: NoHtmlOption = False,
     as_json: JsonOption = False,
@@ -78,7 +80,9 @@ def replan(
     from stlplan.outputs.progress import ProgressLine
 
     output = Output(as_json, quiet)
-    overrides = api.Overrides(time_limit=time_limit, gap=gap, threads=threads)
+    overrides = api.Overrides(
+        time_limit=time_limit, gap=gap, threads=threads, first_plan=True if first_plan else None
+    )
     problem = api.validate(mission)
     with (
         solver_output(discard=not output.full),

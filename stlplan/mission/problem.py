@@ -15,7 +15,7 @@ import numpy as np
 
 from stlplan.formula.normal import HalfSpaces, lower
 from stlplan.formula.parser import parse
-from stlplan.formula.tree import Formula, roles
+from stlplan.formula.tree import Formula, horizon, roles
 from stlplan.mission import checks
 from stlplan.mission.groups import Element, RoleRule, elements, iter_groups, pack
 from stlplan.mission.schema import Mission, PinnedRole, Region
@@ -162,6 +162,12 @@ class Problem:
         if on is None or on == self.inter_sample:
             return self
         return replace(self, inter_sample=on, _by_name={})
+
+    def in_past(self, part: Formula, k: int) -> bool:
+        """Whether ``part`` at step ``k`` reads a replan's executed states before ``K`` only:
+        data, not planned (constraints and separation are planned from ``K``, whose part starts
+        the segment to ``K+1``)."""
+        return self.past is not None and k + horizon(part) < self.past.step
 
     def known_through(self, agent: str) -> int:
         """The last step whose state of ``agent`` is data: 0 (its initial state), a replan's

@@ -71,13 +71,21 @@ def _half_planes(part: Formula) -> tuple[Predicate, ...] | None:
 
 
 def worst_segment(
-    formula: Formula, signals: Mapping[str, np.ndarray], horizon: int, first: int = 0
+    formula: Formula,
+    signals: Mapping[str, np.ndarray],
+    horizon: int,
+    first: int = 0,
+    planned: bool = False,
 ) -> Crossing | None:
     """The worst segment from step ``first`` on (a replan's step: the executed segments before
-    it were not planned) of the safety parts of a lowered constraint; None without any."""
+    it were not planned) of the safety parts of a lowered constraint; None without any. With
+    ``planned``, a segment from a state at ``first`` that breaks the part is left out too."""
     worst: Crossing | None = None
     for part, every in _segments(formula).items():
         starts = [k for k in every if k >= first]
+        broken_start = planned and starts and starts[0] == first
+        if broken_start and not holds(float(robustness(part, signals, horizon)[first])):
+            starts = starts[1:]
         if not starts:
             continue
         values = _segment_values(part, starts, signals, horizon)

@@ -36,8 +36,8 @@ from typing import Any
 import numpy as np
 
 from stlplan.errors import TrajectoryError
-from stlplan.formula.boundary import holds
-from stlplan.formula.tree import Formula, Linear, atoms
+from stlplan.formula.boundary import HOLDS_AT, holds
+from stlplan.formula.tree import Formula, Linear, atoms, horizon, step_parts
 from stlplan.mission.groups import best_group
 from stlplan.mission.problem import ConstraintModel, Problem, TaskModel
 from stlplan.monitor.crossings import separation_segments, worst_segment
@@ -48,7 +48,11 @@ from stlplan.words import counted
 
 
 def check(
-    problem: Problem, trajectory: Trajectory, tol: float = 1e-6, slack: float = 0.0
+    problem: Problem,
+    trajectory: Trajectory,
+    tol: float = 1e-6,
+    slack: float = 0.0,
+    planned_only: bool = False,
 ) -> MonitorReport:
     """Every verdict on ``trajectory``: tasks, constraints, separation, then dynamics.
 
@@ -64,6 +68,10 @@ def check(
     slack
         How far below ``HOLDS_AT`` a requirement's robustness may fall and still hold (0 for
         plans; a user's ``--tolerance`` for rounded trajectories from other tools).
+    planned_only
+        For a replan: judge constraints and separation from its step ``K`` on only (what the
+        plan decided): neither the executed past nor a part at ``K`` that the executed state
+        breaks, nor the segment from it.
 
     Raises
     ------
@@ -74,10 +82,11 @@ def check(
     verdicts: list[Verdict] = []
     for task in problem.tasks:
         verdicts.append(_task_verdict(problem, trajectory, task, slack))
+    first = problem.past.step if planned_only and problem.past is not None else 0
     for constraint in problem.constraints:
-        verdicts.append(_constraint_verdict(problem, trajectory, constraint, slack))
+        verdicts.append(_constraint_verdict(problem, trajectory, constraint, slack, first))
     if problem.separation is not None:
-        verdicts.append(_separation_verdict(problem, trajectory, problem.separation, slack))
+        verdicts.append(_separation_verdict(problem, trajectory, problem.separation, slack, first))
     for agent in problem.agents:
         verdicts.append(dynamics_verdict(agent, trajectory, tol, problem.past))
     return MonitorReport(tuple(verdicts), known=trajectory.known, tolerance=tol)
@@ -266,15 +275,30 @@ def _binding_text(binding: dict[str, str]) -> str:
 
 
 def _binding_value(
-    problem: Problem, trajectory: Trajectory, constraint: ConstraintModel, binding: Any
+    problem: Problem,
+    trajectory: Trajectory,
+    constraint: ConstraintModel,
+    binding: Any,
+    first: int = 0,
 ) -> tuple[float, str]:
-    """``rho(phi, 0)`` under ``binding``, or the worst segment's ``rho_seg`` when lower (and where)."""
+    """``rho(phi, 0)`` under ``binding``, or the worst segment's ``rho_seg`` when lower (and
+    where); from step ``first`` on, the least ``rho`` of the parts of ``phi`` (``G`` and ``and``
+    unrolled) that read a step from ``first`` on."""
     signals = {role: trajectory.states[name] for role, name in binding.items()}
     lowered = problem.lowered(constraint.formula, binding)
-    sampled = float(robustness(lowered, signals, problem.horizon)[0])
-    first = 0 if problem.past is None else problem.past.step
+    H = problem.horizon
+    if first:
+        parts = [(p, k) for p, k in step_parts(lowered, 0) if k + horizon(p) >= first]
+        values = [(float(robustness(p, signals, H)[k]), k + horizon(p)) for p, k in parts]
+        # a part at K itself that the executed state breaks is the past's
+        sampled = min((v for v, end in values if end > first or holds(v)), default=np.inf)
+    else:
+        sampled = float(robustness(lowered, signals, H)[0])
+    start = 0 if problem.past is None else problem.past.step
     crossing = (
-        worst_segment(lowered, signals, problem.horizon, first) if problem.inter_sample else None
+        worst_segment(lowered, signals, H, start, planned=bool(first))
+        if problem.inter_sample
+        else None
     )
     if crossing is None or not crossing.value < sampled - 1e-12:
         return sampled, ""
@@ -282,12 +306,16 @@ def _binding_value(
 
 
 def _constraint_verdict(
-    problem: Problem, trajectory: Trajectory, constraint: ConstraintModel, slack: float
+    problem: Problem,
+    trajectory: Trajectory,
+    constraint: ConstraintModel,
+    slack: float,
+    first: int = 0,
 ) -> Verdict:
     # rho(constraint) = min over bindings of rho(phi, 0) (and of rho_seg on the segments)
     values, segments = [], []
     for binding in constraint.bindings:
-        value, where = _binding_value(problem, trajectory, constraint, binding)
+        value, where = _binding_value(problem, trajectory, constraint, binding, first)
         values.append(value)
         segments.append(where)
     if not values:
@@ -306,7 +334,7 @@ def _constraint_verdict(
 
 
 def _separation_verdict(
-    problem: Problem, trajectory: Trajectory, separation: float, slack: float
+    problem: Problem, trajectory: Trajectory, separation: float, slack: float, first: int = 0
 ) -> Verdict:
     # rho = min_{p<q} min_k ||z_p(k) - z_q(k)||_inf - separation
     name = "separation"
@@ -317,6 +345,11 @@ def _separation_verdict(
     gap = np.max(np.abs(z[:, None] - z[None, :]), axis=3) - separation  # (P, P, H+1)
     upper = np.triu(np.ones((len(agents), len(agents)), dtype=bool), k=1)
     gap = np.where(upper[:, :, None], np.nan_to_num(gap, nan=-np.inf), np.inf)
+    broken = np.zeros_like(upper)
+    if first:  # steps before ``first`` are not judged, nor the pairs the state at ``first`` breaks
+        gap[:, :, :first] = np.inf
+        broken = gap[:, :, first] < HOLDS_AT
+        gap[:, :, first] = np.where(broken, np.inf, gap[:, :, first])
     p, q, k = np.unravel_index(int(np.argmin(gap)), gap.shape)
     value = float(gap[p, q, k])
     pair = f"{agents[p].name} and {agents[q].name} at step {k}"
@@ -324,6 +357,7 @@ def _separation_verdict(
     if problem.inter_sample and gap.shape[2] > first + 1:
         seg = separation_segments(z[:, first:], separation)
         seg = np.where(upper[:, :, None], np.nan_to_num(seg, nan=-np.inf), np.inf)
+        seg[:, :, 0] = np.where(broken, np.inf, seg[:, :, 0])
         sp, sq, sk = np.unravel_index(int(np.argmin(seg)), seg.shape)
         if seg[sp, sq, sk] < value - 1e-12:
             value = float(seg[sp, sq, sk])

@@ -57,6 +57,9 @@ class SolverConfig(_Section):
     """HiGHS's random seed."""
     highs_options: dict[str, Any] = Field(default_factory=dict)
     """Extra HiGHS options by name, for experiments."""
+    first_plan: bool = False
+    """Stop step 1 at the first plan that meets every requirement (``--first-plan``); its gap
+    is reported beside it."""
     strict_integrality: float = Field(default=1e-9, gt=0)
     """HiGHS's integrality (and MIP feasibility) tolerance when step 1 is solved again strictly,
     because its decisions, taken exactly, left the continuous stage without a plan."""
@@ -281,6 +284,7 @@ _NAMED = {
     "tasks": "model.tasks",
     "two_step": "continuous.two_step",
     "degrade": "diagnosis.degrade",
+    "first_plan": "solver.first_plan",
 }
 """The planner settings a run may change by their command-line names."""
 
@@ -297,6 +301,8 @@ class Overrides:
         ``solver``, ``model`` and ``continuous`` knobs).
     degrade
         Plan as many tasks as possible when the mission is infeasible (``diagnosis.degrade``).
+    first_plan
+        Stop at the first plan that meets every requirement (``solver.first_plan``).
     inter_sample
         Judge safety on the segments between steps (the mission's ``safety.inter_sample``).
     config
@@ -312,6 +318,7 @@ class Overrides:
     tasks: TaskForm | None = None
     two_step: bool | None = None
     degrade: bool | None = None
+    first_plan: bool | None = None
     inter_sample: bool | None = None
     config: Mapping[str, Any] = field(default_factory=dict)
 

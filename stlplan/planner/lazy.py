@@ -79,8 +79,12 @@ class LazySolver:
         self.watch: Watch | None = None
         if pm.deferral is not None:
             self.watch = Watch(pm, self.session.keys, config.solver.gap)
+            self.watch.first = config.solver.first_plan
             self.session.highs.cbMipImprovingSolution += self.watch.on_plan
             self.session.highs.cbMipInterrupt += self.watch.maybe_stop
+        elif config.solver.first_plan:  # every requirement in the model: HiGHS's first plan
+            options = self.session.solver.config.solver_options
+            self.session.solver.config.solver_options = {**options, "mip_max_improving_sols": 1}
         self.trial = False
 
     def run(self, budget: Budget, abs_gap: float | None = None, trial: bool = False) -> Outcome:
@@ -127,6 +131,8 @@ class LazySolver:
             clock.record_round(agents, solved.seconds, ended, bound, best, added_by_kind(pm))
             if watch.best is not None and watch.closed(results.objective_bound):
                 return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
+            if watch.done():
+                return self._from_best(solved, tick, rounds, PlanStatus.FEASIBLE)
             converged = (
                 results.termination_condition == TerminationCondition.convergenceCriteriaSatisfied
             )
@@ -141,6 +147,8 @@ class LazySolver:
                 return self._last(solved, tick, rounds, budget)
             if self._between_rounds(bad, budget, solved.seconds):
                 return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
+            if watch.done():  # a repair found the first plan
+                return self._from_best(solved, tick, rounds, PlanStatus.FEASIBLE)
             clock.round = (clock.round or 0) + 1
 
     def _between_rounds(self, bad: list[int], budget: Budget, seconds: float) -> bool:

@@ -60,7 +60,10 @@ class Watch:
     ceiling
         A bound of the full problem known from elsewhere (None: HiGHS's bound only).
     stopped
-        Whether the watch interrupted the round (the best plan is within the gap).
+        Whether the watch interrupted the round (the best plan is within the gap, or is the
+        first plan and ``first`` asks for no more).
+    first
+        Stop at the first plan that meets every requirement.
     """
 
     pm: PlanModel
@@ -70,6 +73,7 @@ class Watch:
     abs_gap: float | None = None
     ceiling: float | None = None
     stopped: bool = False
+    first: bool = False
 
     def states(self, x: np.ndarray) -> dict[str, np.ndarray]:
         """Agent states of HiGHS's column vector ``x`` (fixed states keep their value)."""
@@ -108,9 +112,14 @@ class Watch:
         if plan.better_than(self.best):
             self.best = plan
 
+    def done(self) -> bool:
+        """Whether the first plan is all that is asked for, and found."""
+        return self.first and self.best is not None
+
     def maybe_stop(self, event: Any) -> None:
         """Interrupt the round once the best full plan is within the gap of its bound."""
-        self.stopped = self.stopped or self.closed(float(event.data_out.mip_dual_bound))
+        bound = float(event.data_out.mip_dual_bound)
+        self.stopped = self.stopped or self.closed(bound) or self.done()
         if self.stopped:
             event.interrupt()
 

@@ -36,7 +36,7 @@ from stlplan.formula.tree import Formula, Or, Predicate, step_parts
 from stlplan.mission.problem import Problem
 from stlplan.planner.encoding.segments import require_on_steps
 from stlplan.planner.encoding.stl import Boxes, Enforced, StlContext, predicate_range, require
-from stlplan.planner.encoding.tasks import separation_formula
+from stlplan.planner.encoding.tasks import broken_by_the_past, separation_formula
 
 Part = tuple[Formula, int, Mapping[str, str]]
 """A formula at a step under a binding."""
@@ -139,17 +139,20 @@ class Deferral:
 
 
 def _all_parts(problem: Problem) -> Iterator[tuple[Formula, int, Mapping[str, str], str]]:
-    """Every constraint (at step 0) and separation (at every step), split into step parts."""
+    """Every constraint (at step 0) and separation (at every step), split into step parts (a
+    replan's parts in its executed past left out: data, not planned)."""
     for constraint in problem.constraints:
         for binding in constraint.bindings:
             lowered = problem.lowered(constraint.formula, binding)
             for part, k in step_parts(lowered, 0):
-                yield part, k, binding, constraint.name
+                if not problem.in_past(part, k):
+                    yield part, k, binding, constraint.name
     if problem.separation is not None:
         for p, q in itertools.combinations([a.name for a in problem.agents], 2):
             formula = separation_formula(problem, p, q)
             for k in range(problem.horizon + 1):
-                yield formula, k, {"p": p, "q": q}, SEPARATION
+                if not problem.in_past(formula, k):
+                    yield formula, k, {"p": p, "q": q}, SEPARATION
 
 
 def on_segments(requirements: Sequence[Requirement], first: int = 0) -> list[Requirement]:
@@ -189,6 +192,9 @@ def step_requirements(problem: Problem) -> tuple[list[Requirement], list[Part]]:
         else:
             eager.append((part, k, binding))
     first = 0 if problem.past is None else problem.past.step
+    found = [
+        r for r in found if r.span or not broken_by_the_past(problem, r.formula, r.k, r.binding)
+    ]
     return (on_segments(found, first) if problem.inter_sample else found), eager
 
 

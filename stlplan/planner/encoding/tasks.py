@@ -20,7 +20,8 @@ from typing import Any
 
 from pyomo.environ import value
 
-from stlplan.formula.tree import Distance, Formula, horizon
+from stlplan.formula.boundary import required_margin
+from stlplan.formula.tree import Distance, Formula, Predicate, horizon, step_parts
 from stlplan.mission.checks import check_group_count
 from stlplan.mission.problem import Problem, TaskModel
 from stlplan.planner.encoding.sos1 import sos1
@@ -170,22 +171,48 @@ def encode_synchronous(ctx: StlContext, problem: Problem, task: TaskModel) -> Sy
     return SyncEncoding(task, rho_s, counts)
 
 
+def broken_by_the_past(problem: Problem, part: Formula, k: int, binding: Mapping[str, str]) -> bool:
+    """Whether a step disjunction of half-planes required at a replan's step ``K`` fails on the
+    executed states: the past broke it, and no segment from it can hold (both are left out)."""
+    past = problem.past
+    if past is None or k != past.step:
+        return False
+    planes = [part] if isinstance(part, Predicate) else list(getattr(part, "children", ()))
+    if not planes or not all(isinstance(p, Predicate) for p in planes):
+        return False
+    best = max(
+        sum(t.coef * past.states[binding[t.role]][k, t.component] for t in p.terms) - p.bound
+        for p in planes
+    )
+    return bool(best < required_margin(problem.mission.objective.margin.minimum))
+
+
 def encode_constraints(ctx: StlContext, problem: Problem) -> None:
-    """Every constraint holds at step 0 under each of its bindings."""
+    """Every constraint holds at step 0 under each of its bindings (a replan's parts in its
+    executed past left out)."""
     for constraint in problem.constraints:
         for binding in constraint.bindings:
-            require(problem.lowered(constraint.formula, binding), 0, ctx.bound(binding))
+            lowered = problem.lowered(constraint.formula, binding)
+            if problem.past is None:
+                require(lowered, 0, ctx.bound(binding))
+                continue
+            for part, k in step_parts(lowered, 0):
+                if not (problem.in_past(part, k) or broken_by_the_past(problem, part, k, binding)):
+                    require(part, k, ctx.bound(binding))
 
 
 def encode_separation(ctx: StlContext, problem: Problem) -> None:
-    """``|dx| >= r or |dy| >= r`` (four half-planes) for every pair of agents and step ``0..H``."""
+    """``|dx| >= r or |dy| >= r`` (four half-planes) for every pair of agents and step ``0..H``
+    (a replan's from ``K+1``)."""
     if problem.separation is None:
         return
     for p, q in itertools.combinations([a.name for a in problem.agents], 2):
         formula = separation_formula(problem, p, q)
         scope = ctx.bound({"p": p, "q": q})
         for k in range(problem.horizon + 1):
-            require(formula, k, scope)
+            pair = {"p": p, "q": q}
+            if not (problem.in_past(formula, k) or broken_by_the_past(problem, formula, k, pair)):
+                require(formula, k, scope)
 
 
 def chosen_group(encoding: TaskEncoding) -> int:

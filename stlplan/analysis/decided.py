@@ -1,0 +1,88 @@
+"""Formulas that no plan can satisfy any more, found without solving.
+
+Robustness is built from predicate values by ``min`` and ``max`` alone, so it grows with every
+predicate's value. Its value with every predicate at the largest it takes over the agents'
+reachable boxes (:func:`stlplan.analysis.reach.reachable_boxes`) bounds it from above for every
+trajectory the dynamics allow. When that bound is below ``HOLDS_AT``, the formula is decided
+false. A replan's executed past makes its boxes points, so a ``G`` the past broke, or an ``F``
+whose window closed unmet, is found here at once.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+
+from stlplan.formula.tree import Always, And, Eventually, Formula, Or, Predicate, Until
+
+Boxes = Mapping[str, tuple[np.ndarray, np.ndarray]]
+"""Role name to the (H+1, n) lower and upper bounds of its agent's states."""
+
+
+def upper_robustness(formula: Formula, boxes: Boxes, horizon: int) -> np.ndarray:
+    """An upper bound of ``rho(formula, k)`` over every trajectory within ``boxes``, for
+    ``k = 0 .. H - horizon(formula)`` (a lowered formula, as the monitor evaluates)."""
+    return _EVALUATORS[type(formula)](formula, boxes, horizon)
+
+
+def _predicate(node: Formula, boxes: Boxes, horizon: int) -> np.ndarray:
+    # max over the box of sum_i coef_i x_i - bound: each term at its larger end
+    assert isinstance(node, Predicate)
+    value = np.full(horizon + 1, -float(node.bound))
+    for term in node.terms:
+        lo, hi = boxes[term.role]
+        ends = term.coef * np.stack([lo[:, term.component], hi[:, term.component]])
+        value = value + ends.max(axis=0)[: horizon + 1]
+    return value
+
+
+def _children(node: Formula, boxes: Boxes, horizon: int) -> np.ndarray:
+    assert isinstance(node, And | Or)
+    values = [upper_robustness(c, boxes, horizon) for c in node.children]
+    length = min(len(v) for v in values)
+    stacked = np.stack([v[:length] for v in values])
+    return stacked.min(axis=0) if isinstance(node, And) else stacked.max(axis=0)
+
+
+def _windows(child: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """Row ``k``: ``child[k+lo .. k+hi]``, for every ``k`` with ``k + hi < len(child)``."""
+    if len(child) <= hi:
+        return np.empty((0, hi - lo + 1))
+    return sliding_window_view(child, hi - lo + 1)[lo : lo + len(child) - hi]
+
+
+def _temporal(node: Formula, boxes: Boxes, horizon: int) -> np.ndarray:
+    assert isinstance(node, Always | Eventually)
+    child = upper_robustness(node.child, boxes, horizon)
+    windows = _windows(child, node.interval.lo, node.interval.hi)
+    return windows.min(axis=1) if isinstance(node, Always) else windows.max(axis=1)
+
+
+def _until(node: Formula, boxes: Boxes, horizon: int) -> np.ndarray:
+    # max_{t in [a,b]} min(right(k+t), min of left over [k, k+t] (strict: [k, k+t)))
+    assert isinstance(node, Until)
+    left = upper_robustness(node.left, boxes, horizon)
+    right = upper_robustness(node.right, boxes, horizon)
+    lo, hi = node.interval.lo, node.interval.hi
+    length = max(0, min(len(left), len(right)) - hi)
+    prefix, best = np.full(length, np.inf), np.full(length, -np.inf)
+    for t in range(hi + 1):
+        if not node.strict:
+            prefix = np.minimum(prefix, left[t : t + length])
+        if t >= lo:
+            best = np.maximum(best, np.minimum(right[t : t + length], prefix))
+        if node.strict:
+            prefix = np.minimum(prefix, left[t : t + length])
+    return best
+
+
+_EVALUATORS: dict[type, Callable[[Formula, Boxes, int], np.ndarray]] = {
+    Predicate: _predicate,
+    And: _children,
+    Or: _children,
+    Always: _temporal,
+    Eventually: _temporal,
+    Until: _until,
+}
