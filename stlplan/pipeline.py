@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import logging
+import math
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -104,15 +105,23 @@ class _DiagnosisStopped(Exception):
 
 
 def _prober(
-    config: PlannerConfig, run: Budget, confirmations: list[Confirmation]
+    config: PlannerConfig,
+    run: Budget,
+    confirmations: list[Confirmation],
+    plans: dict[int, PlanResult] | None = None,
 ) -> Callable[[Problem], PlanStatus]:
     """A feasibility solve of a sub-mission within ``diagnosis.probe_seconds`` and the run's
-    deadline, its confirmations recorded as a diagnosis probe's; a stop request raises
+    deadline, its confirmations recorded as a diagnosis probe's (and its result in ``plans``,
+    by the sub-mission's ``id``, when it has a plan); a stop request raises
     :class:`_DiagnosisStopped`."""
     from stlplan.planner.solve import plan as solve_plan
 
     probe = config.with_overrides(
-        {"solver.time_limit": config.diagnosis.probe_seconds, "continuous.two_step": False}
+        {
+            "solver.time_limit": config.diagnosis.probe_seconds,
+            "solver.first_plan": True,  # a probe asks whether there is a plan, not the best
+            "continuous.two_step": False,
+        }
     )  # (a probe with parts falls back to the whole team when their plans do not assemble)
 
     def feasibility(subset: Problem) -> PlanStatus:
@@ -122,6 +131,8 @@ def _prober(
         )
         if found.status.interrupted:
             raise _DiagnosisStopped
+        if plans is not None and found.status.has_plan:
+            plans[id(subset)] = found
         return found.status
 
     return feasibility
@@ -158,14 +169,20 @@ def _degraded(
     from stlplan.planner.solve import plan as solve_plan
 
     confirmations = list(result.confirmations)
+    probed: dict[int, PlanResult] = {}
     try:
         seconds = max(0.0, run.seconds(config.diagnosis.seconds).remaining())
-        found = degrade(problem, _prober(config, run, confirmations), seconds)
+        found = degrade(problem, _prober(config, run, confirmations, probed), seconds)
     except _DiagnosisStopped:
         found = None
     if found is None:  # (a cheap diagnosis stands as it is)
         return problem, result if result.diagnosis else _diagnosed(problem, config, result, run)
-    planned = solve_plan(found.problem, config, progress=progress, budget=run, start=start)
+    probe = probed.get(id(found.problem))
+    if probe is not None and config.solver.first_plan:  # the probe's plan is a first plan
+        planned = probe
+    else:  # the probe's plan of the mission kept starts its solve
+        start = start if probe is None else Plan(math.nan, probe.values, meets_all=False)
+        planned = solve_plan(found.problem, config, progress=progress, budget=run, start=start)
     status = PlanStatus.DEGRADED if planned.status.has_plan else planned.status
     names = ", ".join(d.task for d in found.dropped)
     message = (

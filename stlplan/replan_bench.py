@@ -85,11 +85,8 @@ def run(args: argparse.Namespace) -> list[dict[str, object]]:
         jobs += [(f"{a} lost", k, (a,)) for a, k in (s.split("@") for s in args.lose)]
         for kind, k, lost in jobs:
             k = int(k)
-            executed = (
-                moved(problem, first.trajectory, k, args.drift, args.seed)
-                if not lost
-                else first.trajectory
-            )
+            width = args.drift if kind.startswith("moved") else 0.0
+            executed = moved(problem, first.trajectory, k, width, args.seed)
             for label, first_plan in (("first plan", True), ("optimum", False)):
                 overrides = dataclasses.replace(base, first_plan=first_plan or None)
                 result, seconds = _timed(problem, executed, k, overrides, lost)

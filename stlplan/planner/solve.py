@@ -232,7 +232,11 @@ def step1_message(step1: Outcome, config: PlannerConfig, clock: Clock) -> str:
     where = f"gap {gap:.2%}, bound {bound:.6g}" if known else "no bound yet"
     texts = {
         PlanStatus.OPTIMAL: "optimal plan",
-        PlanStatus.FEASIBLE: f"a plan, not proven optimal: HiGHS stopped ({step1.stop}; {where})",
+        PlanStatus.FEASIBLE: (
+            f"the first plan that meets every requirement ({where})"
+            if config.solver.first_plan
+            else f"a plan, not proven optimal: HiGHS stopped ({step1.stop}; {where})"
+        ),
         PlanStatus.INFEASIBLE: "the tasks and constraints cannot be met together",
         PlanStatus.NO_PLAN: f"no plan found within the time limit of {config.solver.time_limit:g} s",
         PlanStatus.ERROR: f"HiGHS failed: {step1.stop}",

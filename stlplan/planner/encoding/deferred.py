@@ -32,11 +32,12 @@ from typing import Any
 
 import numpy as np
 
+from stlplan.formula.boundary import HOLDS_AT
 from stlplan.formula.tree import Formula, Or, Predicate, step_parts
 from stlplan.mission.problem import Problem
 from stlplan.planner.encoding.segments import require_on_steps
 from stlplan.planner.encoding.stl import Boxes, Enforced, StlContext, predicate_range, require
-from stlplan.planner.encoding.tasks import broken_by_the_past, separation_formula
+from stlplan.planner.encoding.tasks import separation_formula
 
 Part = tuple[Formula, int, Mapping[str, str]]
 """A formula at a step under a binding."""
@@ -191,18 +192,39 @@ def step_requirements(problem: Problem) -> tuple[list[Requirement], list[Part]]:
             found.append(Requirement(part, k, binding, source))
         else:
             eager.append((part, k, binding))
-    first = 0 if problem.past is None else problem.past.step
-    found = [
-        r for r in found if r.span or not broken_by_the_past(problem, r.formula, r.k, r.binding)
-    ]
-    return (on_segments(found, first) if problem.inter_sample else found), eager
+    if problem.past is None:
+        return (on_segments(found) if problem.inter_sample else found), eager
+    K = problem.past.step
+    now = [r for r in found if r.k == K]  # data: each becomes, at most, its segment's end
+    later = [r for r in found if r.k != K]
+    ends = [e for e in (segment_end(problem, r) for r in now) if e is not None]
+    return ((on_segments(later, K + 1) + ends) if problem.inter_sample else later), eager
+
+
+def segment_end(problem: Problem, requirement: Requirement) -> Requirement | None:
+    """A requirement at a replan's step ``K`` (executed data) as what the segment from ``K``
+    to ``K+1`` asks of the plan: ``x(K+1)`` in one of the half-planes ``x(K)`` is in (the
+    segment then stays in it). None when ``x(K)`` is in none: the past broke it."""
+    past = problem.past
+    assert past is not None and requirement.k == past.step
+    if requirement.k + 1 > problem.horizon:
+        return None
+    states = {name: past.states[name] for name in requirement.binding.values()}
+    alpha = alpha_values(requirement, states)
+    held = [p for p, a in zip(requirement.alternatives, alpha, strict=True) if a >= HOLDS_AT]
+    if not held:
+        return None
+    formula: Formula = held[0] if len(held) == 1 else Or(tuple(held))
+    return Requirement(formula, requirement.k + 1, requirement.binding, requirement.source, span=0)
 
 
 def segment_requirements(problem: Problem) -> list[Requirement]:
-    """The requirements on segments alone (added to a model that encodes every step)."""
+    """The requirements on segments alone (added to a model that encodes every step), and a
+    replan's segment ends (:func:`segment_end`)."""
     if not problem.inter_sample:
         return []
-    return [req for req in step_requirements(problem)[0] if req.span > 0]
+    K = None if problem.past is None else problem.past.step + 1
+    return [req for req in step_requirements(problem)[0] if req.span > 0 or req.k == K]
 
 
 def defer(problem: Problem, boxes: Boxes, margin_ceiling: float) -> Deferral:

@@ -20,7 +20,6 @@ from typing import Any
 
 from pyomo.environ import value
 
-from stlplan.formula.boundary import required_margin
 from stlplan.formula.tree import Distance, Formula, Predicate, horizon, step_parts
 from stlplan.mission.checks import check_group_count
 from stlplan.mission.problem import Problem, TaskModel
@@ -171,20 +170,15 @@ def encode_synchronous(ctx: StlContext, problem: Problem, task: TaskModel) -> Sy
     return SyncEncoding(task, rho_s, counts)
 
 
-def broken_by_the_past(problem: Problem, part: Formula, k: int, binding: Mapping[str, str]) -> bool:
-    """Whether a step disjunction of half-planes required at a replan's step ``K`` fails on the
-    executed states: the past broke it, and no segment from it can hold (both are left out)."""
-    past = problem.past
-    if past is None or k != past.step:
+def executed(problem: Problem, part: Formula, k: int) -> bool:
+    """Whether ``part`` at step ``k`` is a replan's data, not planned: it reads only steps before
+    ``K``, or is a disjunction of half-planes at ``K`` (whose segment to ``K+1`` is planned,
+    :func:`stlplan.planner.encoding.deferred.segment_end`)."""
+    if problem.past is None:
         return False
     planes = [part] if isinstance(part, Predicate) else list(getattr(part, "children", ()))
-    if not planes or not all(isinstance(p, Predicate) for p in planes):
-        return False
-    best = max(
-        sum(t.coef * past.states[binding[t.role]][k, t.component] for t in p.terms) - p.bound
-        for p in planes
-    )
-    return bool(best < required_margin(problem.mission.objective.margin.minimum))
+    at_k = k == problem.past.step and all(isinstance(p, Predicate) for p in planes)
+    return problem.in_past(part, k) or at_k
 
 
 def encode_constraints(ctx: StlContext, problem: Problem) -> None:
@@ -197,7 +191,7 @@ def encode_constraints(ctx: StlContext, problem: Problem) -> None:
                 require(lowered, 0, ctx.bound(binding))
                 continue
             for part, k in step_parts(lowered, 0):
-                if not (problem.in_past(part, k) or broken_by_the_past(problem, part, k, binding)):
+                if not executed(problem, part, k):
                     require(part, k, ctx.bound(binding))
 
 
@@ -210,8 +204,7 @@ def encode_separation(ctx: StlContext, problem: Problem) -> None:
         formula = separation_formula(problem, p, q)
         scope = ctx.bound({"p": p, "q": q})
         for k in range(problem.horizon + 1):
-            pair = {"p": p, "q": q}
-            if not (problem.in_past(formula, k) or broken_by_the_past(problem, formula, k, pair)):
+            if not executed(problem, formula, k):
                 require(formula, k, scope)
 
 
