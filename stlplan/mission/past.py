@@ -99,8 +99,8 @@ def _check_states(problem: Problem, states: Mapping[str, np.ndarray]) -> None:
 
 def _closures(problem: Problem, past: Past) -> Iterable[ConstraintModel]:
     """``G[K,H] !in(p, region)`` for every closed region and every agent not lost."""
-    for region in past.closed:
+    for name, region in past.closures().items():
         text = f"G[{past.step},{problem.horizon}] !in(p, {region})"
         formula = parse(text, where=f"--closed {region}")
         bindings = tuple({"p": a.name} for a in problem.agents if a.name not in past.lost)
-        yield ConstraintModel(f"closed {region}", formula, bindings)
+        yield ConstraintModel(name, formula, bindings)

@@ -130,6 +130,10 @@ class Past:
         """The events, in words (``vis1 lost``, ``C closed``)."""
         return [f"{a} lost" for a in sorted(self.lost)] + [f"{r} closed" for r in self.closed]
 
+    def closures(self) -> dict[str, str]:
+        """The name of the constraint each closed region becomes (``closed C``) -> the region."""
+        return {f"closed {region}": region for region in self.closed}
+
 
 @dataclass(frozen=True, eq=False)
 class Problem:
