@@ -130,6 +130,14 @@ class Past:
         """The events, in words (``vis1 lost``, ``C closed``)."""
         return [f"{a} lost" for a in sorted(self.lost)] + [f"{r} closed" for r in self.closed]
 
+    def closures(self) -> dict[str, str]:
+        """The names of the constraints each closed region becomes (``closed C``, and ``closed C
+        (leaving)`` for the agents inside it at ``K``) -> the region."""
+        names: dict[str, str] = {}
+        for region in self.closed:
+            names |= {f"closed {region}": region, f"closed {region} (leaving)": region}
+        return names
+
 
 @dataclass(frozen=True, eq=False)
 class Problem:

@@ -66,3 +66,25 @@ def make_report() -> MonitorReport:
             Verdict("separation", "separation", True, 0.1),
         )
     )
+
+
+def make_replan(
+    problem: Problem, step: int, lost: tuple[str, ...] = (), closed: tuple[str, ...] = ()
+) -> tuple[Problem, Trajectory]:
+    """The hand-built plan replanned from ``step``, without a solve: the problem
+    :func:`~stlplan.mission.past.replanned` makes of it (its velocities clipped to their bounds,
+    the waypoints unchanged) and a new plan that is the rest of the waypoints, each lost agent
+    staying where it was at ``step``."""
+    from stlplan.mission.past import replanned
+
+    executed = make_trajectory(problem)
+    for agent in problem.agents:
+        x = executed.states[agent.name]
+        x[:, 2:] = np.clip(x[:, 2:], agent.state_lo[2:], agent.state_hi[2:])
+    again = replanned(problem, executed, step, lost, closed)
+    states = {name: x.copy() for name, x in executed.states.items()}
+    inputs = {name: u.copy() for name, u in executed.inputs.items()}
+    for name in lost:
+        states[name][step:] = states[name][step]
+        inputs[name][step:] = 0.0
+    return again, Trajectory(problem.horizon, states, inputs)

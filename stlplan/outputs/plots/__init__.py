@@ -7,12 +7,14 @@ temporary file in the target directory, then :func:`os.replace`).
 
 The package is split into :mod:`~stlplan.outputs.plots.common` (constants, styles, geometry, mission facts,
 saving), :mod:`~stlplan.outputs.plots.plan` (the map), :mod:`~stlplan.outputs.plots.timeline` (the
-timeline) and :mod:`~stlplan.outputs.plots.animation` (the animation).
+timeline), :mod:`~stlplan.outputs.plots.animation` (the animation) with
+:mod:`~stlplan.outputs.plots.video` (its encoding), and :mod:`~stlplan.outputs.plots.past` (how
+each figure draws a replan: the executed past, the new plan and the events at its step).
 """
 
 from __future__ import annotations
 
-from stlplan.outputs.plots.animation import PlanAnimation, animate_plan, ffmpeg
+from stlplan.outputs.plots.animation import PlanAnimation, animate_plan
 from stlplan.outputs.plots.common import (
     obstacle_regions,
     polygon_area,
@@ -23,6 +25,7 @@ from stlplan.outputs.plots.common import (
 )
 from stlplan.outputs.plots.plan import plan_figure, plot_plan
 from stlplan.outputs.plots.timeline import plot_timeline, timeline_figure
+from stlplan.outputs.plots.video import ffmpeg
 
 __all__ = [
     "PlanAnimation",

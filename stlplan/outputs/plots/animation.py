@@ -4,7 +4,10 @@ The map (regions, obstacles hatched, each agent's path faintly, the legend) is d
 frame restores that picture and draws only what moves: a marker per agent with a trail of its last
 :data:`TRAIL_STEPS` steps, its name where it covers no marker or other name, a gold ring around the
 agents of a synchronous task's chosen group while its synchronized run lasts (with the caption
-``sync run k=3-9: crop_C``), and the step and time. Between steps ``k`` and ``k + 1`` an agent is drawn on
+``sync run k=3-9: crop_C``), and the step and time. A replan's map
+(:mod:`~stlplan.outputs.plots.past`) draws each path's executed part solid and its new plan
+dashed, a ring at each agent's place at the replan's step ``K``, a lost agent as a cross from ``K``
+on and each closed region hatched from ``K`` on. Between steps ``k`` and ``k + 1`` an agent is drawn on
 the straight segment ``z(k) + s (z(k+1) - z(k))``, ``0 <= s < 1``, the path a robot follows between
 waypoints, at :data:`FRAMES_PER_STEP` points: ``H * FRAMES_PER_STEP + 1`` frames in all, or
 :data:`MAX_FRAMES` spread evenly over ``[0, H]`` for a long horizon (the animation then runs
@@ -13,12 +16,7 @@ through more steps a second). The time is counted in steps of the dynamics (``t 
 
 from __future__ import annotations
 
-import contextlib
 import math
-import shutil
-import subprocess
-import tempfile
-from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -43,7 +41,16 @@ from stlplan.outputs.plots.common import (
     workspace,
     write_atomically,
 )
+from stlplan.outputs.plots.past import (
+    CROSS,
+    closed_patches,
+    draw_path,
+    draw_rings,
+    replan_handles,
+    replan_step,
+)
 from stlplan.outputs.plots.plan import _draw_regions
+from stlplan.outputs.plots.video import encode_mp4, ffmpeg, quantizer
 from stlplan.result import MonitorReport, Trajectory
 
 FRAMES_PER_STEP = 3
@@ -116,6 +123,8 @@ class _Movers:
     rings: list[Line2D]
     caption: Text
     clock: Text
+    crosses: dict[int, Line2D] = field(default_factory=dict)
+    """A replan's lost agents (by index): the cross drawn instead of the marker from ``K`` on."""
 
 
 @dataclass
@@ -173,45 +182,7 @@ class PlanAnimation:
             raise OSError("ffmpeg is not installed: an MP4 cannot be written")
         frames = self.frames()
         frames = frames + [frames[-1]] * (HOLD_MS // FRAME_MS)
-        write_atomically(path, lambda tmp: _encode_mp4(exe, frames, tmp))
-
-
-def ffmpeg() -> str | None:
-    """The ``ffmpeg`` on PATH, or None."""
-    return shutil.which("ffmpeg")
-
-
-def _encode_mp4(exe: str, frames: Sequence[Image.Image], target: Path) -> None:
-    """Pipe the frames as raw RGB into ``ffmpeg``, one at a time, for the MP4 ``target`` (its
-    index at the front, so a player starts before the whole file is read)."""
-    width, height = frames[0].size
-    command = [exe, "-hide_banner", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24"]
-    command += ["-s", f"{width}x{height}", "-r", f"1000/{FRAME_MS}", "-i", "-"]
-    command += ["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p"]
-    command += ["-movflags", "+faststart", "-f", "mp4", "-y", str(target)]
-    with tempfile.TemporaryFile() as errors:
-        encoder = subprocess.Popen(
-            command, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=errors
-        )
-        assert encoder.stdin is not None  # stdin=PIPE
-        with contextlib.suppress(BrokenPipeError):  # ffmpeg stopped early: its message says why
-            for frame in frames:
-                encoder.stdin.write(frame.convert("RGB").tobytes())
-        with contextlib.suppress(BrokenPipeError):
-            encoder.stdin.close()
-        code = encoder.wait()
-        errors.seek(0)
-        message = errors.read().decode(errors="replace").strip()
-    if code != 0:
-        raise OSError(f"ffmpeg could not write the MP4: {message or f'exit {code}'}")
-
-
-def _quantizer(first: np.ndarray, last: np.ndarray) -> Callable[[np.ndarray], Image.Image]:
-    """Map RGB frames onto one palette of the first and last frames' colours (no dither, so the
-    static map keeps the same pixels from frame to frame)."""
-    both = Image.fromarray(np.vstack([first, last]))
-    palette = both.quantize(colors=255, method=Image.Quantize.FASTOCTREE)
-    return lambda f: Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE)
+        write_atomically(path, lambda tmp: encode_mp4(exe, frames, tmp, FRAME_MS))
 
 
 def animate_plan(
@@ -228,7 +199,7 @@ def animate_plan(
 
 
 # ----------------------------------------------------------------------------------------- drawing
-def _figure(problem: Problem, title: str | None, legend: list[Line2D]) -> tuple[Figure, Any]:
+def _figure(problem: Problem, title: str | None, legend: list[Artist]) -> tuple[Figure, Any]:
     """The map at most ``MAP_INCHES`` wide and high, with fixed margins for the tick labels, the
     title and the clock above, and the legend on the right (as wide as its longest entry)."""
     bounds = workspace(problem)
@@ -244,17 +215,20 @@ def _figure(problem: Problem, title: str | None, legend: list[Line2D]) -> tuple[
     ax.tick_params(labelsize=7)
     ax.grid(True, color="0.9", linewidth=0.6)
     ax.set_axisbelow(True)
-    ax.set_title(title or problem.mission.name, fontsize=11, fontweight="bold", pad=22)
+    title = title or problem.mission.name
+    if problem.past is not None:
+        title += f", replanned from step {problem.past.step}"
+    ax.set_title(title, fontsize=11, fontweight="bold", pad=22)
     ax.legend(handles=legend, loc="upper left", bbox_to_anchor=(1.02, 1.0), **_LEGEND)
     _draw_regions(ax, problem, bounds, np.zeros((0, 2)), 72 * scale)
     return fig, ax
 
 
-def _legend(problem: Problem, styles, has_sync: bool) -> list[Line2D]:
-    handles = agent_handles(problem, styles)
+def _legend(problem: Problem, styles, has_sync: bool) -> list[Artist]:
+    handles: list[Artist] = [*agent_handles(problem, styles)]
     if has_sync:
         handles.append(Line2D([], [], label="synchronized run", **{**_RING, "markersize": 10}))
-    return handles
+    return handles + replan_handles(problem)
 
 
 def _movers(ax, problem: Problem, styles, report: MonitorReport) -> _Movers:
@@ -281,7 +255,13 @@ def _movers(ax, problem: Problem, styles, report: MonitorReport) -> _Movers:
     above = dict(transform=ax.transAxes, animated=True)
     caption = ax.text(0.99, 1.015, "", bbox=_CAPTION_BOX, **above, **_CAPTION)
     clock = ax.text(0.0, 1.015, "", **above, **_CLOCK)
-    return _Movers(trails, markers, names, rings, caption, clock)
+    lost = problem.past.lost if problem.past is not None else frozenset()
+    crosses = {
+        i: ax.plot([], [], animated=True, **CROSS)[0]
+        for i, agent in enumerate(problem.agents)
+        if agent.name in lost
+    }
+    return _Movers(trails, markers, names, rings, caption, clock, crosses)
 
 
 def _render(
@@ -293,23 +273,36 @@ def _render(
     fig, ax = _figure(problem, title, _legend(problem, styles, bool(_sync_verdicts(report))))
     paths = np.stack([trajectory.position(a.name, a.position) for a in problem.agents], axis=1)
     for i, agent in enumerate(problem.agents):
-        ax.plot(paths[:, i, 0], paths[:, i, 1], color=styles[agent.name][1], **_GHOST)
+        draw_path(ax, problem, agent.name, paths[:, i], color=styles[agent.name][1], **_GHOST)
+    draw_rings(ax, problem, trajectory)
     movers = _movers(ax, problem, styles, report)
     canvas = FigureCanvasAgg(fig)
-    canvas.draw()  # everything but the animated artists
-    background = canvas.copy_from_bbox(fig.bbox)
+    before, after = _backgrounds(canvas, ax, problem)
+    step = replan_step(problem)
 
     def frame(t: float) -> np.ndarray:
-        canvas.restore_region(background)
+        canvas.restore_region(after if step is not None and t >= step else before)
         for artist in _update(movers, ax, problem, paths, report, t):
             ax.draw_artist(artist)
         return np.asarray(canvas.buffer_rgba())[..., :3].copy()
 
     times = frame_times(problem.horizon).tolist()
     first, last = frame(times[0]), frame(times[-1])
-    quantize = _quantizer(first, last)
+    quantize = quantizer(first, last)
     middle = (quantize(frame(t)) for t in times[1:-1])
     return [quantize(first), *middle, quantize(last)]
+
+
+def _backgrounds(canvas: FigureCanvasAgg, ax, problem: Problem) -> tuple[Any, Any]:
+    """The map with everything but the animated artists, before a replan's step and from it on
+    (its closed regions hatched; the same map without a closed region)."""
+    canvas.draw()
+    before = canvas.copy_from_bbox(ax.figure.bbox)
+    closed = [ax.add_patch(patch) for patch in closed_patches(problem)]
+    if not closed:
+        return before, before
+    canvas.draw()
+    return before, canvas.copy_from_bbox(ax.figure.bbox)
 
 
 def _update(
@@ -323,15 +316,33 @@ def _update(
         dot.set_data([here[i, 0]], [here[i, 1]])
     shown = _place_names(movers.names, ax, problem, here)
     rings = _sync_rings(movers.rings, problem, here, report, t)
-    step = min(int(math.floor(t)), problem.horizon)
-    movers.clock.set_text(
-        f"step k = {step:>{len(str(problem.horizon))}} / {problem.horizon}   t = {t:5.2f}"
-    )
+    movers.clock.set_text(_clock(problem, t))
     runs = [f"k={r.steps[0]}-{r.steps[-1]}: {r.name}" for r in rings]
     movers.caption.set_text("sync run " + "; ".join(runs))
     shown += [movers.caption] if runs else []
     drawn = [r.ring for r in rings]
-    return [*movers.trails, *drawn, *movers.markers, *shown, movers.clock]
+    markers = _lost_crosses(movers, problem, here, t)
+    return [*movers.trails, *drawn, *markers, *shown, movers.clock]
+
+
+def _clock(problem: Problem, t: float) -> str:
+    """``step k = 3 / 9   t = 3.33``, and for a replan whether the step is ``executed`` or of
+    the ``new plan``."""
+    step, H = min(int(math.floor(t)), problem.horizon), problem.horizon
+    text = f"step k = {step:>{len(str(H))}} / {H}   t = {t:5.2f}"
+    K = replan_step(problem)
+    return text if K is None else f"{text}   {'executed' if t < K else 'new plan'}"
+
+
+def _lost_crosses(movers: _Movers, problem: Problem, here: np.ndarray, t: float) -> list[Artist]:
+    """The markers to draw at ``t``: a lost agent's cross in place of its marker from ``K`` on."""
+    K = replan_step(problem)
+    markers: list[Artist] = list(movers.markers)
+    for i, cross in movers.crosses.items():
+        cross.set_data([here[i, 0]], [here[i, 1]])
+        if K is not None and t >= K:
+            markers[i] = cross
+    return markers
 
 
 def _place_names(names: list[Annotation], ax, problem: Problem, here: np.ndarray) -> list[Artist]:

@@ -128,8 +128,11 @@ def _negated_regions(formula: Formula) -> Iterator[str]:
 
 
 def obstacle_regions(problem: Problem) -> tuple[str, ...]:
-    """Regions the constraints use under ``!in(...)``: places agents must stay out of."""
-    found = (r for c in problem.constraints for r in _negated_regions(c.formula))
+    """Regions the constraints use under ``!in(...)``: places agents must stay out of (not a
+    replan's closed regions, which are drawn as closed from the replan's step on)."""
+    closures = problem.past.closures() if problem.past is not None else {}
+    mission = (c for c in problem.constraints if c.name not in closures)
+    found = (r for c in mission for r in _negated_regions(c.formula))
     return tuple(dict.fromkeys(found))
 
 
@@ -235,15 +238,19 @@ def first_step(formula: Formula) -> int:
 
 
 def limit_windows(problem: Problem) -> list[Limit]:
-    """The constraints, then the separation (when the mission has one), as :class:`Limit`."""
+    """The constraints (a replan's closed regions among them, of kind ``from step K``), then the
+    separation (when the mission has one), as :class:`Limit`."""
     order = {a.name: i for i, a in enumerate(problem.agents)}
+    past = problem.past
+    closures = past.closures() if past is not None else {}
     limits = []
     for constraint in problem.constraints:
         bound = {name for binding in constraint.bindings for name in binding.values()}
         last = min(horizon(constraint.formula), problem.horizon)
         window = (min(first_step(constraint.formula), last), last)
         binds = tuple(sorted(bound, key=order.__getitem__))
-        limits.append(Limit(constraint.name, "constraint", window, binds))
+        kind = f"from step {past.step}" if past and constraint.name in closures else "constraint"
+        limits.append(Limit(constraint.name, kind, window, binds))
     if problem.separation is not None:
         everyone = tuple(a.name for a in problem.agents)
         limits.append(
@@ -360,5 +367,6 @@ def save_figure(fig: Figure, path: str | os.PathLike[str]) -> None:
 
 
 def _titles(ax, title: str, subtitle: str) -> None:
-    ax.set_title(title, fontsize=13, fontweight="bold", pad=18)
+    # the subtitle grows upwards from the axes: the title stands above its every line
+    ax.set_title(title, fontsize=13, fontweight="bold", pad=18 + 11 * subtitle.count("\n"))
     ax.annotate(subtitle, (0.5, 1.0), fontsize=9, color="0.3", **_SUBTITLE)

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from matplotlib.artist import Artist
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Polygon
@@ -39,6 +40,7 @@ from stlplan.outputs.plots.common import (
     sync_caption,
     workspace,
 )
+from stlplan.outputs.plots.past import draw_path, draw_replan_marks, events_note, replan_handles
 from stlplan.result import MonitorReport, Trajectory
 
 _CROSSING: dict[str, Any] = dict(
@@ -129,10 +131,11 @@ def _step_clusters(points: np.ndarray, eps: float) -> list[tuple[int, int]]:
     return clusters
 
 
-def _draw_agent(ax, z: np.ndarray, style: tuple[str, tuple[float, ...]], eps: float | None) -> None:
-    """The agent's path and start; with ``eps``, step labels (one per cluster of steps)."""
-    marker, color = style
-    ax.plot(z[:, 0], z[:, 1], color=color, marker=marker, **_PATH)
+def _draw_agent(ax, problem: Problem, name: str, z: np.ndarray, eps: float | None, styles) -> None:
+    """The agent's path (:func:`~stlplan.outputs.plots.past.draw_path`) and start; with
+    ``eps``, step labels (one per cluster of steps)."""
+    marker, color = styles[name]
+    draw_path(ax, problem, name, z, color=color, marker=marker, **_PATH)
     ax.plot(z[0, 0], z[0, 1], marker=marker, markerfacecolor=color, **_START)
     for first, last in _step_clusters(z, eps) if eps is not None else ():
         if first == 0 and last == 0:
@@ -177,12 +180,13 @@ def _draw_end_names(ax, problem: Problem, trajectory: Trajectory, styles, pt_per
 
 
 def _plan_legend(ax, problem: Problem, styles, has_sync: bool, crossed: bool = False) -> None:
-    handles = agent_handles(problem, styles)
+    handles: list[Artist] = [*agent_handles(problem, styles)]
     handles.append(Line2D([], [], marker="o", mfc="0.6", label="start (step 0)", **_START))
     if has_sync:
         handles.append(Line2D([], [], marker="o", mfc="0.6", label="synchronized run", **_SYNC))
     if crossed:
         handles.append(Line2D([], [], label="unsafe between steps", **_CROSSING))
+    handles += replan_handles(problem)
     title = "agent (capability)" if len(problem.agents) <= MANY_AGENTS else "capability"
     legend_at = dict(loc="upper left", bbox_to_anchor=(1.01, 1.0), title=title)
     ax.legend(handles=handles, **legend_at, **_LEGEND)
@@ -192,7 +196,8 @@ def plan_figure(
     problem: Problem, trajectory: Trajectory, report: MonitorReport, title: str | None = None
 ) -> Figure:
     """The map: workspace, regions, each agent's path (the straight segments a robot follows
-    between waypoints), starts, synchronized runs, and in red any segment that crosses."""
+    between waypoints), starts, synchronized runs, and in red any segment that crosses; for a
+    replan (``problem.past``) the marks of :mod:`~stlplan.outputs.plots.past`."""
     bounds = workspace(problem)
     (xl, xh), (yl, yh) = bounds
     width = 9.0
@@ -206,17 +211,22 @@ def plan_figure(
     many = len(problem.agents) > MANY_AGENTS
     eps = None if many else 0.01 * max(xh - xl, yh - yl)
     for agent in problem.agents:
-        _draw_agent(ax, trajectory.position(agent.name, agent.position), styles[agent.name], eps)
+        z = trajectory.position(agent.name, agent.position)
+        _draw_agent(ax, problem, agent.name, z, eps, styles)
     if many:
         _draw_end_names(ax, problem, trajectory, styles, pt_per_unit)
     crossed = _draw_crossings(ax, problem, trajectory)
+    draw_replan_marks(ax, problem, trajectory)
     captions = _draw_sync_runs(ax, problem, trajectory, report, styles)
     ax.set(xlim=(xl, xh), ylim=(yl, yh), aspect="equal", xlabel="x", ylabel="y")
     ax.tick_params(labelsize=8)
     ax.grid(True, color="0.9", linewidth=0.6)
     ax.set_axisbelow(True)
     _plan_legend(ax, problem, styles, bool(captions), crossed)
-    _titles(ax, title or problem.mission.name, _status_line(report))
+    subtitle = _status_line(report)
+    if problem.past is not None:
+        subtitle = f"{events_note(problem.past)}   |   {subtitle}"
+    _titles(ax, title or problem.mission.name, subtitle)
     for i, caption in enumerate(captions):
         ax.annotate(caption, (0.0, -0.09 - 0.05 * i), va="top", fontsize=9, **_AXES)
     return fig

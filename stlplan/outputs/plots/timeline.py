@@ -7,6 +7,7 @@ import os
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+from matplotlib.artist import Artist
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch, Rectangle
 
@@ -36,6 +37,7 @@ from stlplan.outputs.plots.common import (
     task_service,
     workspace,
 )
+from stlplan.outputs.plots.past import events_note, timeline_marks
 from stlplan.result import MonitorReport, Trajectory
 
 
@@ -155,12 +157,15 @@ def timeline_figure(problem: Problem, trajectory: Trajectory, report: MonitorRep
     fig = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
     ax = fig.add_subplot()
     _draw_task_bars(ax, problem, trajectory, report, rows, (colors, step_pt))
-    handles = [Patch(color=colors[t.name], label=t.name) for t in problem.tasks]
+    handles: list[Artist] = [Patch(color=colors[t.name], label=t.name) for t in problem.tasks]
     handles += _draw_sync_shading(ax, report, rows)
     handles += _draw_limits(ax, problem, report, step_pt)
+    handles += timeline_marks(ax, problem, rows)
     _timeline_axes(ax, problem, rows, limits)
     fig.legend(handles=handles, loc="outside lower center", ncols=min(4, len(handles)), **_LEGEND)
     note = _TIMELINE_NOTE + ("; hatched: the steps a constraint reads" if limits else "")
+    if problem.past is not None:
+        note = f"{events_note(problem.past)}\n{note}"
     _titles(ax, f"{problem.mission.name}: which agent serves which task when", note)
     return fig
 

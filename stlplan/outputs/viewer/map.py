@@ -21,6 +21,7 @@ from stlplan.outputs.plots.common import (
     task_service,
     workspace,
 )
+from stlplan.outputs.plots.past import step_note
 from stlplan.outputs.plots.plan import region_patches
 from stlplan.result import MonitorReport, Trajectory
 
@@ -62,7 +63,8 @@ def hover_texts(
 ) -> dict[str, list[str]]:
     """Agent name -> one hover text per step ``k = 0..H``.
 
-    Each names the agent and its capability, the step ``k``, the state ``x(k)`` (every
+    Each names the agent and its capability, the step ``k`` (for a replan, whether it is
+    executed, of the new plan or after the agent was lost), the state ``x(k)`` (every
     component), and the tasks the agent serves at ``k``: those of
     :func:`~stlplan.outputs.plots.common.task_service`, with the regions of its role it is inside
     and whether ``k`` lies in the task's synchronized run.
@@ -76,7 +78,8 @@ def hover_texts(
         for k, state in enumerate(trajectory.states[agent.name]):
             values = ", ".join(_number(v) for v in state)
             served = _served_at(service[agent.name], runs, k)
-            rows.append(f"{head}<br>step k = {k}<br>state x = ({values})<br>{served}")
+            when = step_note(problem, agent.name, k)
+            rows.append(f"{head}<br>step k = {k}{when}<br>state x = ({values})<br>{served}")
         texts[agent.name] = rows
     return texts
 
@@ -186,11 +189,21 @@ def legend_entries(problem: Problem) -> dict[str, Entry]:
     }
 
 
-def path_trace(z: np.ndarray, style: Style, entry: Entry, hover: list[str], sync) -> go.Scatter:
-    """An agent's path ``z`` (shape ``(H + 1, 2)``): an open point per step, the start filled with
-    a black edge, the steps ``sync`` of a synchronized run filled and ringed in gold."""
+def path_trace(
+    z: np.ndarray,
+    style: Style,
+    entry: Entry,
+    hover: list[str],
+    sync,
+    first: int = 0,
+    dash: str | None = None,
+) -> go.Scatter:
+    """An agent's path ``z`` (shape ``(H + 1, 2)``, or the part of it from step ``first`` on):
+    an open point per step, the start filled with a black edge, the steps ``sync`` of a
+    synchronized run filled and ringed in gold; its line solid, or in plotly's ``dash`` style. A part from
+    a later step than 0 carries no legend entry (the part from step 0 does)."""
     symbol, color = _SYMBOLS[style[0]], rgba(style[1])
-    steps = range(len(z))
+    steps = range(first, first + len(z))
     edges = ["black" if k == 0 else GOLD if k in sync else color for k in steps]
     marker = dict(
         symbol=symbol,
@@ -203,11 +216,11 @@ def path_trace(z: np.ndarray, style: Style, entry: Entry, hover: list[str], sync
         x=z[:, 0],
         y=z[:, 1],
         mode="lines+markers",
-        line=dict(color=color, width=2),
+        line=dict(color=color, width=2) | ({} if dash is None else dict(dash=dash)),
         marker=marker,
         name=label,
         legendgroup=group,
-        showlegend=shown,
+        showlegend=shown and first == 0,
         hovertext=hover,
         hovertemplate=HOVER,
     )

@@ -27,6 +27,8 @@ from stlplan.outputs.plots.common import (
     workspace,
     write_atomically,
 )
+from stlplan.outputs.plots.past import events_note
+from stlplan.outputs.viewer.past import path_parts, replan_traces, timeline_marks
 from stlplan.result import MonitorReport, Trajectory
 
 HEIGHT_PX = 700
@@ -65,8 +67,8 @@ def viewer_figure(
     fig.add_traces(regions, rows=1, cols=1)
     fig.add_traces(_paths(problem, trajectory, report, hover), rows=1, cols=1)
     crossing = plan_map.crossing_trace(problem, trajectory)
-    if crossing is not None:
-        fig.add_traces([crossing], rows=1, cols=1)
+    unsafe = [] if crossing is None else [crossing]
+    fig.add_traces(unsafe + replan_traces(problem, trajectory), rows=1, cols=1)
     service = task_service(problem, trajectory, report)
     bars, lanes = timeline.task_bars(problem, service)
     fig.add_traces(timeline.sync_bars(problem, report) + bars, rows=1, cols=2)
@@ -80,9 +82,11 @@ def viewer_figure(
         for k, step in enumerate(steps)
     ]
     _layout(fig, problem, report, title or problem.mission.name)
+    marks, notes = timeline_marks(problem, timeline.rows(problem))
+    notes = labels + timeline.idle_notes(problem, service) + notes
     fig.update_layout(
-        annotations=list(fig.layout.annotations) + labels + timeline.idle_notes(problem, service),
-        shapes=lanes + list(fig.layout.shapes),
+        annotations=list(fig.layout.annotations) + notes,
+        shapes=lanes + list(fig.layout.shapes) + marks,
     )
     return fig
 
@@ -102,17 +106,17 @@ def _subplots() -> go.Figure:
 
 
 def _paths(problem, trajectory, report, hover) -> list[go.Scatter]:
+    """Each agent's path, in the parts of :func:`~stlplan.outputs.viewer.past.path_parts`."""
     styles, entries = agent_styles(problem), plan_map.legend_entries(problem)
     runs = {name: set(_run_steps(v)) for v in _sync_verdicts(report) for name in _group_agents(v)}
     return [
         plan_map.path_trace(
-            trajectory.position(a.name, a.position),
-            styles[a.name],
-            entries[a.name],
-            hover[a.name],
-            runs.get(a.name, set()),
+            z, styles[a.name], entries[a.name], texts, runs.get(a.name, set()), first, dash
         )
         for a in problem.agents
+        for first, z, texts, dash in path_parts(
+            problem, a.name, trajectory.position(a.name, a.position), hover[a.name]
+        )
     ]
 
 
@@ -187,18 +191,24 @@ def _play_buttons() -> dict:
     )
 
 
-def _subtitle(report: MonitorReport) -> str:
-    """The monitor's verdict, then each synchronized run (as under ``plan.png``'s map)."""
+def _subtitle(problem: Problem, report: MonitorReport) -> str:
+    """A replan's step and events, the monitor's verdict, then each synchronized run (as on
+    ``plan.png``)."""
     captions = [sync_caption(v) for v in _sync_verdicts(report)]
-    return "   |   ".join([_status_line(report), *captions])
+    replan = [] if problem.past is None else [events_note(problem.past)]
+    return "   |   ".join([*replan, _status_line(report), *captions])
 
 
 def _layout(fig: go.Figure, problem: Problem, report: MonitorReport, title: str) -> None:
     many = len(problem.agents) > MANY_AGENTS
+    title_text = "capability" if many else "agent (capability)"
+    legend = dict(title=dict(text=title_text), x=1.02, y=1, yanchor="top")
+    if problem.past is not None:
+        legend["tracegroupgap"] = 0  # room for a replan's entries under the agents'
     fig.update_layout(
         title=dict(
             text=f"<b>{html.escape(title)}</b>",
-            subtitle=dict(text=html.escape(_subtitle(report))),
+            subtitle=dict(text=html.escape(_subtitle(problem, report))),
             x=0.01,
             xanchor="left",
         ),
@@ -207,12 +217,7 @@ def _layout(fig: go.Figure, problem: Problem, report: MonitorReport, title: str)
         template="plotly_white",
         margin=dict(l=60, r=20, t=130, b=110),
         hoverlabel=dict(align="left", bgcolor="white", font=dict(size=12)),
-        legend=dict(
-            title=dict(text="capability" if many else "agent (capability)"),
-            x=1.02,
-            y=1,
-            yanchor="top",
-        ),
+        legend=legend,
         legend2=dict(title=dict(text="task"), x=1.02, y=0, yanchor="bottom"),
         sliders=[_slider(problem.horizon)],
         updatemenus=[_play_buttons()],
