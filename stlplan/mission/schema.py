@@ -220,6 +220,14 @@ class Safety(_Strict):
     the waypoints follows; false keeps the paper's semantics (the sampled steps only)."""
 
 
+class Execution(_Strict):
+    """How the plan will be executed: the disturbance it must withstand."""
+
+    disturbance: Number = Field(default=0.0, ge=0)
+    """W: a bound on an additive disturbance of every state component at every step; plans keep
+    margins that one step of it cannot break (0: plans as tight as the tasks allow)."""
+
+
 class SweepOptions(_Strict):
     """Where sweeps draw random initial positions."""
 
@@ -252,6 +260,8 @@ class Mission(_Strict):
     """What the plan optimizes."""
     safety: Safety = Safety()
     """How safety requirements are judged between steps."""
+    execution: Execution = Execution()
+    """How the plan will be executed (the disturbance it must withstand)."""
     solver: SolverOptions = SolverOptions()
     """Solver options (the command line may override them)."""
     sweep: SweepOptions | None = None

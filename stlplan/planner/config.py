@@ -86,6 +86,10 @@ class ModelConfig(_Section):
     max_combinations: int = Field(default=64, ge=1)
     """An element's floor takes one child of every disjunction together while there are at
     most this many combinations, else the largest single floor."""
+    robust_to: float = Field(default=0.0, ge=0)
+    """W: keep every predicate's margin above what one step of an additive disturbance bounded
+    by W per state component can use up (the mission's ``execution.disturbance``,
+    ``--robust-to``)."""
     symmetry: bool = True
     """With tasks by selection: order the task shares of interchangeable agents (valid rows
     that keep an optimal plan). Measured: docs/performance.md#where-the-speed-comes-from."""
@@ -209,6 +213,7 @@ class PlannerConfig(_Section):
             "model.encoding": settings.encoding,
             "model.tasks": settings.tasks,
             "continuous.two_step": objective.two_step,
+            "model.robust_to": float(mission.execution.disturbance),
         }
         return cls().with_overrides({**base, **(overrides or {})})
 
@@ -285,6 +290,7 @@ _NAMED = {
     "two_step": "continuous.two_step",
     "degrade": "diagnosis.degrade",
     "first_plan": "solver.first_plan",
+    "robust_to": "model.robust_to",
 }
 """The planner settings a run may change by their command-line names."""
 
@@ -303,6 +309,9 @@ class Overrides:
         Plan as many tasks as possible when the mission is infeasible (``diagnosis.degrade``).
     first_plan
         Stop at the first plan that meets every requirement (``solver.first_plan``).
+    robust_to
+        Plan margins one step of a disturbance bounded by this cannot break
+        (``model.robust_to``).
     inter_sample
         Judge safety on the segments between steps (the mission's ``safety.inter_sample``).
     config
@@ -319,6 +328,7 @@ class Overrides:
     two_step: bool | None = None
     degrade: bool | None = None
     first_plan: bool | None = None
+    robust_to: float | None = None
     inter_sample: bool | None = None
     config: Mapping[str, Any] = field(default_factory=dict)
 
@@ -332,6 +342,7 @@ class Overrides:
         named = {_NAMED[k]: getattr(self, k) for k in _NAMED if getattr(self, k) is not None}
         if "solver.time_limit" in named:
             named["solver.time_limit"] = float(named["solver.time_limit"])
-        if "solver.gap" in named:
-            named["solver.gap"] = float(named["solver.gap"])
+        for name in ("solver.gap", "model.robust_to"):
+            if name in named:
+                named[name] = float(named[name])
         return named | dict(self.config)
