@@ -69,6 +69,7 @@ def plan(
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
     problem = problem.with_inter_sample(overrides.inter_sample)
     config = PlannerConfig.from_mission(problem.mission, overrides.dotted())
+    problem = problem.robust(config.model.robust_to)
     if config.model.tasks == "groups":
         check_enumerable(problem)
     run = Budget.for_run(config)

@@ -154,6 +154,16 @@ FirstPlanOption = Annotated[
         help="Stop at the first plan that meets every requirement (its gap is printed beside it).",
     ),
 ]
+RobustToOption = Annotated[
+    float | None,
+    typer.Option(
+        "--robust-to",
+        help="Plan margins one step of an additive disturbance bounded by W per state "
+        "component cannot break (default: the mission's execution.disturbance).",
+        min=0.0,
+        metavar="W",
+    ),
+]
 NoAnimationOption = Annotated[
     bool,
     typer.Option(
@@ -184,6 +194,7 @@ def solve(
     inter_sample: InterSampleOption = None,
     degrade: DegradeOption = False,
     first_plan: FirstPlanOption = False,
+    robust_to: RobustToOption = None,
     no_animation: NoAnimationOption = False,
     no_html: NoHtmlOption = False,
     as_json: JsonOption = False,
@@ -208,6 +219,7 @@ def solve(
         two_step=False if one_step else None,
         degrade=True if degrade else None,
         first_plan=True if first_plan else None,
+        robust_to=robust_to,
         inter_sample=inter_sample,
     )
     problem = api.validate(mission)

@@ -16,6 +16,7 @@ from stlplan.cli.planning import (
     NoAnimationOption,
     NoHtmlOption,
     OutOption,
+    RobustToOption,
     ThreadsOption,
     TimeLimitOption,
     finish,
@@ -65,6 +66,7 @@ def replan(
     gap: GapOption = None,
     threads: ThreadsOption = None,
     first_plan: FirstPlanOption = False,
+    robust_to: RobustToOption = None,
     no_animation: NoAnimationOption = False,
     no_html: NoHtmlOption = False,
     as_json: JsonOption = False,
@@ -81,7 +83,11 @@ def replan(
 
     output = Output(as_json, quiet)
     overrides = api.Overrides(
-        time_limit=time_limit, gap=gap, threads=threads, first_plan=True if first_plan else None
+        time_limit=time_limit,
+        gap=gap,
+        threads=threads,
+        first_plan=True if first_plan else None,
+        robust_to=robust_to,
     )
     problem = api.validate(mission)
     with (

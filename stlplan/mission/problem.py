@@ -13,9 +13,10 @@ from functools import cached_property
 
 import numpy as np
 
+from stlplan.errors import MissionError
 from stlplan.formula.normal import HalfSpaces, lower
 from stlplan.formula.parser import parse
-from stlplan.formula.tree import Formula, horizon, roles
+from stlplan.formula.tree import Formula, Predicate, horizon, roles
 from stlplan.mission import checks
 from stlplan.mission.groups import Element, RoleRule, elements, iter_groups, pack
 from stlplan.mission.schema import Mission, PinnedRole, Region
@@ -153,6 +154,10 @@ class Problem:
     source: str | None = None
     inter_sample: bool = True
     """Safety requirements hold on the segments between steps (DESIGN 2.9), not only at steps."""
+    robust_to: float = 0.0
+    """W: the planner keeps every predicate after the first planned step above what one step of
+    an additive disturbance bounded by W per state component can use up (the monitor judges the
+    predicates as they are)."""
     past: Past | None = None
     """A replan's executed past and events (:mod:`stlplan.mission.past`); None for a plan from
     the initial states."""
@@ -165,6 +170,21 @@ class Problem:
         """The agent called ``name``."""
         return self._by_name[name]
 
+    def robust(self, disturbance: float) -> Problem:
+        """The same problem, planned to withstand ``disturbance`` (:meth:`tightening`)."""
+        if disturbance == self.robust_to:
+            return self
+        robust = replace(self, robust_to=float(disturbance), _by_name={})
+        for agent in robust.agents:
+            room = robust.input_room(agent, robust.horizon)
+            if np.any(2 * room >= agent.input_hi - agent.input_lo):
+                raise MissionError(
+                    f"a disturbance of {disturbance:g} per state component needs more input than "
+                    f"agent '{agent.name}' has to cancel it; expected a smaller --robust-to",
+                    where="execution.disturbance",
+                )
+        return robust
+
     def with_inter_sample(self, on: bool | None) -> Problem:
         """The same problem with inter-sample safety on or off (None keeps the mission's)."""
         if on is None or on == self.inter_sample:
@@ -176,6 +196,25 @@ class Problem:
         data, not planned (constraints and separation are planned from ``K``, whose part starts
         the segment to ``K+1``)."""
         return self.past is not None and k + horizon(part) < self.past.step
+
+    def tightening(self, node: Predicate, k: int) -> float:
+        """How much the planner raises ``node``'s margin at step ``k``: ``W sum |coef|`` (the
+        most one step of the disturbance can move ``alpha``) after the first step it plans
+        (step 0, or a replan's ``K``: known states are not disturbed), else 0."""
+        first = 0 if self.past is None else self.past.step
+        if self.robust_to <= 0 or k <= first:
+            return 0.0
+        return self.robust_to * sum(abs(t.coef) for t in node.terms)
+
+    def input_room(self, agent: AgentModel, k: int) -> np.ndarray:
+        """How much the planner narrows ``agent``'s input box at step ``k`` (per component):
+        ``W |B^+| 1`` after the first step it plans, for an agent whose ``B`` can cancel any
+        disturbance in one step (full row rank), so that the next replan can; else 0."""
+        first = 0 if self.past is None else self.past.step
+        room = np.zeros(agent.m)
+        if self.robust_to > 0 and k > first and np.linalg.matrix_rank(agent.B) == agent.n:
+            room = self.robust_to * np.abs(np.linalg.pinv(agent.B)).sum(axis=1)
+        return room
 
     def known_through(self, agent: str) -> int:
         """The last step whose state of ``agent`` is data: 0 (its initial state), a replan's

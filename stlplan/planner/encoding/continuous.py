@@ -68,11 +68,15 @@ def condensed_states(model: ConcreteModel, pm: PlanModel) -> dict[tuple[str, int
         (a.name, k, j) for a in problem.agents for k in range(problem.horizon) for j in range(a.m)
     ]
     u_box = {
-        (a.name, j): (float(a.input_lo[j]), float(a.input_hi[j]))
+        (a.name, k, j): (
+            float(a.input_lo[j] + problem.input_room(a, k)[j]),
+            float(a.input_hi[j] - problem.input_room(a, k)[j]),
+        )
         for a in problem.agents
+        for k in range(problem.horizon)
         for j in range(a.m)
     }
-    model.u = Var(keys, bounds=lambda _, p, k, j: u_box[p, j])
+    model.u = Var(keys, bounds=lambda _, p, k, j: u_box[p, k, j])
     model.box = ConstraintList()
     states: dict[tuple[str, int, int], Any] = {}
     boxes = reachable_boxes(problem)
@@ -123,11 +127,15 @@ def _absolute_inputs(model: ConcreteModel) -> None:
         model.s_rows.add(model.s[key] >= -u)
 
 
-def _predicate_rows(model: ConcreteModel, enforced: Sequence[Enforced], margin: Any) -> None:
-    """``alpha(x(k)) - r >= 0`` for every enforced predicate, over the condensed states."""
+def _predicate_rows(
+    model: ConcreteModel, enforced: Sequence[Enforced], margin: Any, pm: PlanModel
+) -> None:
+    """``alpha(x(k)) - r >= 0`` for every enforced predicate, over the condensed states (its
+    margin raised as step 1 raised it, :meth:`Problem.tightening`)."""
     model.predicates = ConstraintList()
     for node, k, binding in _unique(enforced):
-        slack = alpha(node, k, binding, model.states) - margin
+        raised = pm.problem.tightening(node, k)
+        slack = alpha(node, k, binding, model.states) - margin - raised
         if not isinstance(slack, float):  # a number: decided by the initial state alone
             model.predicates.add(slack >= 0)
 
@@ -165,7 +173,7 @@ def continuous_model(pm: PlanModel, enforced: Sequence[Enforced], stage: Stage) 
     if stage == "polish" and not isinstance(pm.margin, float):
         model.r = Var(bounds=(margin, None))
         margin = model.r
-    _predicate_rows(model, enforced, margin)
+    _predicate_rows(model, enforced, margin, pm)
     if stage == "effort":
         names = [a.name for a in problem.agents]
         expr = effort_objective(model, names, objective.effort)
@@ -189,7 +197,7 @@ def landing_model(
     """
     model = ConcreteModel(name=f"{pm.problem.mission.name}-landing")
     model.states = condensed_states(model, pm)
-    _predicate_rows(model, enforced, _fixed_margin(pm))
+    _predicate_rows(model, enforced, _fixed_margin(pm), pm)
     model.far = Var(list(model.u), bounds=(0.0, None))
     model.far_rows = ConstraintList()
     for key, u in model.u.items():

@@ -25,9 +25,10 @@ it).
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
-from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -70,6 +71,10 @@ class Requirement:
     binding: Mapping[str, str]
     source: str
     span: int = 0
+    tightening: Callable[[Predicate, int], float] = field(
+        default=lambda node, k: 0.0, repr=False, compare=False
+    )
+    """How much a half-plane's margin is raised at a step (:meth:`Problem.tightening`)."""
 
     @property
     def steps(self) -> range:
@@ -112,7 +117,8 @@ def always_met(requirement: Requirement, boxes: Boxes, margin_ceiling: float) ->
     """Whether some ``alpha_i`` exceeds every admissible margin on the whole reachable box."""
     return any(
         all(
-            predicate_range(alt, t, requirement.binding, boxes)[0] >= margin_ceiling
+            predicate_range(alt, t, requirement.binding, boxes)[0] - requirement.tightening(alt, t)
+            >= margin_ceiling
             for t in requirement.steps
         )
         for alt in requirement.alternatives
@@ -176,7 +182,7 @@ def on_segments(requirements: Sequence[Requirement], first: int = 0) -> list[Req
         if req.k < first:
             out.append(req)
         elif req.k + 1 in held:
-            out.append(Requirement(req.formula, req.k, req.binding, req.source, span=1))
+            out.append(dataclasses.replace(req, span=1))
         elif req.k - 1 not in held or req.k - 1 < first:
             out.append(req)
     return out
@@ -189,7 +195,7 @@ def step_requirements(problem: Problem) -> tuple[list[Requirement], list[Part]]:
     eager: list[Part] = []
     for part, k, binding, source in _all_parts(problem):
         if _is_step_disjunction(part):
-            found.append(Requirement(part, k, binding, source))
+            found.append(Requirement(part, k, binding, source, tightening=problem.tightening))
         else:
             eager.append((part, k, binding))
     if problem.past is None:
@@ -215,7 +221,7 @@ def segment_end(problem: Problem, requirement: Requirement) -> Requirement | Non
     if not held:
         return None
     formula: Formula = held[0] if len(held) == 1 else Or(tuple(held))
-    return Requirement(formula, requirement.k + 1, requirement.binding, requirement.source, span=0)
+    return dataclasses.replace(requirement, formula=formula, k=requirement.k + 1)
 
 
 def segment_requirements(problem: Problem) -> list[Requirement]:
@@ -246,7 +252,7 @@ def alpha_values(requirement: Requirement, states: Mapping[str, np.ndarray]) -> 
     out = np.full(len(requirement.alternatives), np.inf)
     for i, alt in enumerate(requirement.alternatives):
         for t in requirement.steps:
-            total = -alt.bound
+            total = -alt.bound - requirement.tightening(alt, t)
             for term in alt.terms:
                 total += term.coef * states[requirement.binding[term.role]][t, term.component]
             out[i] = min(out[i], total)

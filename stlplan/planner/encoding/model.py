@@ -150,7 +150,10 @@ def add_agents(
         for i in range(a.n)
     }
     u_box = {
-        (a.name, k, j): (float(a.input_lo[j]), float(a.input_hi[j]))
+        (a.name, k, j): (
+            float(a.input_lo[j] + problem.input_room(a, k)[j]),
+            float(a.input_hi[j] - problem.input_room(a, k)[j]),
+        )
         for a in problem.agents
         for k in range(H)
         for j in range(a.m)
@@ -300,6 +303,7 @@ def build_model(
         margin=margin,
         margin_ceiling=ceiling,
         encoding=encoding,
+        tightening=problem.tightening,
     )
     tasks, synchronous = encode_tasks(ctx, problem, settings.tasks, symmetry)
     deferral = None

@@ -26,9 +26,9 @@ from collections.abc import Sequence
 from stlplan.formula.tree import Predicate
 from stlplan.planner.encoding.stl import (
     StlContext,
+    big_m_of,
     choice,
     indicator,
-    predicate_range,
     predicate_value,
     require_predicate,
 )
@@ -48,8 +48,7 @@ def _held_on_steps(node: Predicate, steps: range, ctx: StlContext) -> object:
     # alpha(x(t)) - r >= -M_t (1 - z) for every t in steps, M_t = r_max - alpha_lo(t)
     z = indicator(ctx)
     for t in steps:
-        lo, _ = predicate_range(node, t, ctx.binding, ctx.boxes)
-        big_m = max(0.0, ctx.margin_ceiling - lo)
+        big_m = big_m_of(node, t, ctx)
         ctx.block.rows.add(predicate_value(node, t, ctx) - ctx.margin >= -big_m * (1 - z))
         ctx.ledger.guarded.append((z, (node, t, ctx.binding)))
     return z

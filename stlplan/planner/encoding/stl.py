@@ -120,6 +120,8 @@ class StlContext:
         ``(node, k, binding)`` to indicator, shared by every binding.
     ledger
         Every predicate placed (shared by every binding).
+    tightening
+        How much a predicate's margin is raised at a step (:meth:`Problem.tightening`).
     """
 
     block: Block
@@ -133,6 +135,7 @@ class StlContext:
     binding: Mapping[str, str] = field(default_factory=dict)
     memo: dict[tuple[Any, ...], Any] = field(default_factory=dict)
     ledger: Ledger = field(default_factory=Ledger)
+    tightening: Callable[[Predicate, int], float] = field(default=lambda node, k: 0.0)
 
     def bound(self, binding: Mapping[str, str]) -> StlContext:
         """The same context with roles bound to agents by ``binding`` (memo shared)."""
@@ -202,14 +205,19 @@ def predicate_value(node: Predicate, k: int, ctx: StlContext) -> Any:
     """``alpha(x(k))`` of ``node`` under the context's binding, as a Pyomo expression."""
     if k > ctx.horizon:
         raise FormulaError(f"a predicate is needed at step {k}, past the horizon {ctx.horizon}")
-    return alpha(node, k, ctx.binding, ctx.states)
+    return alpha(node, k, ctx.binding, ctx.states) - ctx.tightening(node, k)
+
+
+def big_m_of(node: Predicate, k: int, ctx: StlContext) -> float:
+    """``M = r_max - alpha_lo`` of ``node`` at ``k`` (its value tightened as it is enforced)."""
+    lo, _ = predicate_range(node, k, ctx.binding, ctx.boxes)
+    return max(0.0, ctx.margin_ceiling - lo + ctx.tightening(node, k))
 
 
 def encode_predicate(node: Predicate, k: int, ctx: StlContext) -> Any:
     # alpha(x(k)) - r >= -M (1 - z),  M = r_max - alpha_lo
     z = indicator(ctx)
-    lo, _ = predicate_range(node, k, ctx.binding, ctx.boxes)
-    big_m = max(0.0, ctx.margin_ceiling - lo)
+    big_m = big_m_of(node, k, ctx)
     ctx.block.rows.add(predicate_value(node, k, ctx) - ctx.margin >= -big_m * (1 - z))
     ctx.ledger.guarded.append((z, (node, k, ctx.binding)))
     return z
