@@ -23,7 +23,7 @@ from stlplan.cli.planning import (
 )
 from stlplan.cli.shell import JsonOption, Output, QuietOption, VerboseOption, handled, solver_output
 
-REPLAN_EPILOG = SOLVE_EPILOG.replace(
+REPLAN_EPILOG = SOLVE_EPILOG.replace("(--degrade: some", "(some").replace(
     "3 bad input", "3 bad input (a step outside 0..H-1, an unknown or repeated event, an "
     "executed file that does not fit the mission)"
 )  # fmt: skip
