@@ -193,3 +193,17 @@ def test_a_known_ceiling_closes_the_loop() -> None:
     watch.ceiling = None
     assert not watch.closed(5.0)
     assert lowest(None, None) is None and lowest(3.0, None) == 3.0 and lowest(3.0, 2.0) == 2.0
+
+
+def test_a_completion_out_of_time_adds_no_requirement_and_has_no_plan() -> None:
+    from stlplan.planner import lazy
+    from stlplan.planner.budget import Budget
+    from stlplan.planner.config import PlannerConfig
+
+    pm = build_model(swap_problem(0.5, horizon=3, inter_sample=True), PlannerConfig())
+    pending = len(pm.pending())
+    assert pending > 0
+    assert not lazy._added_in_time(pm, Budget.of_seconds(-1.0))
+    assert len(pm.pending()) == pending
+    assert lazy._added_in_time(pm, Budget.of_seconds(60.0))
+    assert pm.pending() == []

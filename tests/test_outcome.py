@@ -93,3 +93,13 @@ def test_tightening_towards_a_plan_below_the_parts_sum() -> None:
     assert worst == 0 and allowed == pytest.approx(1e-4 * 3.6999 - 1e-4 - 1e-5)
     # a plan that lost more than the gap cannot be helped by tighter parts
     assert outcome.tightening(parts, 1e-4, plan=3.6) is None
+
+
+def test_parts_without_a_plan_still_bound_the_whole() -> None:
+    a = Outcome(S.OPTIMAL, 1.0, 1.0, 0.0, 1.0, 1, 0, "optimal")
+    b = Outcome(S.NO_PLAN, None, 2.5, None, 1.0, 2, 0, "maxTimeLimit")
+    whole = outcome.combined([a, b], 1e-4, False, 2.0, 3)
+    assert whole.status is S.NO_PLAN and whole.objective is None
+    assert whole.bound == pytest.approx(3.5)
+    unknown = Outcome(S.NO_PLAN, None, None, None, 1.0, 2, 0, "maxTimeLimit")
+    assert outcome.combined([a, unknown], 1e-4, False, 2.0, 3).bound is None

@@ -27,6 +27,7 @@ deadline (:meth:`stlplan.planner.budget.Budget.finishing`).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 import time
 from collections.abc import Mapping
 
@@ -47,6 +48,7 @@ from stlplan.planner.session import HighsSession, Solved, has_solution, plan_sta
 from stlplan.planner.values import load_values, model_values, var_key
 from stlplan.planner.watch import Watch, pending_violations, trajectory_states
 from stlplan.result import PlanStatus
+from stlplan.runtime import signals
 
 
 class LazySolver:
@@ -267,24 +269,42 @@ def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Outcome:
 
 def _fix_and_solve(
     pm: PlanModel, session: HighsSession, decisions: Mapping[VarKey, float], budget: Budget
-) -> Solved:
+) -> Solved | None:
     """Fix the binaries with a value in ``decisions``, add every requirement, solve (a
     finishing solve whose infeasible verdict says only that those decisions admit no plan, so
-    it is neither confirmed nor reported as the mission's)."""
+    it is neither confirmed nor reported as the mission's); None when adding the requirements
+    outlasts ``budget``."""
     fixed = []
     for v in pm.model.component_data_objects(Var):
         decided = decisions.get(var_key(v)) if v.is_binary() and not v.fixed else None
         if decided is not None:
             v.fix(float(round(decided)))
             fixed.append(v)
-    add_requirements(pm, pm.pending())
     trial, session.trial = session.trial, True  # fixed decisions: the verdict is not the mission's
     try:
+        if not _added_in_time(pm, budget):
+            return None
         return session.solve(budget)
     finally:
         session.trial = trial
         for v in fixed:
             v.unfix()
+
+
+ADD_BATCH = 500
+"""Requirements a completion adds between two looks at the clock."""
+
+
+def _added_in_time(pm: PlanModel, budget: Budget) -> bool:
+    """Add every pending requirement to ``pm``, in batches while ``budget`` lasts (a large team
+    has tens of thousands, and encoding them is not bounded by HiGHS's time limit); whether all
+    were added."""
+    pending = pm.pending()
+    for start in range(0, len(pending), ADD_BATCH):
+        if budget.expired():
+            return False
+        add_requirements(pm, pending[start : start + ADD_BATCH])
+    return True
 
 
 def _complete(
@@ -306,6 +326,8 @@ def _complete(
     stop = last.results.termination_condition.name
     base = Outcome(PlanStatus.NO_PLAN, None, bound, None, seconds, rounds + 1, len(pm.added), stop,
                  completed=True)  # fmt: skip
+    if solved is None:  # out of time while adding the requirements: no plan
+        return outcome.completed(None, bound, signals.requested(), replace(base, completed=False))
     # (an interrupt by the watch still leaves a plan)
     found = has_solution(solved.results)
     objective = float(solved.results.incumbent_objective) if found else None

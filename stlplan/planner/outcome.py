@@ -184,7 +184,8 @@ def combined(
     steps: Sequence[Outcome | None], gap: float, stopped: bool, seconds: float, rounds: int
 ) -> Outcome:
     """The parts' outcomes as one outcome of the full problem: the sums of their objectives
-    and bounds, optimal only when every part is and the sum is within ``gap``."""
+    and bounds, optimal only when every part is and the sum is within ``gap`` (without a plan,
+    the sum of the parts' bounds still bounds the whole when each part has one)."""
     done = [s for s in steps if s is not None]
     failed = [s for s in done if not s.status.has_plan]
     if failed or len(done) < len(steps):
@@ -193,8 +194,11 @@ def combined(
         if stopped:
             status = PlanStatus.INTERRUPTED_NO_PLAN
         added = sum(s.added for s in done)
+        bounds = [s.bound for s in done]
+        whole = len(done) == len(steps) and None not in bounds
+        bound = sum(b for b in bounds if b is not None) if whole else None  # bounds the whole
         return Outcome(
-            status, None, None, None, seconds, rounds, added, first.stop if first else ""
+            status, None, bound, None, seconds, rounds, added, first.stop if first else ""
         )
     objective, bound = totals(done)
     found = relative_gap(objective, bound)
