@@ -27,9 +27,9 @@ deadline (:meth:`stlplan.planner.budget.Budget.finishing`).
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 import time
 from collections.abc import Mapping
+from dataclasses import replace
 
 from pyomo.contrib.solver.common.results import TerminationCondition
 from pyomo.environ import Var
