@@ -79,7 +79,8 @@ GAP = 1e-4
 
 COLUMNS = (
     "case", "seed", "run", "formulation", "variables", "binaries", "constraints", "build_s",
-    "solve_s", "wall_s", "cpu_s", "rounds", "status", "accepted", "gap", "rho_s", "objective", "effort", "message",
+    "solve_s", "wall_s", "cpu_s", "first_plan_s", "rounds", "status", "accepted", "gap", "rho_s",
+    "objective", "effort", "message",
 )  # fmt: skip
 
 
@@ -168,6 +169,9 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
         solve_s=round(result.solve_seconds or 0.0, 2),
         wall_s=round(time.perf_counter() - tick, 2),
         cpu_s=round(time.process_time() - cpu, 2),
+        first_plan_s=None
+        if result.first_plan_seconds is None
+        else round(result.first_plan_seconds, 2),
         rounds=rounds[0],
         status=result.status.value,
         accepted=None

@@ -295,6 +295,9 @@ class PlanResult:
     stage_seconds: Mapping[str, float] = field(default_factory=dict)
     """Wall time of each stage of the run (step 1, the continuous stage, a diagnosis, the
     monitor's verification), s."""
+    first_plan_seconds: float | None = None
+    """Seconds from the start of the run until step 1 first held a plan of the whole problem
+    meeting every requirement (None without a plan)."""
     replan: Replan | None = None
     """For a replan: its step, events and time (None for a plan from the initial states)."""
     dropped: tuple[Dropped, ...] = ()

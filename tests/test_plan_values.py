@@ -78,3 +78,11 @@ def test_first_plan_stops_at_a_plan_meeting_every_requirement() -> None:
     assert first.objective <= full.objective + 1e-6
     last = first.round_log[-1]
     assert last["best"] is not None  # the run ended on the round that found the plan
+
+
+@pytest.mark.parametrize("dotted", [{}, {"parts.enabled": False}, {"lazy.enabled": False}])
+def test_the_time_to_the_first_plan_is_recorded(dotted: dict[str, bool]) -> None:
+    result = plan(detour_for_free(), PlannerConfig().with_overrides(dotted))
+    assert result.status is PlanStatus.OPTIMAL
+    seconds = result.first_plan_seconds
+    assert seconds is not None and 0 < seconds <= result.build_seconds + result.solve_seconds

@@ -93,6 +93,7 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "requirements_added": result.requirements_added,
         "events": list(result.events),
         "round_log": [dict(record) for record in result.round_log],
+        "first_plan_seconds": result.first_plan_seconds,
         "stage_seconds": dict(result.stage_seconds),
         "config": dict(result.config),
         "fallback": fallback_dict(result.fallback),

@@ -62,10 +62,18 @@ class Clock:
     build_seconds: float = 0.0
     confirmations: list[Confirmation] = field(default_factory=list)
     round_log: list[dict[str, Any]] = field(default_factory=list)
+    first_plan: float | None = None
+    """Seconds from the start until step 1 first held a plan of the whole problem that meets
+    every requirement (None: none yet)."""
     """One record per lazy round, in the order they ran (parts one after another): the agents of
     its model, when it ended, how long it took, HiGHS's termination, its bound, the best plan
     meeting every requirement so far, and the requirements its model held by kind
     (:meth:`record_round`)."""
+
+    def plan_found(self) -> None:
+        """Note that step 1 holds a plan of the whole problem (the first time only)."""
+        if self.first_plan is None:
+            self.first_plan = self.elapsed()
 
     def record_round(self, agents: int, seconds: float, ended: str, bound: float | None,
                      best: float | None, added: dict[str, int]) -> None:  # fmt: skip

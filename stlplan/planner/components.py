@@ -268,6 +268,8 @@ def solve_parts(
         _tighten(parts, config, budget)
     done = _combined(parts, config, time.perf_counter() - tick, clock.round or 1)
     objective = assemble(full, [p.pm for p in parts], config, clock, budget.finishing())
+    if objective is not None:
+        clock.plan_found()
     seconds = time.perf_counter() - tick
     stopped = signals.requested()
     return full, outcome.assembled(done, objective, config.solver.gap, stopped, seconds)

@@ -248,9 +248,14 @@ def solve_step1(
     """Solve problem (step1) of ``pm`` within ``budget``, lazily when ``pm`` was built with
     ``lazy=True`` (repairing in turn by ``policy``), the first solve starting from ``start``."""
     solver = LazySolver(pm, config, clock, policy)
+    if solver.watch is not None:  # a model of the whole problem: its plans are the run's
+        solver.watch.found = clock.plan_found
     if start is not None:
         solver.session.start_from(start)
-    return solver.run(budget)
+    ended = solver.run(budget)
+    if ended.status.has_plan:
+        clock.plan_found()  # (at the latest: when step 1 ends with one)
+    return ended
 
 
 def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Outcome:

@@ -181,6 +181,7 @@ def _readout(run: _Run) -> PlanResult:
         "events": run_events(step1, run.ended, config, clock, run.strictly),
         "confirmations": tuple(clock.confirmations),
         "round_log": tuple(clock.round_log),
+        "first_plan_seconds": clock.first_plan if step1.status.has_plan else None,
     }
     build, solve = clock.build_seconds, clock.elapsed() - clock.build_seconds
     if not step1.status.has_plan:

@@ -8,6 +8,7 @@ plan's trajectory with numpy (:func:`stlplan.planner.encoding.deferred.violated`
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -64,6 +65,8 @@ class Watch:
         first plan and ``first`` asks for no more).
     first
         Stop at the first plan that meets every requirement.
+    found
+        Called with every plan kept (the run's clock, for a model of the whole problem).
     """
 
     pm: PlanModel
@@ -74,6 +77,8 @@ class Watch:
     ceiling: float | None = None
     stopped: bool = False
     first: bool = False
+    found: Callable[[], None] | None = None
+    """Called when a plan is kept (a plan of the whole problem: the clock notes the first)."""
 
     def states(self, x: np.ndarray) -> dict[str, np.ndarray]:
         """Agent states of HiGHS's column vector ``x`` (fixed states keep their value)."""
@@ -111,6 +116,8 @@ class Watch:
         """Keep ``plan`` (one that meets every requirement) when it is the best so far."""
         if plan.better_than(self.best):
             self.best = plan
+            if self.found is not None:
+                self.found()
 
     def done(self) -> bool:
         """Whether the first plan is all that is asked for, and found."""
