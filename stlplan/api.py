@@ -1,4 +1,4 @@
-"""The Python API under the command line: load, plan, check, write.
+"""The Python API under the command line: load, plan, check, write, simulate.
 
 Every function returns typed results and raises :class:`stlplan.errors.StlplanError` subclasses on
 bad input; nothing here prints.
@@ -7,7 +7,6 @@ bad input; nothing here prints.
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -18,24 +17,30 @@ from stlplan.errors import StlplanError, UsageError
 from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
-from stlplan.outputs.directory import prepare_directory, write_all, write_json
+from stlplan.outputs.directory import prepare_directory, write_all, write_json, write_text
 from stlplan.outputs.summary import summary_dict
 from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
 from stlplan.pipeline import plan
 from stlplan.planner.config import Overrides, PlannerConfig
 from stlplan.result import MonitorReport, PlanResult
 from stlplan.runtime import signals
+from stlplan.simulation.batch import Simulation, robustness, simulate
+from stlplan.simulation.settings import Simulated
 
 DEFAULT_TOLERANCE = 1e-6
 """The monitor's tolerance when none is given: solver round-off."""
 
 __all__ = [
     "Overrides",
+    "Simulated",
+    "Simulation",
     "check",
     "export_rtamt",
     "plan",
     "plot_trajectory",
     "replan",
+    "robustness",
+    "simulate",
     "solve",
     "summary",
     "sweep",
@@ -251,10 +256,6 @@ def replan(
     )
 
 
-def _write_text(path: Path, text: str) -> None:
-    path.write_text(text, encoding="utf-8")
-
-
 def sweep(
     missions: list[str | Path],
     runs: int,
@@ -272,23 +273,15 @@ def sweep(
     Records go to ``out/runs.jsonl`` as runs finish; the table is written as ``table.csv`` and
     ``table.md`` and the time distribution as ``solve-times.png``.
     """
-    import os
-
     from stlplan.sweep import report
     from stlplan.sweep.identity import claim
-    from stlplan.sweep.runner import execute, pending, read_records
+    from stlplan.sweep.runner import execute, pending, read_records, workers_and_settings
 
-    if workers is not None and scheduler:
-        raise UsageError(
-            "--workers sets the local processes; with --scheduler the Dask cluster's workers run "
-            "the solves (start them with `dask worker ... --nworkers N`)"
-        )
+    workers, overrides = workers_and_settings(
+        workers, scheduler, runs * len(missions), overrides or Overrides()
+    )
     out = Path(out)
     prepare_directory(out)
-    workers = workers or max(1, min(os.cpu_count() or 1, runs * len(missions)))
-    overrides = overrides or Overrides()
-    if (workers > 1 or scheduler) and overrides.threads is None:
-        overrides = dataclasses.replace(overrides, threads=1)
     specs = _sweep_specs(missions, runs, seed, overrides)
     todo = pending(specs, out, resume)
     claim(out, specs, resume)
@@ -301,8 +294,8 @@ def sweep(
     write_all(
         out,
         {
-            "table.csv": lambda p: _write_text(p, report.to_csv(rows)),
-            "table.md": lambda p: _write_text(p, report.to_markdown(rows)),
+            "table.csv": lambda p: write_text(p, report.to_csv(rows)),
+            "table.md": lambda p: write_text(p, report.to_markdown(rows)),
             "solve-times.png": lambda p: report.plot_times(records, p),
         },
     )

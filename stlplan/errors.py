@@ -60,6 +60,14 @@ class EventError(StlplanError):
     exit_code = 3
 
 
+class SimulationError(StlplanError):
+    """A simulation's settings that cannot be run: a disturbance bound that is not a number
+    ``>= 0``, fewer than one run, an unknown replanning policy (its events are
+    :class:`EventError`)."""
+
+    exit_code = 3
+
+
 class SolverError(StlplanError):
     """The solver failed, or produced a plan the monitor rejects."""
 

@@ -98,7 +98,7 @@ class OnlinePlanner:
     def step(
         self,
         k: int,
-        measured: Mapping[str, Sequence[float]],
+        measured: Mapping[str, Sequence[float] | np.ndarray],
         lost: Sequence[str] = (),
         closed: Sequence[str] = (),
     ) -> Step:
@@ -109,10 +109,11 @@ class OnlinePlanner:
         events = bool(lost or closed)
         self.lost += [a for a in lost if a not in self.lost]
         self.closed += [r for r in closed if r not in self.closed]
-        again = self.policy == "every" or (
-            self.policy == "on-deviation" and (events or self._off_plan(k))
+        again = k < self.problem.horizon and (
+            self.policy == "every"
+            or (self.policy == "on-deviation" and (events or self._off_plan(k)))
         )
-        if again and k < self.problem.horizon:
+        if again:
             self._replan(k)
         inputs = self._inputs(k)
         for name, u in inputs.items():

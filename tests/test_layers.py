@@ -34,6 +34,7 @@ LAYERS = (
     ),
     ("stlplan.outputs",),
     ("stlplan.sweep",),
+    ("stlplan.simulation",),
     ("stlplan.api",),
     ("stlplan.bench", "stlplan.crowd", "stlplan.cli", "stlplan.__main__", "stlplan"),
 )

@@ -16,7 +16,7 @@ from typing import Annotated
 import typer
 
 from stlplan import __version__
-from stlplan.cli import files, planning, replanning
+from stlplan.cli import files, planning, replanning, simulating
 from stlplan.cli.help import Command, Group
 from stlplan.cli.shell import EXIT_INTERRUPTED, console
 from stlplan.runtime import signals
@@ -66,6 +66,11 @@ COMMANDS = (
     (planning.solve, planning.SOLVE_EPILOG, "Plan a mission, verify it, write the plan."),
     (planning.sweep, planning.SWEEP_EPILOG, "Solve missions from random initial states."),
     (replanning.replan, replanning.REPLAN_EPILOG, "Plan again from a step of an executed plan."),
+    (
+        simulating.simulate,
+        simulating.SIMULATE_EPILOG,
+        "Execute a plan under disturbance, in a loop.",
+    ),
 )
 for command, epilog, short_help in COMMANDS:
     name = command.__name__.replace("_", "-")

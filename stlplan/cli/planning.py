@@ -283,6 +283,15 @@ ResumeOption = Annotated[
 ]
 
 
+def where_runs(workers: int | None, scheduler: str | None) -> str:
+    """Where a batch of runs goes: ``on the Dask cluster at ...``, ``in 2 local processes``."""
+    if scheduler:
+        return f"on the Dask cluster at {scheduler}"
+    if workers:
+        return f"in {counted(workers, 'local process', 'local processes')}"
+    return "in one local process per core"
+
+
 @handled
 def sweep(
     missions: MissionsArg,
@@ -303,14 +312,7 @@ def sweep(
     from stlplan.sweep.progress import SweepProgress, print_table
 
     output = Output(as_json, quiet)
-    if scheduler:
-        where = f"on the Dask cluster at {scheduler}"
-    else:
-        where = (
-            f"in {counted(workers, 'local process', 'local processes')}"
-            if workers
-            else "in one local process per core"
-        )
+    where = where_runs(workers, scheduler)
     if output.full:
         output.err.print(f"sweep runs {where}")
     with (

@@ -15,6 +15,10 @@ Without the inputs (``known = "states"``) the transition ``r(k) = x(k+1) - A x(k
 widened by ``|B^+| e``, where ``e = s(x(k+1)) + |A| s(x(k))`` bounds the error of ``r``. With the
 positions only, the initial position and the position bounds are checked and the dynamics are
 not.
+
+An executed trajectory under a disturbance bounded by ``W`` per state component and step
+(:func:`disturbed_verdict`) is judged up to that bound: ``|x(k+1) - A x(k) - B u(k)| <= W``
+plus the tolerance above.
 """
 
 from __future__ import annotations
@@ -100,13 +104,14 @@ def _initial(agent: AgentModel, x: np.ndarray, tol: float, keep: list[int]) -> l
     )
 
 
-def _at_rest(agent: AgentModel, x: np.ndarray, tol: float) -> list[Violation]:
-    """Violations of ``(A - I) x(H) = 0`` for an agent that must end at rest."""
+def _at_rest(agent: AgentModel, x: np.ndarray, tol: float, bound: float = 0.0) -> list[Violation]:
+    """Violations of ``(A - I) x(H) = 0`` for an agent that must end at rest (up to what a
+    disturbance ``bound`` on every component of ``x(H)`` can add)."""
     if not agent.at_rest:
         return []
     rows = agent.rest_rows()
     residual = np.abs(x[-1:] @ rows.T)
-    allowed = slack(x[-1:], tol) @ np.abs(rows).T
+    allowed = (slack(x[-1:], tol) + bound) @ np.abs(rows).T
     return _violations(
         np.array([len(x) - 1]),
         4,
@@ -216,25 +221,71 @@ def dynamics_verdict(
     A replan's trajectory (``past``) is checked against the executed states, and its dynamics
     from ``K`` on only: the executed past is measured, disturbances included.
     """
-    name = f"dynamics {agent.name}"
     x = np.asarray(trajectory.states[agent.name], dtype=float)
     u = np.asarray(trajectory.inputs[agent.name], dtype=float)
     if past is None:
         found = _found(agent, x, u, trajectory.known, tol)
     else:
         found = _replanned(agent, x, u, trajectory.known, tol, past)
+    steps = "0.." if past is None else f"{past.step}.."
+    detail = f"{agent.name}: {_held(trajectory.known)} for steps {steps}{trajectory.horizon}"
+    if past is not None:
+        detail += f" (steps 0..{past.step} executed)"
+    return _verdict(agent.name, found, detail)
+
+
+def _verdict(agent: str, found: list[Violation], held: str) -> Verdict:
+    """The verdict ``dynamics AGENT``: ``held`` when nothing is ``found``, else the first
+    violation with robustness ``-(largest violation)``."""
+    name = f"dynamics {agent}"
     if not found:
-        steps = "0.." if past is None else f"{past.step}.."
-        detail = f"{agent.name}: {_held(trajectory.known)} for steps {steps}{trajectory.horizon}"
-        if past is not None:
-            detail += f" (steps 0..{past.step} executed)"
-        return Verdict(name, "dynamics", True, 0.0, detail=detail)
+        return Verdict(name, "dynamics", True, 0.0, detail=held)
     step, _, _, _, text = min(found)
     worst = max(v[3] for v in found)
     more = f" ({len(found)} violations in all)" if len(found) > 1 else ""
-    return Verdict(
-        name, "dynamics", False, -worst, detail=f"{agent.name} step {step}: {text}{more}"
+    return Verdict(name, "dynamics", False, -worst, detail=f"{agent} step {step}: {text}{more}")
+
+
+def disturbed_verdict(
+    agent: AgentModel, trajectory: Trajectory, tol: float, bound: float, lost_at: int | None = None
+) -> Verdict:
+    """The physical verdict on an executed trajectory whose every state component was disturbed
+    by at most ``bound`` per step (:mod:`stlplan.simulation`).
+
+    Checks ``x(0) = x_init``; ``|x(k+1) - A x(k) - B u(k)| <= bound`` (plus the tolerance of
+    :func:`_with_inputs`) before ``lost_at``; ``x(k+1) = x(k)`` from ``lost_at`` on (a lost agent
+    stays where it was); the state and input bounds; and, for an agent that must end at rest,
+    ``|(A - I) x(H)| <= |A - I| bound`` (not for a lost agent, which stays as it was).
+    """
+    x = np.asarray(trajectory.states[agent.name], dtype=float)
+    u = np.asarray(trajectory.inputs[agent.name], dtype=float)
+    K = len(u) if lost_at is None else lost_at
+    expected = x[:-1] @ agent.A.T + u @ agent.B.T
+    expected[K:] = x[K:-1]
+    allowed = (
+        slack(x[1:], tol)
+        + slack(x[:-1], tol) @ np.abs(agent.A).T
+        + slack(u, tol) @ np.abs(agent.B).T
     )
+    allowed[:K] += bound
+    found = _initial(agent, x, tol, list(range(agent.n)))
+    found += _violations(
+        np.arange(1, len(x)), 1, np.abs(x[1:] - expected), allowed,
+        lambda r, i: (
+            f"x[{i}] = {x[r + 1, i]:.6g}, expected A x(k) + B u(k) = {expected[r, i]:.6g} "
+            f"up to the disturbance {bound:g}"
+            if r < K else f"x[{i}] = {x[r + 1, i]:.6g}: a lost agent stays where it was"
+        ),
+    )  # fmt: skip
+    found += _bounds(x, (agent.state_lo, agent.state_hi), slack(x, tol), "x", 2)
+    found += _bounds(u, (agent.input_lo, agent.input_hi), slack(u, tol), "u", 3)
+    found += _at_rest(agent, x, tol, bound) if lost_at is None else []
+    lost = "" if lost_at is None else f"; lost at step {lost_at}, then still"
+    held = (
+        f"{agent.name}: initial state, x(k+1) = A x(k) + B u(k) + w(k) with |w| <= {bound:g} "
+        f"and bounds hold{lost}"
+    )
+    return _verdict(agent.name, found, held)
 
 
 def _held(known: Known) -> str:

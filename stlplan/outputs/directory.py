@@ -34,6 +34,11 @@ def write_json(data: object, path: Path) -> None:
     path.write_text(text + "\n", encoding="utf-8")
 
 
+def write_text(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` in UTF-8."""
+    path.write_text(text, encoding="utf-8")
+
+
 def strict_json(data: object) -> object:
     """``data`` with every non-finite float (``inf``, ``nan``) replaced by None, recursively."""
     if isinstance(data, float):

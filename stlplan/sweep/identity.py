@@ -1,4 +1,5 @@
-"""What makes a sweep one sweep: its missions, seed and settings, kept beside its records.
+"""What makes a sweep one sweep: its missions, seed and settings, kept beside its records
+(``sweep.json``; a simulation's, :mod:`stlplan.simulation`, in ``simulation.json``).
 
 ``--resume`` continues the sweep recorded in a folder; it is refused when the command asks for
 something else (other missions, another seed, another time limit or setting), since the records
@@ -15,15 +16,12 @@ from typing import Any
 
 from stlplan.errors import UsageError
 
-IDENTITY = "sweep.json"
-"""The file in a sweep's folder that records its identity."""
-
 
 def identity(specs: Sequence[Any]) -> dict[str, Any]:
     """Missions (name to a digest of the text), seed and the settings that change results.
 
-    ``specs`` are :class:`stlplan.sweep.runner.RunSpec`; threads do not count (they change the
-    time a run takes, not its answer).
+    ``specs`` are :class:`stlplan.sweep.runner.Spec`, whose ``settings()`` leave out the threads
+    (they change the time a run takes, not its answer).
     """
     if not specs:
         return {}
@@ -31,7 +29,7 @@ def identity(specs: Sequence[Any]) -> dict[str, Any]:
         s.mission_key: hashlib.sha256(s.mission_text.encode("utf-8")).hexdigest()[:16]
         for s in specs
     }
-    settings = {k: v for k, v in specs[0].overrides.given().items() if k != "threads"}
+    settings = specs[0].settings()
     return {"missions": missions, "seed": specs[0].seed, "settings": _plain(settings)}
 
 
@@ -40,16 +38,17 @@ def _plain(value: Any) -> Any:
     return json.loads(json.dumps(value, default=str))
 
 
-def claim(out: Path, specs: Sequence[Any], resume: bool) -> None:
-    """Record the sweep's identity in ``out``; with ``resume``, first refuse a different one."""
+def claim(out: Path, specs: Sequence[Any], resume: bool, what: str = "sweep") -> None:
+    """Record the identity of the ``what`` (sweep, simulation) in ``out/WHAT.json``; with
+    ``resume``, first refuse a different one."""
     wanted = identity(specs)
-    path = out / IDENTITY
+    path = out / f"{what}.json"
     if resume and path.exists():
         recorded = json.loads(path.read_text(encoding="utf-8"))
         changes = differences(recorded, wanted)
         if changes:
             raise UsageError(
-                f"--resume continues the sweep recorded in {out}, and this one differs: "
+                f"--resume continues the {what} recorded in {out}, and this one differs: "
                 + "; ".join(changes)
                 + ". Run it with the recorded settings, or choose another --out"
             )
@@ -67,6 +66,9 @@ def differences(recorded: dict[str, Any], wanted: dict[str, Any]) -> list[str]:
         out.append(f"the text of {', '.join(changed)} changed since")
     if recorded.get("seed") != wanted.get("seed"):
         out.append(f"seed {recorded.get('seed')} recorded, {wanted.get('seed')} now")
-    if recorded.get("settings") != wanted.get("settings"):
-        out.append(f"settings {recorded.get('settings')} recorded, {wanted.get('settings')} now")
+    old_settings, new_settings = recorded.get("settings", {}), wanted.get("settings", {})
+    for name in sorted(set(old_settings) | set(new_settings)):
+        if old_settings.get(name) != new_settings.get(name):
+            before, now = old_settings.get(name, "unset"), new_settings.get(name, "unset")
+            out.append(f"{name} {before} recorded, {now} now")
     return out

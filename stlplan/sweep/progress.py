@@ -1,7 +1,9 @@
-"""Terminal display of a sweep: a progress bar with counts and ETA, and the final table."""
+"""Terminal display of a sweep (or a simulation): a progress bar with counts and ETA, and the
+final table."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from types import TracebackType
 from typing import Any
 
@@ -13,11 +15,12 @@ from stlplan.sweep.report import COLUMNS
 
 
 class SweepProgress:
-    """A rich progress bar advanced once per finished run."""
+    """A rich progress bar advanced once per finished run, headed ``label``."""
 
-    def __init__(self, console: Console, enabled: bool = True) -> None:
+    def __init__(self, console: Console, enabled: bool = True, label: str = "sweep") -> None:
+        self._label = label
         self._progress = Progress(
-            TextColumn("sweep"),
+            TextColumn(label),
             BarColumn(),
             MofNCompleteColumn(),
             TextColumn("{task.fields[last]}"),
@@ -42,7 +45,7 @@ class SweepProgress:
 
     def start(self, total: int) -> None:
         """Set the number of runs to do."""
-        self._task = self._progress.add_task("sweep", total=total, last="")
+        self._task = self._progress.add_task(self._label, total=total, last="")
 
     def advance(self, record: dict[str, Any]) -> None:
         """One run finished."""
@@ -51,11 +54,16 @@ class SweepProgress:
             self._progress.update(self._task, advance=1, last=last)
 
 
-def print_table(console: Console, rows: list[dict[str, Any]]) -> None:
-    """The summary table (times are build + solve seconds)."""
-    table = Table(title="Sweep summary (build + solve seconds)", title_justify="left")
-    for column in COLUMNS:
+def print_table(
+    console: Console,
+    rows: list[dict[str, Any]],
+    columns: Sequence[str] = COLUMNS,
+    title: str = "Sweep summary (build + solve seconds)",
+) -> None:
+    """The summary table (a sweep's times are build + solve seconds)."""
+    table = Table(title=title, title_justify="left")
+    for column in columns:
         table.add_column(column)
     for row in rows:
-        table.add_row(*("-" if row[c] is None else str(row[c]) for c in COLUMNS))
+        table.add_row(*("-" if row[c] is None else str(row[c]) for c in columns))
     console.print(table)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import io
 from collections import Counter
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -51,21 +52,21 @@ def _fmt(value: Any) -> str:
     return str(int(value)) if float(value).is_integer() else f"{value:.3g}"
 
 
-def to_csv(rows: list[dict[str, Any]]) -> str:
+def to_csv(rows: list[dict[str, Any]], columns: Sequence[str] = COLUMNS) -> str:
     """The table as CSV text."""
     buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=COLUMNS)
+    writer = csv.DictWriter(buffer, fieldnames=columns, extrasaction="ignore")
     writer.writeheader()
     writer.writerows(rows)
     return buffer.getvalue()
 
 
-def to_markdown(rows: list[dict[str, Any]]) -> str:
-    """The table as a Markdown table (build + solve seconds, mean / median / max)."""
-    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+def to_markdown(rows: list[dict[str, Any]], columns: Sequence[str] = COLUMNS) -> str:
+    """The table as a Markdown table (a sweep's: build + solve seconds, mean / median / max)."""
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
     for row in rows:
         lines.append(
-            "| " + " | ".join("-" if row[c] is None else str(row[c]) for c in COLUMNS) + " |"
+            "| " + " | ".join("-" if row[c] is None else str(row[c]) for c in columns) + " |"
         )
     return "\n".join(lines) + "\n"
 

@@ -2,12 +2,14 @@
 
 Runs execute in a local process pool, or on a Dask distributed cluster when a scheduler address is
 given. Each record is one JSON line in ``runs.jsonl``; an interrupted sweep loses at most the runs
-in flight, and ``resume`` skips the runs already recorded.
+in flight, and ``resume`` skips the runs already recorded. Other batches of runs (simulations,
+:mod:`stlplan.simulation`) run on the same machinery with their own run function.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
 import os
 import signal
@@ -17,7 +19,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol, TypeVar
 
 from stlplan.errors import SolverError, StlplanError, UsageError
 from stlplan.planner.config import Overrides
@@ -26,6 +28,26 @@ from stlplan.runtime import signals
 from stlplan.words import counted
 
 RECORDS = "runs.jsonl"
+
+
+class Spec(Protocol):
+    """One run's description: a :class:`RunSpec`, or another batch's. Its mission, run and seed
+    name its record (``mission``, ``run``, ``seed``); its settings are what the batch is."""
+
+    @property
+    def mission_key(self) -> str: ...
+    @property
+    def mission_text(self) -> str: ...
+    @property
+    def run(self) -> int: ...
+    @property
+    def seed(self) -> int: ...
+    def settings(self) -> dict[str, Any]: ...
+
+
+S = TypeVar("S", bound=Spec)
+Work = Callable[[Any], dict[str, Any]]
+"""What runs one spec and returns its record (it never raises for a failed run)."""
 
 
 @dataclass(frozen=True)
@@ -38,6 +60,10 @@ class RunSpec:
     run: int
     seed: int
     overrides: Overrides = field(default_factory=Overrides)
+
+    def settings(self) -> dict[str, Any]:
+        """The settings that change the run's answer (threads change only its time)."""
+        return {k: v for k, v in self.overrides.given().items() if k != "threads"}
 
 
 def run_one(spec: RunSpec) -> dict[str, Any]:
@@ -91,6 +117,29 @@ def _figures(result: PlanResult) -> dict[str, Any]:
     )
 
 
+def workers_and_settings(
+    workers: int | None, scheduler: str | None, runs: int, overrides: Overrides
+) -> tuple[int, Overrides]:
+    """The local worker processes (default: one per core, at most one per run) and the settings
+    of each run: HiGHS on one thread when runs share the machine or go to a cluster, unless
+    ``overrides`` sets the threads.
+
+    Raises
+    ------
+    UsageError
+        ``workers`` with a ``scheduler``: the cluster's workers run the runs.
+    """
+    if workers is not None and scheduler:
+        raise UsageError(
+            "--workers sets the local processes; with --scheduler the Dask cluster's workers run "
+            "the solves (start them with `dask worker ... --nworkers N`)"
+        )
+    workers = workers or max(1, min(os.cpu_count() or 1, runs))
+    if (workers > 1 or scheduler) and overrides.threads is None:
+        overrides = dataclasses.replace(overrides, threads=1)
+    return workers, overrides
+
+
 def read_records(out: Path) -> list[dict[str, Any]]:
     """Records written so far (a torn last line, from a hard stop, is ignored)."""
     path = out / RECORDS
@@ -105,8 +154,9 @@ def read_records(out: Path) -> list[dict[str, Any]]:
     return records
 
 
-def pending(specs: Sequence[RunSpec], out: Path, resume: bool) -> list[RunSpec]:
-    """The specs still to run; refuses to mix with an earlier sweep unless ``resume``."""
+def pending(specs: Sequence[S], out: Path, resume: bool, what: str = "sweep") -> list[S]:
+    """The specs still to run; refuses to mix with an earlier ``what`` (sweep, simulation) unless
+    ``resume``."""
     done = {
         (r["mission"], r["run"], r["seed"])
         for r in read_records(out)
@@ -115,7 +165,7 @@ def pending(specs: Sequence[RunSpec], out: Path, resume: bool) -> list[RunSpec]:
     if done and not resume:
         raise UsageError(
             f"{out / RECORDS} already holds {counted(len(done), 'run')}; pass --resume to "
-            "continue that sweep or choose another --out"
+            f"continue that {what} or choose another --out"
         )
     return [s for s in specs if (s.mission_key, s.run, s.seed) not in done]
 
@@ -141,12 +191,14 @@ def _terminate(pool: ProcessPoolExecutor) -> None:
         process.terminate()
 
 
-def _local(specs: Sequence[RunSpec], workers: int) -> Generator[dict[str, Any], None, None]:
+def _local(
+    specs: Sequence[Spec], workers: int, work: Work
+) -> Generator[dict[str, Any], None, None]:
     if workers <= 1:
-        yield from (run_one(s) for s in specs)
+        yield from (work(s) for s in specs)
         return
     pool = ProcessPoolExecutor(max_workers=workers, initializer=_leave_interrupts_to_parent)
-    futures = [pool.submit(run_one, s) for s in specs]
+    futures = [pool.submit(work, s) for s in specs]
     try:
         for future in as_completed(futures):
             yield future.result()
@@ -162,7 +214,9 @@ def _local(specs: Sequence[RunSpec], workers: int) -> Generator[dict[str, Any], 
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _dask(specs: Sequence[RunSpec], scheduler: str) -> Generator[dict[str, Any], None, None]:
+def _dask(
+    specs: Sequence[Spec], scheduler: str, work: Work
+) -> Generator[dict[str, Any], None, None]:
     try:
         from distributed import Client
         from distributed import as_completed as dask_completed
@@ -177,25 +231,29 @@ def _dask(specs: Sequence[RunSpec], scheduler: str) -> Generator[dict[str, Any],
     except OSError as exc:
         raise UsageError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
     with client:
-        futures = client.map(run_one, list(specs), pure=False)
+        futures = client.map(work, list(specs), pure=False)
         for future in dask_completed(futures):
             yield future.result()
 
 
 def execute(
-    specs: Sequence[RunSpec],
+    specs: Sequence[Spec],
     out: Path,
     workers: int,
     scheduler: str | None = None,
     on_record: Callable[[dict[str, Any]], None] | None = None,
+    work: Work = run_one,
 ) -> None:
-    """Run ``specs`` and append each record to ``out/runs.jsonl`` as it finishes.
+    """Run ``work`` on each of ``specs`` and append each record to ``out/runs.jsonl`` as it
+    finishes.
 
-    Ctrl-C or SIGTERM stops the sweep (:class:`stlplan.runtime.signals.Interrupted`); the runs in flight
-    are lost, the recorded ones kept.
+    ``work`` (default: a sweep's solve, :func:`run_one`) is a module-level function, so that
+    worker processes and Dask workers can call it. Ctrl-C or SIGTERM stops the runs
+    (:class:`stlplan.runtime.signals.Interrupted`); the runs in flight are lost, the recorded ones
+    kept.
     """
     out.mkdir(parents=True, exist_ok=True)
-    stream = _dask(specs, scheduler) if scheduler else _local(specs, workers)
+    stream = _dask(specs, scheduler, work) if scheduler else _local(specs, workers, work)
     with signals.stop_on_signals(), contextlib.closing(stream):
         for record in stream:
             _append(out, record)

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from matplotlib.artist import Artist
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Polygon
@@ -179,7 +181,14 @@ def _draw_end_names(ax, problem: Problem, trajectory: Trajectory, styles, pt_per
             ax.annotate(agent.name, end, color=color, **{**_POINTS, "fontsize": _NAME_SIZE})
 
 
-def _plan_legend(ax, problem: Problem, styles, has_sync: bool, crossed: bool = False) -> None:
+def _plan_legend(
+    ax,
+    problem: Problem,
+    styles,
+    has_sync: bool,
+    crossed: bool = False,
+    extra: Sequence[Artist] = (),
+) -> None:
     handles: list[Artist] = [*agent_handles(problem, styles)]
     handles.append(Line2D([], [], marker="o", mfc="0.6", label="start (step 0)", **_START))
     if has_sync:
@@ -187,17 +196,24 @@ def _plan_legend(ax, problem: Problem, styles, has_sync: bool, crossed: bool = F
     if crossed:
         handles.append(Line2D([], [], label="unsafe between steps", **_CROSSING))
     handles += replan_handles(problem)
+    handles += extra
     title = "agent (capability)" if len(problem.agents) <= MANY_AGENTS else "capability"
     legend_at = dict(loc="upper left", bbox_to_anchor=(1.01, 1.0), title=title)
     ax.legend(handles=handles, **legend_at, **_LEGEND)
 
 
 def plan_figure(
-    problem: Problem, trajectory: Trajectory, report: MonitorReport, title: str | None = None
+    problem: Problem,
+    trajectory: Trajectory,
+    report: MonitorReport,
+    title: str | None = None,
+    overlay: Callable[[Axes], list[Artist]] | None = None,
 ) -> Figure:
     """The map: workspace, regions, each agent's path (the straight segments a robot follows
     between waypoints), starts, synchronized runs, and in red any segment that crosses; for a
-    replan (``problem.past``) the marks of :mod:`~stlplan.outputs.plots.past`."""
+    replan (``problem.past``) the marks of :mod:`~stlplan.outputs.plots.past`. ``overlay``
+    draws more on the map's axes and returns its legend entries (a simulated run's,
+    :mod:`~stlplan.outputs.plots.executed`)."""
     bounds = workspace(problem)
     (xl, xh), (yl, yh) = bounds
     width = 9.0
@@ -217,12 +233,13 @@ def plan_figure(
         _draw_end_names(ax, problem, trajectory, styles, pt_per_unit)
     crossed = _draw_crossings(ax, problem, trajectory)
     draw_replan_marks(ax, problem, trajectory)
+    extra = overlay(ax) if overlay is not None else []
     captions = _draw_sync_runs(ax, problem, trajectory, report, styles)
     ax.set(xlim=(xl, xh), ylim=(yl, yh), aspect="equal", xlabel="x", ylabel="y")
     ax.tick_params(labelsize=8)
     ax.grid(True, color="0.9", linewidth=0.6)
     ax.set_axisbelow(True)
-    _plan_legend(ax, problem, styles, bool(captions), crossed)
+    _plan_legend(ax, problem, styles, bool(captions), crossed, extra)
     subtitle = _status_line(report)
     if problem.past is not None:
         subtitle = f"{events_note(problem.past)}   |   {subtitle}"
