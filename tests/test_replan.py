@@ -194,3 +194,23 @@ def test_an_always_the_past_broke_is_named_at_once() -> None:
     assert [d.task for d in result.dropped] == ["guard"]
     assert "can no longer be met after the executed past" in result.dropped[0].reason
     assert result.report is not None and result.report.verdict("visit").satisfied
+
+
+@pytest.mark.parametrize("step", [2, 5])
+def test_a_drifted_replan_of_a_mission_with_a_margin_floor_is_judged_by_what_it_planned(
+    step: int,
+) -> None:
+    # sync-pair asks every predicate to hold by 0.2; the drifted states at K hold less, which is
+    # the executed past's, not the plan's: the plan still keeps 0.2 from K+1 on
+    from stlplan.mission.loader import load_problem
+    from stlplan.pipeline import plan as verified_plan
+    from stlplan.replan_bench import moved
+    from tests.helpers.paths import PAIR
+
+    problem = load_problem(PAIR)
+    _, first = verified_plan(problem, Overrides(time_limit=60))
+    assert first.trajectory is not None
+    executed = moved(problem, first.trajectory, step, 0.05, 0)
+    _, result = replan(problem, executed, step, overrides=Overrides(time_limit=60))
+    assert result.status.has_plan and result.report is not None
+    assert result.margin is not None and result.margin >= 0.2 - 1e-6

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stlplan.formula.boundary import holds
+from stlplan.formula.boundary import HOLDS_AT, holds
 from stlplan.formula.tree import Formula, Or, Predicate, step_parts
 from stlplan.mission.problem import Problem
 from stlplan.monitor.robustness import robustness
@@ -78,17 +78,25 @@ def worst_segment(
     planned: bool = False,
 ) -> Crossing | None:
     """The worst segment from step ``first`` on (a replan's step: the executed segments before
-    it were not planned) of the safety parts of a lowered constraint; None without any. With
-    ``planned``, a segment from a state at ``first`` that breaks the part is left out too."""
+    it were not planned) of the safety parts of a lowered constraint; None without any.
+
+    With ``planned``, the segment from the executed state at ``first`` is judged by what the
+    plan decided: its end's value in the half-planes that state is in (the segment stays in
+    such a half-plane when its end does), and not at all when the state is in none.
+    """
     worst: Crossing | None = None
     for part, every in _segments(formula).items():
         starts = [k for k in every if k >= first]
-        broken_start = planned and starts and starts[0] == first
-        if broken_start and not holds(float(robustness(part, signals, horizon)[first])):
-            starts = starts[1:]
+        values = list(_segment_values(part, starts, signals, horizon)) if starts else []
+        if planned and starts and starts[0] == first:
+            planes = _half_planes(part) or ()
+            alpha = np.array([robustness(p, signals, horizon) for p in planes])
+            end = _end_value(alpha[:, first], alpha[:, first + 1])
+            starts, values = (
+                (starts, [end, *values[1:]]) if end is not None else (starts[1:], values[1:])
+            )
         if not starts:
             continue
-        values = _segment_values(part, starts, signals, horizon)
         i = int(np.argmin(values))
         if worst is None or values[i] < worst.value:
             worst = Crossing(float(values[i]), starts[i])
@@ -104,6 +112,26 @@ def _segments(formula: Formula) -> dict[Formula, list[int]]:
             steps.setdefault(part, set()).add(k)
     out = {part: sorted(k for k in held if k + 1 in held) for part, held in steps.items()}
     return {part: starts for part, starts in out.items() if starts}
+
+
+def _end_value(at_start: np.ndarray, at_end: np.ndarray) -> float | None:
+    """The best value at a segment's end among the half-planes its start holds (None: none)."""
+    held = at_start >= HOLDS_AT
+    return float(np.max(at_end[held])) if held.any() else None
+
+
+def separation_ends(positions: np.ndarray, separation: float, k: int) -> np.ndarray:
+    """Per pair, shape (P, P): the separation's value at ``k+1`` in the half-planes the pair
+    holds at ``k`` (``+inf`` where it holds none: the executed state broke it)."""
+
+    def planes(t: int) -> np.ndarray:
+        rel = positions[:, None, t] - positions[None, :, t]  # (P, P, 2)
+        return np.concatenate([rel, -rel], axis=-1) - separation  # (P, P, 4)
+
+    start, end = planes(k), planes(k + 1)
+    held = start >= HOLDS_AT
+    best = np.max(np.where(held, end, -np.inf), axis=-1)
+    return np.where(held.any(axis=-1), best, np.inf)
 
 
 def separation_segments(positions: np.ndarray, separation: float) -> np.ndarray:

@@ -36,11 +36,11 @@ from typing import Any
 import numpy as np
 
 from stlplan.errors import TrajectoryError
-from stlplan.formula.boundary import HOLDS_AT, holds
+from stlplan.formula.boundary import holds
 from stlplan.formula.tree import Formula, Linear, atoms, horizon, step_parts
 from stlplan.mission.groups import best_group
 from stlplan.mission.problem import ConstraintModel, Problem, TaskModel
-from stlplan.monitor.crossings import separation_segments, worst_segment
+from stlplan.monitor.crossings import separation_ends, separation_segments, worst_segment
 from stlplan.monitor.dynamics import dynamics_verdict
 from stlplan.monitor.robustness import robustness
 from stlplan.result import Element, MonitorReport, Trajectory, Verdict
@@ -290,8 +290,8 @@ def _binding_value(
     if first:
         parts = [(p, k) for p, k in step_parts(lowered, 0) if k + horizon(p) >= first]
         values = [(float(robustness(p, signals, H)[k]), k + horizon(p)) for p, k in parts]
-        # a part at K itself that the executed state breaks is the past's
-        sampled = min((v for v, end in values if end > first or holds(v)), default=np.inf)
+        # a part at K itself reads the executed state only: data, not the plan's
+        sampled = min((v for v, end in values if end > first), default=np.inf)
     else:
         sampled = float(robustness(lowered, signals, H)[0])
     start = 0 if problem.past is None else problem.past.step
@@ -345,19 +345,18 @@ def _separation_verdict(
     gap = np.max(np.abs(z[:, None] - z[None, :]), axis=3) - separation  # (P, P, H+1)
     upper = np.triu(np.ones((len(agents), len(agents)), dtype=bool), k=1)
     gap = np.where(upper[:, :, None], np.nan_to_num(gap, nan=-np.inf), np.inf)
-    broken = np.zeros_like(upper)
-    if first:  # steps before ``first`` are not judged, nor the pairs the state at ``first`` breaks
-        gap[:, :, :first] = np.inf
-        broken = gap[:, :, first] < HOLDS_AT
-        gap[:, :, first] = np.where(broken, np.inf, gap[:, :, first])
+    planned = bool(first)
+    if planned:  # what the plan decided: the steps after ``first`` (the executed state's own)
+        gap[:, :, : first + 1] = np.inf
     p, q, k = np.unravel_index(int(np.argmin(gap)), gap.shape)
     value = float(gap[p, q, k])
     pair = f"{agents[p].name} and {agents[q].name} at step {k}"
     first = 0 if problem.past is None else problem.past.step  # a replan's segments from K
     if problem.inter_sample and gap.shape[2] > first + 1:
         seg = separation_segments(z[:, first:], separation)
+        if planned:  # the segment from the executed state, by its end
+            seg[:, :, 0] = separation_ends(z, separation, first)
         seg = np.where(upper[:, :, None], np.nan_to_num(seg, nan=-np.inf), np.inf)
-        seg[:, :, 0] = np.where(broken, np.inf, seg[:, :, 0])
         sp, sq, sk = np.unravel_index(int(np.argmin(seg)), seg.shape)
         if seg[sp, sq, sk] < value - 1e-12:
             value = float(seg[sp, sq, sk])
