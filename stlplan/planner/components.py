@@ -50,7 +50,7 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import Requirement, requirement_key, violated
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
 from stlplan.planner.lazy import LazySolver
-from stlplan.planner.outcome import Outcome
+from stlplan.planner.outcome import Outcome, Plan
 from stlplan.planner.parts import agent_parts, sub_problem
 from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.repairs import Broken
@@ -240,9 +240,11 @@ def solve_parts(
     clock: Clock,
     budget: Budget,
     policy: RepairPolicy | None = None,
+    start: Plan | None = None,
 ) -> tuple[PlanModel, Outcome] | None:
     """Solve step 1 part by part (module docstring) within ``budget``, repairing in turn by
-    ``policy`` (default: ``config``'s); None when the problem has one part.
+    ``policy`` (default: ``config``'s), each part's first solve starting from ``start`` (a plan
+    of the whole team: its keys of the part's variables); None when the problem has one part.
 
     Returns the full problem's model with the plan loaded (when there is one) and the result.
     """
@@ -253,6 +255,9 @@ def solve_parts(
     with clock.building():
         full = build_model(problem, config.with_overrides({"model.floors": False}))
     parts = [_part(problem, agents, config, clock, budget, policy=policy) for agents in names]
+    if start is not None:  # its agents' states and inputs; HiGHS completes the rest
+        for part in parts:
+            part.solver.session.start_from(start)
     while True:
         solve_in_shares(parts, config, budget)
         done = _combined(parts, config, time.perf_counter() - tick, clock.round or 1)

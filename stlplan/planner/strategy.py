@@ -9,10 +9,10 @@ Three strategies, each wrapping the one before:
   repaired agent by agent, as the :class:`~stlplan.planner.repair_policy.RepairPolicy` says;
 * :class:`Parts`: solve the independent parts of the team apart, each by the strategy inside,
   merging parts whose plans collide (a merge repaired by the same policy) and assembling the
-  parts' plans in one model (:mod:`stlplan.planner.components`); given a plan of the whole
-  team to start from (a replan's), or when the parts' plans do not assemble into a plan of
-  the whole (a part's plan that met its decisions only within HiGHS's integrality tolerance),
-  the team is solved whole by the strategy inside.
+  parts' plans in one model (:mod:`stlplan.planner.components`); a plan of the whole team to
+  start from (a replan's) starts each part; when the parts' plans do not assemble into a plan
+  of the whole (a part's plan that met its decisions only within HiGHS's integrality
+  tolerance), the team is solved whole by the strategy inside.
 
 Each strategy takes the problem, the configuration, the run's clock and a budget, and returns
 the model with the plan loaded and the :class:`~stlplan.planner.outcome.Outcome`. Each describes
@@ -117,12 +117,10 @@ class Parts:
         budget: Budget,
         start: Plan | None = None,
     ) -> tuple[PlanModel, Outcome]:
-        if start is not None:  # a plan of the whole team: nothing for the parts to find
-            return self.inner.solve(problem, config, clock, budget, start)
-        by_parts = solve_parts(problem, config, clock, budget, self.inner.policy)
+        by_parts = solve_parts(problem, config, clock, budget, self.inner.policy, start)
         if by_parts is not None and by_parts[1].stop == ASSEMBLY_FAILED and not budget.expired():
-            return self.inner.solve(problem, config, clock, budget)  # the parts' plans: no plan
-        return by_parts or self.inner.solve(problem, config, clock, budget)
+            return self.inner.solve(problem, config, clock, budget, start)  # no plan of the whole
+        return by_parts or self.inner.solve(problem, config, clock, budget, start)
 
     def describe(self) -> str:
         crowd = self.inner.policy.crowd_agents
