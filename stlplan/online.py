@@ -28,8 +28,9 @@ from stlplan.replanning import replan
 from stlplan.result import PlanResult, Trajectory
 
 Policy = Literal["every", "on-deviation", "never"]
-"""When to replan: at every step, when the measured states leave the plan (or an event
-comes), or never (open loop: events and deviations are ignored)."""
+"""When to replan: at every step (from step 1, or at step 0 when the measured states are not
+those the plan starts from), when the measured states leave the plan (or an event comes), or
+never (open loop: events and deviations are ignored)."""
 
 
 @dataclass(frozen=True)
@@ -109,9 +110,11 @@ class OnlinePlanner:
         events = bool(lost or closed)
         self.lost += [a for a in lost if a not in self.lost]
         self.closed += [r for r in closed if r not in self.closed]
+        changed = events or self._off_plan(k)
+        # at step 0 the plan is made from these states: "every" replans from step 1 on
+        every = self.policy == "every" and (k > 0 or changed)
         again = k < self.problem.horizon and (
-            self.policy == "every"
-            or (self.policy == "on-deviation" and (events or self._off_plan(k)))
+            every or (self.policy == "on-deviation" and changed)
         )
         if again:
             self._replan(k)

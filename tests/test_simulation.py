@@ -33,7 +33,7 @@ def test_without_disturbance_or_events_the_plan_is_executed_exactly(
         planned = first.trajectory
         assert np.allclose(run.executed.states[agent.name], planned.states[agent.name], atol=1e-9)
         assert np.allclose(run.executed.inputs[agent.name], planned.inputs[agent.name], atol=1e-9)
-    assert len(run.replan_seconds) == (problem.horizon if policy == "every" else 0)
+    assert len(run.replan_seconds) == (problem.horizon - 1 if policy == "every" else 0)
     report = judge(problem, run.executed, simulated)
     assert report.satisfied and report.rho_s == first.report.rho_s  # type: ignore[union-attr]
 
