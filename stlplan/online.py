@@ -113,9 +113,7 @@ class OnlinePlanner:
         changed = events or self._off_plan(k)
         # at step 0 the plan is made from these states: "every" replans from step 1 on
         every = self.policy == "every" and (k > 0 or changed)
-        again = k < self.problem.horizon and (
-            every or (self.policy == "on-deviation" and changed)
-        )
+        again = k < self.problem.horizon and (every or (self.policy == "on-deviation" and changed))
         if again:
             self._replan(k)
         inputs = self._inputs(k)
