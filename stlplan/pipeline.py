@@ -186,9 +186,7 @@ def _degraded(
         planned = solve_plan(found.problem, config, progress=progress, budget=run, start=start)
     status = PlanStatus.DEGRADED if planned.status.has_plan else planned.status
     names = ", ".join(d.task for d in found.dropped)
-    message = (
-        f"degraded: {counted(len(found.dropped), 'task')} dropped ({names}); " + planned.message
-    )
+    message = f"{counted(len(found.dropped), 'task')} dropped ({names}); " + planned.message
     out = dataclasses.replace(
         planned, status=status, message=message, dropped=found.dropped,
         confirmations=tuple(confirmations) + planned.confirmations,
