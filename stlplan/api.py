@@ -19,7 +19,8 @@ from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.outputs.directory import prepare_directory, write_all, write_json, write_text
 from stlplan.outputs.summary import summary_dict
-from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
+from stlplan.outputs.trajio import write_trajectory_csv
+from stlplan.outputs.trajread import read_trajectory_csv
 from stlplan.pipeline import plan
 from stlplan.planner.config import Overrides, PlannerConfig
 from stlplan.result import MonitorReport, PlanResult

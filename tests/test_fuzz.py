@@ -38,7 +38,8 @@ from stlplan.formula.tree import Distance, Formula, Linear, atoms
 from stlplan.mission.loader import problem_from_text
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check
-from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
+from stlplan.outputs.trajio import write_trajectory_csv
+from stlplan.outputs.trajread import read_trajectory_csv
 from stlplan.result import MonitorReport, Trajectory
 from tests.helpers.messages import NOISE
 

@@ -12,7 +12,8 @@ import pytest
 from stlplan.errors import TrajectoryError
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
-from stlplan.outputs.trajio import read_trajectory_csv, write_trajectory_csv
+from stlplan.outputs.trajio import write_trajectory_csv
+from stlplan.outputs.trajread import read_trajectory_csv
 from stlplan.result import Trajectory
 from tests.helpers.dynamics import double_integrator
 
