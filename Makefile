@@ -6,10 +6,10 @@ STAMP  := $(VENV)/.installed
 OUT    ?= out/farm
 
 .DEFAULT_GOAL := help
-.PHONY: help install farm test test-slow fuzz smoke bench bench-quick bench-replan bench-scale lint format schema crowd clean
+.PHONY: help install farm test test-slow fuzz smoke bench bench-quick bench-replan bench-simulate bench-scale lint format schema crowd clean
 
 help:  ## List the targets
-	@grep -E '^[a-zA-Z_-]+:.*?## ' $(MAKEFILE_LIST) | awk 'BEGIN {FS = ":.*?## "}; {printf "  %-12s %s\n", $$1, $$2}'
+	@grep -E '^[a-zA-Z_-]+:.*?## ' $(MAKEFILE_LIST) | awk 'BEGIN {FS = ":.*?## "}; {printf "  %-15s %s\n", $$1, $$2}'
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -37,13 +37,17 @@ smoke: $(STAMP)  ## Solve Cases I-III once each under a time limit; fail unless 
 	  $(BIN)/stlplan solve missions/$$m.yaml --out out/smoke/$$m --time-limit $(SMOKE_LIMIT) --quiet || exit 1; \
 	done
 
-bench: $(STAMP)  ## Benchmark Cases I-III (30 states, straightforward on 2), then the STL suite and Cases I-III with both encodings (~2.5 h)
+bench: $(STAMP)  ## Benchmark Cases I-III (30 states, straightforward on 2), then the STL suite and Cases I-III with both encodings, replanning and simulation (~3.5 h)
 	$(BIN)/python -m stlplan.bench --runs 30 --formulations default sampled --compare-runs 2 --compare-time-limit 600
 	$(BIN)/python -m stlplan.bench --cases suite farm farm-case2 farm-case3 --runs 3 --formulations log standard --base log --compare-runs 0 --time-limit 300 --threads 1 --name bench-encodings
 	$(BIN)/python -m stlplan.replan_bench --out bench-results/replan
+	$(BIN)/python -m stlplan.sim_bench --out bench-results/simulation --curves
 
 bench-replan: $(STAMP)  ## Replanning Case I after drift (K = 2..7, W = 0.05) and after losing vis1 at step 4 (~5 min)
 	$(BIN)/python -m stlplan.replan_bench --out bench-results/replan
+
+bench-simulate: $(STAMP)  ## Case I executed 20 times under W = 0.02: robust vs nominal, replanning vs open loop, vis1 lost; fraction satisfied against W (~1 h)
+	$(BIN)/python -m stlplan.sim_bench --out bench-results/simulation --curves
 
 bench-scale: $(STAMP)  ## Case I and the scaled farms (16, 24, 32 agents), 3 states each: selection against groups (~2.5 h)
 	$(BIN)/python -m stlplan.bench --cases farm scale/farm-x2-same scale/farm-x2 scale/farm-x3 scale/farm-x4 --runs 3 --formulations default groups --compare-runs 0 --time-limit 600 --name bench-scale
