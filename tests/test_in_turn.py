@@ -238,7 +238,12 @@ def test_a_merged_part_colliding_in_a_crowd_is_repaired_in_turn(
     for kind in plug_ins:
         monkeypatch.setattr(kind, "repair", spy(kind))
     options = PlannerConfig().with_overrides(
-        {"solver.time_limit": 60.0, "solver.gap": 1e-6, "repair.crowd_agents": crowd}
+        {
+            "solver.time_limit": 60.0,
+            "solver.gap": 1e-6,
+            "repair.crowd_agents": crowd,
+            "repair.orders": 0,
+        }  # the repair in turn alone (prioritized: test_prioritized.py)
     )
     found = solve_parts(problem, options, Clock(0.0, None), Budget.of_seconds(60))
     assert found is not None and found[1].status is PlanStatus.OPTIMAL

@@ -113,8 +113,13 @@ def test_the_policy_names_the_repairs_and_their_shares() -> None:
     assert policy.round_repairs(1.0, 1) == ()
     crowd = EXACT.repair.crowd_agents
     assert crowd is not None
-    assert [r.describe() for r, _ in policy.merge_repairs(crowd)] == ["in turn", "held"]
+    assert [r.describe() for r, _ in policy.merge_repairs(crowd)] == [
+        "prioritized",
+        "in turn",
+        "held",
+    ]
     assert [share for _, share in policy.merge_repairs(crowd)] == [
+        EXACT.parts.crowd_repair_share,
         EXACT.parts.crowd_repair_share,
         EXACT.parts.held_repair_share,
     ]

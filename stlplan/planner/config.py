@@ -127,6 +127,14 @@ class RepairConfig(_Section):
     adds with it (None: all of them). Measured: docs/measurements.md#the-24-agent-farm."""
     gap: float = Field(default=0.01, ge=0)
     """Relative gap of a turn's solves: the repair looks for a plan, the rounds prove."""
+    solve_seconds: float = Field(default=1.0, gt=0)
+    """Time limit of one solve of a prioritized repair's turn, s: its best plan within it is
+    taken (the turn looks for a plan, not for its optimum). Measured:
+    docs/measurements.md#the-prioritized-repair."""
+    orders: int = Field(default=3, ge=0)
+    """Orders of the parts a prioritized repair of a merged crowd tries, each starting with the
+    part that failed the one before (0: no prioritized repair). Measured:
+    docs/measurements.md#the-prioritized-repair."""
     hold: float = Field(default=1e-4, gt=0)
     """How far a held state or input may move from its plan (room for HiGHS's integrality
     tolerance, ``big-M * 1e-6``)."""
@@ -144,8 +152,8 @@ class PartsConfig(_Section):
     held_repair_share: float = Field(default=0.25, gt=0, le=1)
     """Share of the time left that the held repair of a merged part may take."""
     crowd_repair_share: float = Field(default=0.75, gt=0, le=1)
-    """Share of the time left that the repair in turn of a merged crowd may take. Measured:
-    docs/dropped.md#parts-and-merges."""
+    """Share of the time left that each repair of a merged crowd (prioritized, then in turn) may
+    take. Measured: docs/dropped.md#parts-and-merges."""
     assembly_seconds: float = Field(default=60.0, gt=0)
     """Time limit of the solve that assembles the parts' plans in one model, s."""
 

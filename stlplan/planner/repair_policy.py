@@ -4,9 +4,11 @@ and the merged parts.
 While no plan meets every requirement, a repair (:mod:`stlplan.planner.repairs`) may find one
 where the next solve would not. After a lazy round that was long (``repair.after_round_seconds``)
 or whose violations name a crowd (``repair.crowd_agents``), the round's plan is repaired in
-turn within ``repair.share`` of the loop's time left. A merge of parts is repaired in turn when
-its collisions name a crowd (within ``parts.crowd_repair_share``), then, without a plan, with the
-other agents held (within ``parts.held_repair_share``).
+turn within ``repair.share`` of the loop's time left. A merge of parts whose collisions name a
+crowd is repaired part by part, each part in its own model around those before it (up to
+``repair.orders`` orders; none when 0), then in turn, each within ``parts.crowd_repair_share``
+of the time left; then, without a plan, with the other agents held (within
+``parts.held_repair_share``).
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.repairs import HeldRepair, InTurnRepair, Repair
+from stlplan.planner.repairs import HeldRepair, InTurnRepair, PrioritizedRepair, Repair
 
 Planned = tuple[tuple[Repair, float], ...]
 """Repairs to try in order, each with its share of the time left when it starts."""
@@ -29,6 +31,7 @@ class RepairPolicy:
     round_share: float = 0.25
     crowd_share: float = 0.75
     held_share: float = 0.25
+    orders: int = 3
 
     @classmethod
     def of(cls, config: PlannerConfig) -> RepairPolicy:
@@ -36,7 +39,7 @@ class RepairPolicy:
         repair, parts = config.repair, config.parts
         return cls(
             repair.after_round_seconds, repair.crowd_agents, repair.share,
-            parts.crowd_repair_share, parts.held_repair_share,
+            parts.crowd_repair_share, parts.held_repair_share, repair.orders,
         )  # fmt: skip
 
     def round_repairs(self, seconds: float, agents: int) -> Planned:
@@ -46,7 +49,10 @@ class RepairPolicy:
     def merge_repairs(self, agents: int) -> Planned:
         """The repairs of a merged part whose collisions name ``agents`` agents."""
         held: Planned = ((HeldRepair(), self.held_share),)
-        return ((InTurnRepair(), self.crowd_share), *held) if self.on_merge(agents) else held
+        if not self.on_merge(agents):
+            return held
+        first: Planned = ((PrioritizedRepair(), self.crowd_share),) if self.orders else ()
+        return (*first, (InTurnRepair(), self.crowd_share), *held)
 
     def after_round(self, seconds: float, agents: int) -> bool:
         """Whether a round of ``seconds`` whose violations name ``agents`` agents is repaired."""

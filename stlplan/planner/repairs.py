@@ -3,10 +3,12 @@
 A repair is a plug-in: the lazy loop and the parts call the repairs the
 :class:`~stlplan.planner.repair_policy.RepairPolicy` names, each within its share of the time
 left, and take the plan it returns (a :class:`~stlplan.planner.outcome.Plan` that meets every
-requirement, or None). Two repairs:
+requirement, or None). Three repairs:
 
 * :class:`InTurnRepair`: the agents the broken requirements name are solved again one at a
   time around the others, as prioritized planners do (:mod:`stlplan.planner.in_turn`);
+* :class:`PrioritizedRepair`: the parts of a merged part solved again one after another, each
+  in its own model around the plans of those before it (:mod:`stlplan.planner.prioritized`);
 * :class:`HeldRepair`: the model of a merged part solved once with every agent but those the
   collisions name held near the parts' plans (``repair.hold``), a small problem.
 """
@@ -23,6 +25,7 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.in_turn import InTurn, release
 from stlplan.planner.outcome import Plan
+from stlplan.planner.prioritized import prioritized
 from stlplan.planner.watch import loaded_plan
 
 
@@ -71,6 +74,19 @@ class InTurnRepair:
 
     def describe(self) -> str:
         return "in turn"
+
+
+@dataclass(frozen=True)
+class PrioritizedRepair:
+    """Part by part, each in its own model around the parts before it (prioritized planning)."""
+
+    def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
+        if len(broken.parts) < 2:
+            return None
+        return prioritized(broken.solver, broken.parts, config, budget)
+
+    def describe(self) -> str:
+        return "prioritized"
 
 
 @dataclass(frozen=True)

@@ -123,8 +123,9 @@ class Parts:
         return by_parts or self.inner.solve(problem, config, clock, budget, start)
 
     def describe(self) -> str:
-        crowd = self.inner.policy.crowd_agents
-        merge = f"in turn if >= {crowd} agents, held" if crowd is not None else "held"
+        policy = self.inner.policy
+        crowd, first = policy.crowd_agents, "prioritized, " if policy.orders else ""
+        merge = f"{first}in turn if >= {crowd} agents, held" if crowd is not None else "held"
         return f"parts({self.inner.describe()}; merge: {merge})"
 
 

@@ -1,0 +1,219 @@
+"""Parts planned one after another, each around the plans of the parts before it.
+
+When the plans of independent parts collide (a crowd of agents each with its own task, crossing
+one room), the merged part is one large problem. Prioritized planning finds a plan of it from
+small ones: the parts are taken in an order, and each is solved again in its *own* model with
+the parts before it as moving obstacles. Its requirements against an earlier part (separation,
+or a constraint binding agents of both) are encoded exactly as the full model encodes them
+(:meth:`~stlplan.planner.encoding.deferred.Requirement.encode`), with the earlier agents'
+states as numbers: the rows read the later agents' variables only. They are added lazily, as
+the part's plans violate them, with every step of their family (``repair.window``), and so are
+the part's own requirements. A part that finds no plan around those before it is moved to the
+front of the order and the parts are taken again (at most ``repair.orders`` orders), as
+revised prioritized planning raises the priority of a robot that failed. When every part
+found one, the union of their plans meets every requirement between them; the merged model is
+then solved once with every agent held near its plan (``repair.hold``), which sets every
+indicator, and its plan is returned when it meets every requirement (the watch of the loop
+takes it as any other plan of the full problem).
+
+The parts' models are left as they were: each turn's rows go in a block of their own, removed
+after the turn's order, and the turns solve in sessions of their own.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from pyomo.contrib.solver.common.results import TerminationCondition
+from pyomo.environ import Block, ConstraintList, VarList
+
+from stlplan.planner.budget import Budget
+from stlplan.planner.config import PlannerConfig
+from stlplan.planner.encoding.deferred import Requirement, neighbours, violated
+from stlplan.planner.encoding.model import PlanModel, add_requirements
+from stlplan.planner.encoding.sos1 import sos1_block
+from stlplan.planner.encoding.stl import Ledger
+from stlplan.planner.in_turn import hold_agents, release
+from stlplan.planner.outcome import Plan
+from stlplan.planner.session import HighsSession, has_solution
+from stlplan.planner.values import load_values, model_values
+from stlplan.planner.watch import VIOLATION_TOL, loaded_plan, pending_violations, trajectory_states
+
+_log = logging.getLogger(__name__)
+
+States = dict[str, np.ndarray]
+"""Agent name to its states ``x(0..H)``, an (H+1, n) array."""
+
+
+class _Overlay:
+    """``x[agent, k, i]``: the part's variable, or an earlier agent's planned state."""
+
+    def __init__(self, states: Any, fixed: Mapping[str, np.ndarray]) -> None:
+        self.states, self.fixed = states, fixed
+
+    def __getitem__(self, key: tuple[str, int, int]) -> Any:
+        agent, k, i = key
+        planned = self.fixed.get(agent)
+        return self.states[key] if planned is None else float(planned[k, i])
+
+
+class _Turn:
+    """One part solved around the plans of the parts before it (module docstring)."""
+
+    def __init__(self, pm: PlanModel, merged: PlanModel, config: PlannerConfig, clock: Any):
+        self.pm, self.merged, self.config = pm, merged, config
+        self.agents = {a.name for a in pm.problem.agents}
+        self.session = HighsSession(pm.model, config, clock, "step1")
+        self.session.trial = True
+        settings = self.session.solver.config  # a turn looks for a plan: a loose gap
+        settings.rel_gap = max(config.repair.gap, settings.rel_gap or 0.0)
+        assert merged.deferral is not None
+        self.crossing = [
+            n for n, r in enumerate(merged.deferral.lazy)
+            if self.agents & set(r.binding.values()) and not set(r.binding.values()) <= self.agents
+        ]  # fmt: skip
+        self.block: Any = None
+
+    def solve(self, fixed: States, budget: Budget) -> States | None:
+        """The part's states around ``fixed`` (the earlier agents' plans), or None."""
+        lazy = self._lazy()
+        mine = [
+            n for n in self.crossing if set(lazy[n].binding.values()) <= self.agents | set(fixed)
+        ]
+        ctx, added = self._context(fixed), set[int]()
+        for _ in range(self.config.repair.solves_per_turn):
+            if not self._solved(budget):
+                return None
+            states = {**fixed, **trajectory_states(self.pm)}
+            own = pending_violations(self.pm)
+            found = violated([lazy[n] for n in mine], states, self._margin(), VIOLATION_TOL)
+            if not own and not found:
+                return {a: states[a] for a in self.agents}
+            window = self.config.repair.window
+            add_requirements(self.pm, neighbours(self._own_lazy(), own, window))
+            for n in set(neighbours(lazy, [mine[i] for i in found], window)) & set(mine) - added:
+                lazy[n].encode(ctx.bound(lazy[n].binding))
+                added.add(n)
+            if budget.expired():
+                return None
+        return None
+
+    def _solved(self, budget: Budget) -> bool:
+        """Whether a solve found a plan: within ``repair.solve_seconds`` or, with none by then,
+        within the turn's ``budget``."""
+        for limit in (budget.seconds(self.config.repair.solve_seconds), budget):
+            solved = self.session.solve(limit)
+            if solved.stopped or has_solution(solved.results):
+                return not solved.stopped
+            if solved.results.termination_condition != TerminationCondition.maxTimeLimit:
+                return False  # infeasible around the parts before it
+        return False
+
+    def _lazy(self) -> Sequence[Requirement]:
+        assert self.merged.deferral is not None
+        return self.merged.deferral.lazy
+
+    def _own_lazy(self) -> Sequence[Requirement]:
+        assert self.pm.deferral is not None
+        return self.pm.deferral.lazy
+
+    def _margin(self) -> float:
+        margin = self.pm.margin
+        return margin if isinstance(margin, float) else float(margin.lb)
+
+    def _context(self, fixed: States) -> Any:
+        """The part's encoding context, its rows in a fresh block, earlier agents as numbers."""
+        self.clear()
+        ctx = self.pm.context
+        assert ctx is not None
+        block = Block(concrete=True)
+        block.indicators = VarList(bounds=(0, 1))
+        block.rows = ConstraintList()
+        block.sos = sos1_block()
+        self.pm.model.add_component(_free_name(self.pm.model, "around"), block)
+        self.block = block
+        points = {a: (s, s) for a, s in fixed.items()}
+        return dataclasses.replace(
+            ctx, block=block, sos=block.sos, states=_Overlay(ctx.states, fixed),
+            boxes={**ctx.boxes, **points}, memo={}, ledger=Ledger(),
+        )  # fmt: skip
+
+    def clear(self) -> None:
+        """Remove the rows of the last turn."""
+        if self.block is not None:
+            self.pm.model.del_component(self.block)
+            self.block = None
+
+
+def _free_name(model: Any, stem: str) -> str:
+    n = 0
+    while model.component(f"{stem}{n}") is not None:
+        n += 1
+    return f"{stem}{n}"
+
+
+def plan_in_order(
+    turns: Sequence[Any], order: Sequence[int], budget: Budget
+) -> tuple[States, int | None]:
+    """Each part of ``order`` around the plans of those before it; the states found, and the
+    first part that found none (None when every part found a plan)."""
+    fixed: States = {}
+    for place, i in enumerate(order):
+        share = budget.share(1 / (len(order) - place))
+        tick = time.perf_counter()
+        found = turns[i].solve(fixed, share)
+        _log.debug("prioritized: part %d, %.2f s", i, time.perf_counter() - tick)
+        if found is None:
+            _log.debug("prioritized: part %d found no plan after %d parts", i, place)
+            return fixed, i
+        fixed.update(found)
+    return fixed, None
+
+
+def raised(order: Sequence[int], failed: int) -> list[int]:
+    """``order`` with the part ``failed`` moved to its front."""
+    return [failed] + [i for i in order if i != failed]
+
+
+def prioritized(
+    merged: Any, parts: Sequence[PlanModel], config: PlannerConfig, budget: Budget
+) -> Plan | None:
+    """A plan of the merged part of ``merged`` (its lazy solver) from its ``parts`` planned in
+    turn (module docstring), or None."""
+    turns = [_Turn(pm, merged.pm, config, merged.clock) for pm in parts]
+    order = list(range(len(parts)))
+    saved = [model_values(pm.model) for pm in parts]
+    try:
+        for _ in range(max(1, config.repair.orders)):
+            states, failed = plan_in_order(turns, order, budget)
+            if failed is None:
+                return _held_plan(merged, turns, config, budget)
+            if budget.expired():
+                return None
+            order = raised(order, failed)
+        return None
+    finally:
+        for turn, values in zip(turns, saved, strict=True):
+            turn.clear()
+            load_values(turn.pm.model, values)
+
+
+def _held_plan(
+    merged: Any, turns: Sequence[_Turn], config: PlannerConfig, budget: Budget
+) -> Plan | None:
+    """The merged model solved once with every agent held near the turns' plans."""
+    pm, planned = merged.pm, dict[Any, float]()
+    for turn in turns:
+        planned.update((k, v) for k, v in model_values(turn.pm.model).items() if k[0] in ("x", "u"))
+    load_values(pm.model, planned)
+    held = hold_agents(pm, [a.name for a in pm.problem.agents], config.repair.hold)
+    try:
+        found = merged.run(budget, trial=True)
+    finally:
+        release(held)
+    return None if found.objective is None else loaded_plan(pm)

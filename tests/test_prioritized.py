@@ -1,0 +1,82 @@
+"""The prioritized repair: parts planned one after another, each around those before it."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from stlplan import crowd
+from stlplan.mission.loader import problem_from_text
+from stlplan.pipeline import plan
+from stlplan.planner import repairs
+from stlplan.planner.budget import Budget
+from stlplan.planner.config import Overrides, PlannerConfig
+from stlplan.planner.prioritized import plan_in_order, raised
+from stlplan.planner.repair_policy import RepairPolicy
+
+ROOM = crowd.Room(side=4.0, radius=1.6, pillar_offset=0.6, pillar_half=0.25, horizon=12, hold=2)
+
+
+@pytest.fixture(scope="module")
+def small_crowd() -> Any:
+    return problem_from_text(crowd.mission_text(6, ROOM), "crowd-6.yaml")
+
+
+class _Turn:
+    """A turn that fails the first ``fails`` times, else plans its agent at ``value``."""
+
+    def __init__(self, name: str, value: float, fails: int = 0) -> None:
+        self.name, self.value, self.fails, self.seen = name, value, fails, []
+
+    def solve(self, fixed: dict[str, np.ndarray], budget: Budget) -> dict[str, np.ndarray] | None:
+        self.seen.append(sorted(fixed))
+        if self.fails:
+            self.fails -= 1
+            return None
+        return {self.name: np.full((3, 2), self.value)}
+
+
+def test_each_part_is_planned_around_the_parts_before_it() -> None:
+    turns = [_Turn("a", 0.0), _Turn("b", 1.0), _Turn("c", 2.0)]
+    states, failed = plan_in_order(turns, [2, 0, 1], Budget.of_seconds(10))
+    assert failed is None and sorted(states) == ["a", "b", "c"]
+    assert [t.seen for t in turns] == [[["c"]], [["a", "c"]], [[]]]
+
+
+def test_a_part_without_a_plan_ends_the_order_and_goes_first_in_the_next() -> None:
+    turns = [_Turn("a", 0.0), _Turn("b", 1.0, fails=1), _Turn("c", 2.0)]
+    states, failed = plan_in_order(turns, [0, 1, 2], Budget.of_seconds(10))
+    assert failed == 1 and sorted(states) == ["a"] and turns[2].seen == []
+    assert raised([0, 1, 2], 1) == [1, 0, 2]
+
+
+def _merge_repairs(config: PlannerConfig) -> list[str]:
+    return [r.describe() for r, _ in RepairPolicy.of(config).merge_repairs(9)]
+
+
+def test_crowd_merges_try_the_prioritized_repair_first_unless_switched_off() -> None:
+    names = _merge_repairs
+    assert names(PlannerConfig()) == ["prioritized", "in turn", "held"]
+    assert names(PlannerConfig().with_overrides({"repair.orders": 0})) == ["in turn", "held"]
+    assert [r.describe() for r, _ in RepairPolicy.of(PlannerConfig()).merge_repairs(2)] == ["held"]
+
+
+def test_a_colliding_crowd_gets_its_plan_from_the_prioritized_repair(
+    small_crowd: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    found: list[Any] = []
+    real = repairs.prioritized
+
+    def spy(*args: Any) -> Any:
+        found.append(real(*args))
+        return found[-1]
+
+    monkeypatch.setattr(repairs, "prioritized", spy)
+    overrides = Overrides(
+        time_limit=120, threads=1, first_plan=True, config={"repair.crowd_agents": 2}
+    )
+    _, result = plan(small_crowd, overrides)
+    assert found and found[0] is not None and found[0].meets_all
+    assert result.status.has_plan and result.report is not None and result.report.satisfied
