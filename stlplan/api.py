@@ -23,7 +23,7 @@ from stlplan.outputs.trajio import write_trajectory_csv
 from stlplan.outputs.trajread import read_trajectory_csv
 from stlplan.pipeline import plan
 from stlplan.planner.config import Overrides, PlannerConfig
-from stlplan.result import MonitorReport, PlanResult
+from stlplan.result import MonitorReport, PlanResult, PlanStatus
 from stlplan.runtime import signals
 from stlplan.simulation.batch import Simulation, robustness, simulate
 from stlplan.simulation.settings import Simulated
@@ -122,17 +122,22 @@ def write_plan(
     animation: bool = True,
     viewer: bool = True,
 ) -> list[Path]:
-    """Write ``trajectory.csv``, ``summary.json``, ``plan.png``, ``timeline.png``, with
-    ``animation`` ``plan.gif`` (and ``plan.mp4`` where ``ffmpeg`` is installed), and with
-    ``viewer`` ``plan.html`` (:mod:`stlplan.outputs.viewer`), all or none.
+    """Write ``trajectory.csv``, ``summary.json``, ``plan.png``, ``timeline.png``,
+    ``convergence.png``, with ``animation`` ``plan.gif`` (and ``plan.mp4`` where ``ffmpeg`` is
+    installed), and with ``viewer`` ``plan.html`` (:mod:`stlplan.outputs.viewer`), all or none.
 
-    Without a plan, only ``summary.json`` is written.
+    ``convergence.png`` needs a point in :attr:`stlplan.result.PlanResult.convergence`.
+    Without a plan, only ``summary.json`` is written (and ``convergence.png`` but for an
+    infeasible mission).
     """
     from stlplan.outputs.plots import PlanAnimation, ffmpeg, plot_plan, plot_timeline
+    from stlplan.outputs.plots.convergence import plot_convergence
 
     out = Path(out)
     summary = summary_dict(problem, result, options or {})
     files: dict[str, Callable[[Path], None]] = {"summary.json": lambda p: write_json(summary, p)}
+    if result.convergence and result.status is not PlanStatus.INFEASIBLE:
+        files["convergence.png"] = lambda p: plot_convergence(problem, result, p)
     traj, report = result.trajectory, result.report
     if traj is not None and report is not None:
         title = f"{problem.mission.name}: {result.status.value}"
@@ -156,6 +161,7 @@ PLAN_FILES = (
     "trajectory.csv",
     "plan.png",
     "timeline.png",
+    "convergence.png",
     "plan.gif",
     "plan.mp4",
     "plan.html",

@@ -242,6 +242,19 @@ class Fallback:
     """Quantity (``objective``, ``margin``) to solver's value minus the written plan's value."""
 
 
+@dataclass(frozen=True)
+class ConvergencePoint:
+    """The whole problem's incumbent and bound at one moment of step 1
+    (:mod:`stlplan.planner.convergence` says which figures count)."""
+
+    at: float
+    """Seconds since planning started."""
+    incumbent: float | None
+    """The best objective of a plan meeting every requirement found by then (None: none yet)."""
+    bound: float | None
+    """The least upper bound on the optimum proven by then (None: none yet)."""
+
+
 @dataclass(frozen=True, eq=False)
 class PlanResult:
     """The outcome of planning a mission."""
@@ -298,6 +311,9 @@ class PlanResult:
     first_plan_seconds: float | None = None
     """Seconds from the start of the run until step 1 first held a plan of the whole problem
     meeting every requirement (None without a plan)."""
+    convergence: tuple[ConvergencePoint, ...] = ()
+    """The whole problem's incumbent and bound over step 1, thinned, in time order (empty
+    when neither was ever known)."""
     replan: Replan | None = None
     """For a replan: its step, events and time (None for a plan from the initial states)."""
     dropped: tuple[Dropped, ...] = ()

@@ -56,6 +56,7 @@ def test_solve_writes_every_output_and_check_accepts_it(tmp_path: Path) -> None:
     names = sorted(p.name for p in out.iterdir())
     movie = ["plan.gif", "plan.mp4"] if ffmpeg() is not None else ["plan.gif"]
     assert names == [
+        "convergence.png",
         *movie,
         "plan.html",
         "plan.png",
@@ -166,7 +167,14 @@ def test_no_animation_writes_none_and_removes_an_earlier_one(tmp_path: Path) -> 
     code, output = _run("solve", mission, "--out", str(out), "-q", "--no-animation")
     assert code == 0, output
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["plan.html", "plan.png", "summary.json", "timeline.png", "trajectory.csv"]
+    assert names == [
+        "convergence.png",
+        "plan.html",
+        "plan.png",
+        "summary.json",
+        "timeline.png",
+        "trajectory.csv",
+    ]
 
 
 def test_summary_json_is_strict(tmp_path: Path) -> None:

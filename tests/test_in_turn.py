@@ -22,38 +22,8 @@ from stlplan.planner.solve import plan
 from stlplan.planner.watch import pending_violations
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model
-from tests.helpers.missions import detour_for_free, mission
+from tests.helpers.missions import crossing_problem, detour_for_free
 from tests.helpers.solving import accepted, solve, up_front_optimum
-
-
-def crossing_problem(inter_sample: bool = True) -> Problem:
-    # four agents trade places across the middle of a square: their straight plans all meet
-    # near (1, 1) at step 2; each must reach its goal at step 4
-    corners = {
-        "a": ((0, 0), (2, 2)),
-        "b": ((2, 2), (0, 0)),
-        "c": ((0, 2), (2, 0)),
-        "d": ((2, 0), (0, 2)),
-    }
-    agents = [
-        {"name": n, "dynamics": "si", "initial_state": list(s)} for n, (s, _) in corners.items()
-    ]
-    regions = {
-        f"G{n}": {"box": [[x - 0.1, x + 0.1], [y - 0.1, y + 0.1]]}
-        for n, (_, (x, y)) in corners.items()
-    }
-    tasks = {
-        f"to_{n}": {"formula": f"F[4,4] in(p, G{n})", "roles": {"p": {"agent": n}}} for n in corners
-    }
-    return mission(
-        safety={"inter_sample": inter_sample},
-        horizon=4,
-        agents=agents,
-        regions=regions,
-        tasks=tasks,
-        separation=0.3,
-        objective={"beta": 1.0, "effort": "l1"},
-    )
 
 
 def _first_round(problem: Problem) -> tuple[Any, HighsSession]:

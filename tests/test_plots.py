@@ -1,4 +1,5 @@
-"""Tests of the figures: plan.png and timeline.png for a hand-built farm plan (paper Case I)."""
+"""Tests of the figures: plan.png and timeline.png for a hand-built farm plan (paper Case I), and
+convergence.png for a hand-built record of incumbents and bounds."""
 
 from __future__ import annotations
 
@@ -17,8 +18,10 @@ from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
 from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.outputs.plots import (
+    convergence_figure,
     obstacle_regions,
     plan_figure,
+    plot_convergence,
     plot_plan,
     plot_timeline,
     polygon_area,
@@ -28,7 +31,14 @@ from stlplan.outputs.plots import (
     timeline_figure,
     workspace,
 )
-from stlplan.result import MonitorReport, Trajectory, Verdict
+from stlplan.result import (
+    ConvergencePoint,
+    MonitorReport,
+    PlanResult,
+    PlanStatus,
+    Trajectory,
+    Verdict,
+)
 from tests.helpers.paths import FARM
 from tests.helpers.plans import make_report, make_trajectory
 
@@ -279,3 +289,55 @@ def test_figures_without_verdicts_or_runs(farm: Problem, tmp_path: Path) -> None
     plot_timeline(farm, make_trajectory(farm), empty, tmp_path / "timeline.png")
     assert_png(tmp_path / "plan.png")
     assert_png(tmp_path / "timeline.png", min_height=300)
+
+
+# ---------------------------------------------------------------------------- convergence.png
+RECORD = (
+    ConvergencePoint(3.4, None, 3.1839),
+    ConvergencePoint(7.6, None, 3.1702),
+    ConvergencePoint(20.0, 2.5, 3.1628),
+    ConvergencePoint(24.0, 3.1627, 3.16281),
+)
+"""A run whose parts give the whole's bound at 3.4 s and whose first plan comes at 20 s."""
+
+
+def test_plot_convergence_writes_a_png(farm: Problem, tmp_path: Path) -> None:
+    target = tmp_path / "convergence.png"
+    result = PlanResult(PlanStatus.OPTIMAL, "", convergence=RECORD, first_plan_seconds=20.0)
+    plot_convergence(farm, result, target)
+    assert_png(target, min_height=300)
+    assert [p.name for p in tmp_path.iterdir()] == ["convergence.png"]
+    with pytest.raises(ValueError, match="no convergence point"):
+        plot_convergence(farm, PlanResult(PlanStatus.OPTIMAL, ""), tmp_path / "none.png")
+
+
+def test_convergence_draws_the_incumbent_solid_the_bound_dashed_and_the_first_plan(
+    farm: Problem,
+) -> None:
+    ax = convergence_figure(farm, RECORD, 20.0).axes[0]
+    styles = {line.get_label(): line.get_linestyle() for line in ax.lines}
+    assert styles["incumbent (a plan meeting every requirement)"] == "-"
+    assert styles["bound (proven, upper)"] == "--"
+    assert styles["first plan (20.0 s)"] == "None"  # a star alone
+    star = next(line for line in ax.lines if line.get_label().startswith("first plan"))
+    assert list(star.get_xdata()) == [20.0] and list(star.get_ydata()) == [2.5]
+    incumbent = next(line for line in ax.lines if line.get_label().startswith("incumbent"))
+    assert np.isnan(incumbent.get_ydata()[:2]).all()  # nothing drawn before the first plan
+    subtitle = {t.get_text() for t in ax.texts}
+    assert "final gap 0.00% (incumbent 3.1627, bound 3.16281) at 24.0 s" in subtitle
+    assert ax.get_xlim()[0] == 0.0
+
+
+def test_convergence_without_a_plan_draws_the_bound_and_says_why_it_starts_late(
+    farm: Problem,
+) -> None:
+    record = (ConvergencePoint(38.4, None, 2.6196), ConvergencePoint(56.1, None, 2.6196))
+    ax = convergence_figure(farm, record, None).axes[0]
+    assert [line.get_label() for line in ax.lines if not line.get_label().startswith("_")] == [
+        "bound (proven, upper)"
+    ]
+    texts = {t.get_text() for t in ax.texts}
+    assert "no plan, bound 2.6196 at 56.1 s" in texts
+    assert "no plan or bound of the\nwhole team before 38.4 s" in texts
+    low, high = ax.get_ylim()
+    assert low < 2.6196 < high and high - low > 1e-3  # a flat record keeps a readable span

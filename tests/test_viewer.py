@@ -57,6 +57,7 @@ def farm() -> Problem:
 def test_solve_writes_one_self_contained_page(sync_pair) -> None:
     problem, _, out = sync_pair
     assert sorted(p.name for p in out.iterdir()) == [
+        "convergence.png",
         "plan.html",
         "plan.png",
         "summary.json",
@@ -88,7 +89,13 @@ def test_no_html_writes_none_and_removes_an_earlier_one(sync_pair, tmp_path: Pat
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["plan.png", "summary.json", "timeline.png", "trajectory.csv"]
+    assert names == [
+        "convergence.png",
+        "plan.png",
+        "summary.json",
+        "timeline.png",
+        "trajectory.csv",
+    ]
 
 
 # -------------------------------------------------------------------------------- the figure

@@ -94,6 +94,7 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "events": list(result.events),
         "round_log": [dict(record) for record in result.round_log],
         "first_plan_seconds": result.first_plan_seconds,
+        "convergence": [dataclasses.asdict(point) for point in result.convergence],
         "stage_seconds": dict(result.stage_seconds),
         "config": dict(result.config),
         "fallback": fallback_dict(result.fallback),

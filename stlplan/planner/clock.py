@@ -1,8 +1,9 @@
 """A planning run's clock: progress reports and what the run records.
 
 The run's time is shared out by :class:`stlplan.planner.budget.Budget`. :class:`Clock` reports
-progress, counts the lazy rounds, sums the time spent building models and keeps every
-confirmation of an infeasible verdict (:mod:`stlplan.planner.confirm`).
+progress, counts the lazy rounds, sums the time spent building models, keeps every
+confirmation of an infeasible verdict (:mod:`stlplan.planner.confirm`) and the whole problem's
+incumbent and bound over time (:mod:`stlplan.planner.convergence`).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
+from stlplan.planner.convergence import Convergence
 from stlplan.result import Confirmation
 
 Phase = Literal["build", "step1", "step2", "polish", "done"]
@@ -51,8 +53,9 @@ class Clock:
     """One run's records.
 
     Planning start time (``time.perf_counter`` seconds), the user's progress callback with its
-    first error, the lazy round, the time spent building models, and every confirmation of an
-    infeasible verdict (:mod:`stlplan.planner.confirm`).
+    first error, the lazy round, the time spent building models, every confirmation of an
+    infeasible verdict (:mod:`stlplan.planner.confirm`), and the whole problem's incumbent and
+    bound over time.
     """
 
     start: float
@@ -62,18 +65,29 @@ class Clock:
     build_seconds: float = 0.0
     confirmations: list[Confirmation] = field(default_factory=list)
     round_log: list[dict[str, Any]] = field(default_factory=list)
-    first_plan: float | None = None
-    """Seconds from the start until step 1 first held a plan of the whole problem that meets
-    every requirement (None: none yet)."""
     """One record per lazy round, in the order they ran (parts one after another): the agents of
     its model, when it ended, how long it took, HiGHS's termination, its bound, the best plan
     meeting every requirement so far, and the requirements its model held by kind
     (:meth:`record_round`)."""
+    first_plan: float | None = None
+    """Seconds from the start until step 1 first held a plan of the whole problem that meets
+    every requirement (None: none yet)."""
+    convergence: Convergence = field(default_factory=Convergence)
+    """The whole problem's incumbent and bound over time (:mod:`stlplan.planner.convergence`
+    says which figures count)."""
 
-    def plan_found(self) -> None:
-        """Note that step 1 holds a plan of the whole problem (the first time only)."""
+    def plan_found(self, objective: float | None) -> None:
+        """Note that step 1 holds a plan of the whole problem with ``objective`` (the first time
+        is the first plan's)."""
+        at = self.elapsed()
         if self.first_plan is None:
-            self.first_plan = self.elapsed()
+            self.first_plan = at
+        self.convergence.found(at, objective)
+
+    def bound_found(self, bound: float | None, force: bool = False) -> None:
+        """Note a bound of the whole problem (``force``: a point even when it is not tighter)."""
+        if force or self.convergence.tighter(bound):
+            self.convergence.bounded(self.elapsed(), bound, force)
 
     def record_round(self, agents: int, seconds: float, ended: str, bound: float | None,
                      best: float | None, added: dict[str, int]) -> None:  # fmt: skip

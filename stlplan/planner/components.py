@@ -30,7 +30,11 @@ solved again with an absolute gap while ``(U - F) / |F|`` exceeds the gap, so th
 full problem's optimum to the same tolerance as one solve. Finally the parts' requirements are
 encoded in one model of the full problem, its states held near the parts' plans, and one small
 solve sets every indicator (its objective, a point of the full problem, is the one reported);
-step 2 runs on that model as usual (:mod:`stlplan.planner.assembly`).
+step 2 runs on that model as usual (:mod:`stlplan.planner.assembly`). The run records ``U``
+whenever every part has a bound (at the end of each round of a part, from the least bound of
+each part's rounds so far), and the assembled plan's objective, as the whole problem's
+figures (:mod:`stlplan.planner.convergence`); a part's own figures are not the whole's, unless
+it is a merge of every part.
 """
 
 from __future__ import annotations
@@ -90,7 +94,8 @@ def _part(
         pm = build_model(sub, config, budget.share(config.model.floors_share).deadline)
     assert pm.deferral is not None
     add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
-    return Part(tuple(agents), pm, LazySolver(pm, config, clock, policy))
+    whole = len(sub.agents) == len(problem.agents)  # a merge of every part: the whole problem
+    return Part(tuple(agents), pm, LazySolver(pm, config, clock, policy, whole))
 
 
 def crossing_requirements(full: PlanModel, parts: Sequence[Part]) -> list[Requirement]:
@@ -161,10 +166,29 @@ def _tighten(
         parts[worst].step1 = parts[worst].solver.run(budget, abs_gap=abs_gap)
 
 
-def _combined(parts: Sequence[Part], config: PlannerConfig, seconds: float, rounds: int) -> Outcome:
-    """The parts' results as one :class:`Outcome` of the full problem."""
-    steps = [p.step1 for p in parts]
-    return outcome.combined(steps, config.solver.gap, signals.requested(), seconds, rounds)
+def _followed(parts: list[Part], clock: Clock) -> list[Part]:
+    """``parts``, each recording on ``clock`` at the end of its every round the sum of the
+    parts' least bounds so far (each part's lazy rounds: relaxations of it), once every part
+    has one: a bound of the whole problem."""
+
+    def record() -> None:
+        ceilings = [p.solver.watch.ceiling for p in parts if p.solver.watch is not None]
+        bounds = [c for c in ceilings if c is not None]
+        if len(bounds) == len(parts):
+            clock.bound_found(sum(bounds))
+
+    for part in parts:
+        part.solver.rounded = record
+    return parts
+
+
+def _combined(parts: Sequence[Part], config: PlannerConfig, clock: Clock, tick: float) -> Outcome:
+    """The parts' results as one :class:`Outcome` of the full problem (started at ``tick``);
+    its bound, the sum of the parts' when each has one, is recorded as the whole's."""
+    steps, seconds, rounds = [p.step1 for p in parts], time.perf_counter() - tick, clock.round or 1
+    done = outcome.combined(steps, config.solver.gap, signals.requested(), seconds, rounds)
+    clock.bound_found(done.bound)
+    return done
 
 
 def solve_in_shares(
@@ -254,13 +278,14 @@ def solve_parts(
     tick = time.perf_counter()
     with clock.building():
         full = build_model(problem, config.with_overrides({"model.floors": False}))
-    parts = [_part(problem, agents, config, clock, budget, policy=policy) for agents in names]
+    built = [_part(problem, agents, config, clock, budget, policy=policy) for agents in names]
+    parts = _followed(built, clock)
     if start is not None:  # its agents' states and inputs; HiGHS completes the rest
         for part in parts:
             part.solver.session.start_from(start)
     while True:
         solve_in_shares(parts, config, budget)
-        done = _combined(parts, config, time.perf_counter() - tick, clock.round or 1)
+        done = _combined(parts, config, clock, tick)
         if not done.status.has_plan:
             return full, done
         crossing = crossing_requirements(full, parts)
@@ -271,10 +296,10 @@ def solve_parts(
         parts = _merged(problem, parts, crossing, config, clock, budget)
     if not signals.requested():
         _tighten(parts, config, budget)
-    done = _combined(parts, config, time.perf_counter() - tick, clock.round or 1)
+    done = _combined(parts, config, clock, tick)
     objective = assemble(full, [p.pm for p in parts], config, clock, budget.finishing())
     if objective is not None:
-        clock.plan_found()
+        clock.plan_found(objective)
     seconds = time.perf_counter() - tick
     stopped = signals.requested()
     return full, outcome.assembled(done, objective, config.solver.gap, stopped, seconds)
@@ -288,7 +313,8 @@ def _merged(
     clock: Clock,
     budget: Budget,
 ) -> list[Part]:
-    """``parts`` with those linked by ``crossing`` merged (seeded with what they had added)."""
+    """``parts`` with those linked by ``crossing`` merged (seeded with what they had added),
+    each recording the whole's bound (:func:`_followed`)."""
     out = list(parts)
     for group in _merge(parts, [set(r.binding.values()) for r in crossing]):
         agents = {a for p in group for a in p.agents}
@@ -303,4 +329,4 @@ def _merged(
         merged.merged_from = tuple(group)
         merged.free = free
         out.append(merged)
-    return out
+    return _followed(out, clock)

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 
 from pyomo.contrib.solver.common.results import TerminationCondition
@@ -38,6 +38,7 @@ from stlplan.planner import outcome
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.convergence import follow
 from stlplan.planner.encoding.deferred import SEPARATION, best_side, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
 from stlplan.planner.in_turn import agents_of
@@ -64,6 +65,9 @@ class LazySolver:
         Progress reporting; ``clock.round`` counts the solves.
     policy
         When a round's plan is repaired in turn (default: ``config``'s).
+    whole
+        Whether ``pm`` is the whole team's model: its plans and bounds are then the run's
+        (:mod:`stlplan.planner.convergence`), not a part's.
     """
 
     def __init__(
@@ -72,8 +76,9 @@ class LazySolver:
         config: PlannerConfig,
         clock: Clock,
         policy: RepairPolicy | None = None,
+        whole: bool = False,
     ) -> None:
-        self.pm, self.config, self.clock = pm, config, clock
+        self.pm, self.config, self.clock, self.whole = pm, config, clock, whole
         self.policy = policy or RepairPolicy.of(config)
         self.min_solve = config.budget.min_solve_seconds
         clock.round = (clock.round or 0) + 1
@@ -88,6 +93,12 @@ class LazySolver:
             options = self.session.solver.config.solver_options
             self.session.solver.config.solver_options = {**options, "mip_max_improving_sols": 1}
         self.trial = False
+        self.rounded: Callable[[], None] | None = None
+        """Called at the end of every round but a trial's (the parts record the whole's bound)."""
+        if whole:
+            follow(self.session.highs, lambda: self.session.trial, clock, pm.deferral is None)
+            if self.watch is not None:
+                self.watch.found = clock.plan_found
 
     def run(self, budget: Budget, abs_gap: float | None = None, trial: bool = False) -> Outcome:
         """Solve within ``budget``, to the relative gap (or to ``abs_gap`` alone).
@@ -127,10 +138,7 @@ class LazySolver:
             bound = results.objective_bound
             if not self.trial and bound is not None and math.isfinite(bound):
                 watch.ceiling = lowest(bound, watch.ceiling)  # every round bounds the problem
-            best = None if watch.best is None else watch.best.objective
-            ended = results.termination_condition.name
-            agents = len(pm.problem.agents)
-            clock.record_round(agents, solved.seconds, ended, bound, best, added_by_kind(pm))
+            self._record(solved)
             if watch.best is not None and watch.closed(results.objective_bound):
                 return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
             if watch.done():
@@ -152,6 +160,20 @@ class LazySolver:
             if watch.done():  # a repair found the first plan
                 return self._from_best(solved, tick, rounds, PlanStatus.FEASIBLE)
             clock.round = (clock.round or 0) + 1
+
+    def _record(self, solved: Solved) -> None:
+        """Log the round on the clock; outside a trial, its bound (a relaxation's) is the run's
+        when the model is the whole team's, and the parts' sum is brought up to date."""
+        pm, clock, watch, results = self.pm, self.clock, self.watch, solved.results
+        assert watch is not None
+        best = None if watch.best is None else watch.best.objective
+        ended, bound = results.termination_condition.name, results.objective_bound
+        agents = len(pm.problem.agents)
+        clock.record_round(agents, solved.seconds, ended, bound, best, added_by_kind(pm))
+        if self.whole and not self.trial:
+            clock.bound_found(bound, force=True)
+        if self.rounded is not None and not self.trial:
+            self.rounded()
 
     def _between_rounds(self, bad: list[int], budget: Budget, seconds: float) -> bool:
         """Add the requirements the round's plan violates (``bad``), first repairing that plan
@@ -245,16 +267,15 @@ def solve_step1(
     policy: RepairPolicy | None = None,
     start: Plan | None = None,
 ) -> Outcome:
-    """Solve problem (step1) of ``pm`` within ``budget``, lazily when ``pm`` was built with
+    """Solve problem (step1) of ``pm``, the whole team's model (its plans and bounds are the
+    run's), within ``budget``, lazily when ``pm`` was built with
     ``lazy=True`` (repairing in turn by ``policy``), the first solve starting from ``start``."""
-    solver = LazySolver(pm, config, clock, policy)
-    if solver.watch is not None:  # a model of the whole problem: its plans are the run's
-        solver.watch.found = clock.plan_found
+    solver = LazySolver(pm, config, clock, policy, whole=True)
     if start is not None:
         solver.session.start_from(start)
     ended = solver.run(budget)
     if ended.status.has_plan:
-        clock.plan_found()  # (at the latest: when step 1 ends with one)
+        clock.plan_found(ended.objective)  # (at the latest: when step 1 ends with one)
     return ended
 
 

@@ -91,6 +91,14 @@ def _step_one(run: _Run) -> None:
     run.size = model_size(run.pm.model)  # before the continuous stage fixes its decisions
     has_plan = run.step1.status.has_plan
     run.plan = plan_of(run.pm.model, run.pm.model.step1, run.pm.added) if has_plan else None
+    _step_one_ended(run)
+
+
+def _step_one_ended(run: _Run) -> None:
+    """The last point of the run's convergence record: step 1's plan (if any) and bound."""
+    assert run.step1 is not None
+    objective = run.step1.objective if run.step1.status.has_plan else None
+    run.clock.convergence.ended(run.clock.elapsed(), objective, run.step1.bound)
 
 
 def _continuous(run: _Run) -> None:
@@ -116,12 +124,14 @@ def _strict_retry(run: _Run) -> None:
         return
     first = dataclasses.replace(run)
     run.config, run.strictly = strict(run.config), True
+    run.clock.convergence.restart(run.clock.elapsed())  # the first plan met its decisions loosely
     _step_one(run)
     _continuous(run)
     out_of_time = (PlanStatus.NO_PLAN, PlanStatus.INTERRUPTED_NO_PLAN)
     if run.step1 is None or run.step1.status in out_of_time:
         run.pm, run.step1, run.plan = first.pm, first.step1, first.plan
         run.size, run.ended = first.size, first.ended
+        _step_one_ended(run)
 
 
 STAGES: tuple[tuple[str, Callable[[_Run], None]], ...] = (
@@ -182,6 +192,7 @@ def _readout(run: _Run) -> PlanResult:
         "confirmations": tuple(clock.confirmations),
         "round_log": tuple(clock.round_log),
         "first_plan_seconds": clock.first_plan if step1.status.has_plan else None,
+        "convergence": tuple(clock.convergence.points),
     }
     build, solve = clock.build_seconds, clock.elapsed() - clock.build_seconds
     if not step1.status.has_plan:

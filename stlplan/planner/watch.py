@@ -66,7 +66,8 @@ class Watch:
     first
         Stop at the first plan that meets every requirement.
     found
-        Called with every plan kept (the run's clock, for a model of the whole problem).
+        Called with the objective of every plan kept (the run's clock, for a model of the whole
+        problem).
     """
 
     pm: PlanModel
@@ -77,8 +78,8 @@ class Watch:
     ceiling: float | None = None
     stopped: bool = False
     first: bool = False
-    found: Callable[[], None] | None = None
-    """Called when a plan is kept (a plan of the whole problem: the clock notes the first)."""
+    found: Callable[[float], None] | None = None
+    """Called with a kept plan's objective (a plan of the whole problem: the clock records it)."""
 
     def states(self, x: np.ndarray) -> dict[str, np.ndarray]:
         """Agent states of HiGHS's column vector ``x`` (fixed states keep their value)."""
@@ -117,7 +118,7 @@ class Watch:
         if plan.better_than(self.best):
             self.best = plan
             if self.found is not None:
-                self.found()
+                self.found(plan.objective)
 
     def done(self) -> bool:
         """Whether the first plan is all that is asked for, and found."""

@@ -71,3 +71,33 @@ def detour_for_free() -> Problem:
         separation=0.2,
         objective={"beta": 1.0, "effort": "l1"},
     )
+
+
+def crossing_problem(inter_sample: bool = True) -> Problem:
+    """Four agents trade places across the middle of a square: their straight plans all meet
+    near (1, 1) at step 2; each must reach its goal at step 4 (each agent its own part)."""
+    corners = {
+        "a": ((0, 0), (2, 2)),
+        "b": ((2, 2), (0, 0)),
+        "c": ((0, 2), (2, 0)),
+        "d": ((2, 0), (0, 2)),
+    }
+    agents = [
+        {"name": n, "dynamics": "si", "initial_state": list(s)} for n, (s, _) in corners.items()
+    ]
+    regions = {
+        f"G{n}": {"box": [[x - 0.1, x + 0.1], [y - 0.1, y + 0.1]]}
+        for n, (_, (x, y)) in corners.items()
+    }
+    tasks = {
+        f"to_{n}": {"formula": f"F[4,4] in(p, G{n})", "roles": {"p": {"agent": n}}} for n in corners
+    }
+    return mission(
+        safety={"inter_sample": inter_sample},
+        horizon=4,
+        agents=agents,
+        regions=regions,
+        tasks=tasks,
+        separation=0.3,
+        objective={"beta": 1.0, "effort": "l1"},
+    )
