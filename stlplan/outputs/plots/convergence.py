@@ -91,8 +91,10 @@ def convergence_figure(
     end = max(float(at.max()), first_plan or 0.0)
     ax.set_xlim(0.0, end * 1.04 + 0.05)
     if at[0] > 0.15 * end:  # a long wait: say why nothing is drawn there
-        note = f"no plan or bound of the\nwhole team before {at[0]:.1f} s"
-        ax.text(at[0] / 2, 0.5, note, transform=ax.get_xaxis_transform(), **_NOTE)
+        note = f"no plan or bound\nof the whole team\nbefore {at[0]:.1f} s"
+        ax.text(
+            0.01 * end, 0.5, note, transform=ax.get_xaxis_transform(), **{**_NOTE, "ha": "left"}
+        )
     _fit_values(ax, np.concatenate([incumbent, bound]))
     ax.set_xlabel("seconds since planning started")
     ax.set_ylabel("step-1 objective (maximized)")
