@@ -131,6 +131,10 @@ class RepairConfig(_Section):
     """Time limit of one solve of a prioritized repair's turn, s: its best plan within it is
     taken (the turn looks for a plan, not for its optimum). Measured:
     docs/measurements.md#the-prioritized-repair."""
+    near: float = Field(default=0.3, ge=0)
+    """A prioritized turn adds, with the requirements against earlier parts its plan violates,
+    those it meets by less than this (fewer solves per turn). Measured:
+    docs/measurements.md#the-prioritized-repair."""
     orders: int = Field(default=3, ge=0)
     """Orders of the parts a prioritized repair of a merged crowd tries, each starting with the
     part that failed the one before (0: no prioritized repair). Measured:

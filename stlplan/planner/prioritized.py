@@ -91,8 +91,11 @@ class _Turn:
                 return None
             states = {**fixed, **trajectory_states(self.pm)}
             own = pending_violations(self.pm)
-            found = violated([lazy[n] for n in mine], states, self._margin(), VIOLATION_TOL)
-            if not own and not found:
+            near = -self.config.repair.near  # and those met by less than repair.near
+            found = violated([lazy[n] for n in mine], states, self._margin(), near)
+            if not own and not violated(
+                [lazy[mine[i]] for i in found], states, self._margin(), VIOLATION_TOL
+            ):
                 return {a: states[a] for a in self.agents}
             window = self.config.repair.window
             add_requirements(self.pm, neighbours(self._own_lazy(), own, window))
@@ -101,6 +104,7 @@ class _Turn:
                 added.add(n)
             if budget.expired():
                 return None
+        _log.debug("prioritized: a turn used its %d solves", self.config.repair.solves_per_turn)
         return None
 
     def _solved(self, budget: Budget) -> bool:
@@ -110,7 +114,9 @@ class _Turn:
             solved = self.session.solve(limit)
             if solved.stopped or has_solution(solved.results):
                 return not solved.stopped
-            if solved.results.termination_condition != TerminationCondition.maxTimeLimit:
+            ended = solved.results.termination_condition
+            if ended != TerminationCondition.maxTimeLimit:
+                _log.debug("prioritized: a turn ended %s", ended.name)
                 return False  # infeasible around the parts before it
         return False
 
