@@ -27,7 +27,9 @@ or of its own bound.
 With no such violation left, the union of the parts' plans is feasible for the full problem and its
 objective is the sum ``F = sum_c F_c``, while ``U = sum_c U_c`` bounds the full optimum. A part is
 solved again with an absolute gap while ``(U - F) / |F|`` exceeds the gap, so the result is the
-full problem's optimum to the same tolerance as one solve. Finally the parts' requirements are
+full problem's optimum to the same tolerance as one solve (with ``solver.first_plan`` neither
+this nor a merged part's own solve after a repair that found a plan: a plan is all that is
+asked for). Finally the parts' requirements are
 encoded in one model of the full problem, its states held near the parts' plans, and one small
 solve sets every indicator (its objective, a point of the full problem, is the one reported);
 step 2 runs on that model as usual (:mod:`stlplan.planner.assembly`).
@@ -158,7 +160,11 @@ def _tighten(
         if chosen is None:
             return
         worst, abs_gap = chosen
-        parts[worst].step1 = parts[worst].solver.run(budget, abs_gap=abs_gap)
+        part = parts[worst]
+        reached = part.solver.clock.reached
+        reached.solving(part.agents, len(part.merged_from))
+        with reached.within("tightening"):
+            part.step1 = part.solver.run(budget, abs_gap=abs_gap)
 
 
 def _combined(parts: Sequence[Part], config: PlannerConfig, seconds: float, rounds: int) -> Outcome:
@@ -198,12 +204,18 @@ def solve_in_shares(
 
 def _solve_part(part: Part, config: PlannerConfig, budget: Budget) -> Outcome:
     """A part's first solve; a merged part is repaired first (module docstring)."""
+    reached = part.solver.clock.reached
+    reached.solving(part.agents, len(part.merged_from))
     if not part.merged_from:
-        return part.solver.run(budget)
+        done = part.solver.run(budget)
+        reached.planned += done.status.has_plan
+        return done
     repaired = _repair(part, config, budget)
     _, ceiling = _totals(part.merged_from)
     assert part.solver.watch is not None
     part.solver.watch.ceiling = ceiling
+    if repaired is not None and config.solver.first_plan:  # a plan is all that is asked for
+        return outcome.proven(repaired, ceiling, config.solver.gap) or repaired
     return outcome.proven(repaired, ceiling, config.solver.gap) or part.solver.run(budget)
 
 
@@ -251,6 +263,7 @@ def solve_parts(
     names = agent_parts(problem)
     if len(names) < 2:
         return None
+    clock.reached.parts = len(names)
     tick = time.perf_counter()
     with clock.building():
         full = build_model(problem, config.with_overrides({"model.floors": False}))
@@ -260,7 +273,7 @@ def solve_parts(
             part.solver.session.start_from(start)
     while True:
         solve_in_shares(parts, config, budget)
-        done = _combined(parts, config, time.perf_counter() - tick, clock.round or 1)
+        done = _combined(parts, config, time.perf_counter() - tick, len(clock.round_log))
         if not done.status.has_plan:
             return full, done
         crossing = crossing_requirements(full, parts)
@@ -269,15 +282,28 @@ def solve_parts(
         if signals.requested():  # the parts' plans collide: no plan of the full problem
             return full, dataclasses.replace(done, status=PlanStatus.INTERRUPTED_NO_PLAN)
         parts = _merged(problem, parts, crossing, config, clock, budget)
-    if not signals.requested():
+    if not (signals.requested() or config.solver.first_plan):
         _tighten(parts, config, budget)
-    done = _combined(parts, config, time.perf_counter() - tick, clock.round or 1)
-    objective = assemble(full, [p.pm for p in parts], config, clock, budget.finishing())
-    if objective is not None:
-        clock.plan_found()
+    done = _combined(parts, config, time.perf_counter() - tick, len(clock.round_log))
+    objective = _assembled(full, parts, config, clock, budget)
     seconds = time.perf_counter() - tick
     stopped = signals.requested()
     return full, outcome.assembled(done, objective, config.solver.gap, stopped, seconds)
+
+
+def _assembled(
+    full: PlanModel, parts: Sequence[Part], config: PlannerConfig, clock: Clock, budget: Budget
+) -> float | None:
+    """The parts' plans assembled in ``full`` (:func:`assemble`, a finishing solve of the whole
+    team); its objective, or None."""
+    clock.reached.solving([a.name for a in full.problem.agents])
+    with clock.reached.within("assembly"):
+        objective = assemble(full, [p.pm for p in parts], config, clock, budget.finishing())
+        if objective is None:
+            clock.reached.failed("assembly")
+    if objective is not None:
+        clock.plan_found()
+    return objective
 
 
 def _merged(
@@ -300,6 +326,7 @@ def _merged(
         order = [a.name for a in problem.agents if a.name in agents]
         out = [p for p in out if p not in group]
         merged = _part(problem, order, config, clock, budget, seed, group[0].solver.policy)
+        clock.reached.merges += 1
         merged.merged_from = tuple(group)
         merged.free = free
         out.append(merged)
