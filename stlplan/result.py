@@ -295,7 +295,7 @@ class PlanResult:
     strict retry, a landed step 2)."""
     round_log: tuple[Mapping[str, Any], ...] = ()
     """One record per lazy round: ``round``, ``part`` (its agents in a few words: a part's, or
-    the team's), ``stage`` (of that part: ``lazy rounds``, ``held repair``, ``tightening``),
+    the team's), ``stage`` (of that part: ``lazy rounds``, ``held repair``, ``tightening``, ``up front``),
     ``agents`` (how many), ``at`` (s since planning started), ``seconds``, ``ended`` (HiGHS's
     termination), ``bound``, ``best`` (the best plan meeting every requirement so far) and
     ``held`` (the lazy requirements in the model when it was solved, by kind)."""

@@ -131,3 +131,20 @@ def test_a_completion_loads_each_batch_and_stops_when_the_time_is_up(
     assert not _added_in_time(pm, session, Budget(9.0, 9.0))  # type: ignore[arg-type]
     assert loads == [500, 1000] and pending > 1000
     assert session.clock.reached.progress == f"1,000 of {pending:,} requirements left out added"
+
+
+def test_a_team_solved_up_front_names_its_one_solve() -> None:
+    from stlplan.planner.solve import plan
+    from tests.helpers.missions import swap_problem
+
+    config = PlannerConfig().with_overrides({"lazy.enabled": False})
+    result = plan(swap_problem(0.5, horizon=3, inter_sample=True), config)
+    assert result.rounds == len(result.round_log) == 1
+    assert result.round_log[0]["stage"] == "up front"
+    reached = Reached(order=("a", "b"))
+    reached.solving(["a", "b"])
+    reached.enter("up front")
+    reached.round_done(0)
+    assert reached.describe() == (
+        "the whole team was in its one solve, every requirement in the model"
+    )

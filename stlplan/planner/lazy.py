@@ -103,6 +103,7 @@ class LazySolver:
             if self.watch is not None:
                 self.watch.abs_gap, self.watch.gap = abs_gap, 0.0
         if self.watch is None:  # every requirement in the model: one solve
+            self.clock.reached.enter("up front")
             solved = self._solve(budget)
             return _ended(solved, time.perf_counter() - tick, 1, 0)
         return self._capped(self._rounds(budget, tick))

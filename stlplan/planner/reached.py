@@ -6,9 +6,10 @@ A run that ends without a plan says which part failed, at which stage and how fa
 
 * the parts (:mod:`stlplan.planner.components`): how many parts, how many of them planned, the
   part being solved (its agents, and how many parts it was merged from);
-* a stage of that part: its own lazy rounds, a repair in turn (:mod:`stlplan.planner.in_turn`:
-  agents repaired of those freed), a held repair, the tightening of a part's bound, the
-  assembly of the parts' plans, the completion of the last round's plan at the time limit;
+* a stage of that part: its one solve (every requirement up front), its own lazy rounds, a
+  repair in turn (:mod:`stlplan.planner.in_turn`: agents repaired of those freed), a held
+  repair, the tightening of a part's bound, the assembly of the parts' plans, the completion
+  of the last round's plan at the time limit;
 * every lazy round recorded (:meth:`stlplan.planner.clock.Clock.record_round`): the part's
   rounds and the requirements its model held.
 
@@ -28,6 +29,7 @@ SHOWN = 3
 """Agents named when a part's agents are not a run of the mission's order."""
 
 STAGES = {
+    "up front": "its one solve, every requirement in the model",
     "lazy rounds": "its own lazy rounds",
     "repair in turn": "the repair in turn",
     "held repair": "the held repair",
@@ -133,8 +135,10 @@ class Reached:
         """Which part step 1 was solving, in which stage, and how far it got, in words."""
         if not self.part:
             return "no part of the team was solved"
-        text = f"{self._part_words()} was in {_stage_words(self.stage, self.progress)} after "
-        text += f"{_count(self.rounds, 'lazy round')} ({_count(self.held, 'requirement')} added)"
+        text = f"{self._part_words()} was in {_stage_words(self.stage, self.progress)}"
+        if self.stage != "up front":
+            text += f" after {_count(self.rounds, 'lazy round')}"
+            text += f" ({_count(self.held, 'requirement')} added)"
         if self.notes:
             text += "; before that, no plan from " + _listed(self.notes)
         if self.parts > 1:
