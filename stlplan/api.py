@@ -54,7 +54,7 @@ def validate(mission: str | Path) -> Problem:
     """Load and check a mission file, and that its model fits this machine and the mission's
     time limit (:func:`stlplan.analysis.size.check_size`); raise on the first mistake."""
     problem = load_problem(mission)
-    check_size(problem, problem.mission.solver.time_limit, problem.mission.solver.tasks)
+    check_size(problem)
     return problem
 
 
@@ -187,7 +187,7 @@ def solve(
     config = PlannerConfig.from_mission(problem.mission, (overrides or Overrides()).dotted())
     if config.model.tasks == "groups":
         check_enumerable(problem)
-    check_size(problem, config.solver.time_limit, config.model.tasks)
+    check_size(problem, config)
     written = _written(out, overrides, animation, viewer)
     return written(lambda: plan(problem, overrides, progress=progress))[1]
 
@@ -253,7 +253,7 @@ def replan(
     past = read_trajectory_csv(problem, executed, through=at)
     again = replanned(problem, past, at, lost, closed)  # every bad input before writing
     config = PlannerConfig.from_mission(problem.mission, (overrides or Overrides()).dotted())
-    check_size(again, config.solver.time_limit, config.model.tasks)
+    check_size(again, config)
     start = None
     with contextlib.suppress(StlplanError):  # later rows incomplete: no start from them
         start = trajectory_start(again, read_trajectory_csv(problem, executed), at)

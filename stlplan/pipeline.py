@@ -73,7 +73,7 @@ def plan(
     if config.model.tasks == "groups":
         check_enumerable(problem)
     run = Budget.for_run(config)
-    check_size(problem, config.solver.time_limit, config.model.tasks)
+    check_size(problem, config)
     used: dict[str, Any] = {"config": config.model_dump(), "strategy": describe(config)}
     early = _infeasible_before_solving(problem)
     if early is not None and not config.diagnosis.degrade:

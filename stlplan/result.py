@@ -293,18 +293,25 @@ class PlanResult:
     """The planner's whole configuration for this run, by section and knob."""
     strategy: str = ""
     """The composed strategy of the run in one line."""
-    rounds: int = 1
-    """Solves of step 1's lazy loop (and of its parts)."""
+    rounds: int = 0
+    """Lazy rounds: solves of step 1's model (and of its parts' models), one record each in
+    :attr:`round_log`."""
     requirements_added: int = 0
-    """Lazy requirements the plan's model holds."""
+    """Lazy requirements the rounds and the repairs between them added to the final models
+    (the plan's, or the last tried): what the last record of each final part held, and what a
+    repair added after it."""
+    requirements_completed: int = 0
+    """Lazy requirements a completion added at the time limit (every one left out, or those
+    added before its time ran out)."""
     events: tuple[str, ...] = ()
-    round_log: tuple[Mapping[str, Any], ...] = ()
-    """One record per lazy round: ``round``, ``agents`` (of its model: a part's, or the team's),
-    ``at`` (s since planning started), ``seconds``,
-    ``ended`` (HiGHS's termination), ``bound``, ``best`` (the best plan meeting every
-    requirement so far) and ``added`` (requirements in the model by kind)."""
     """What happened on the way, in words (lazy rounds, a completion, overturned verdicts, a
     strict retry, a landed step 2)."""
+    round_log: tuple[Mapping[str, Any], ...] = ()
+    """One record per lazy round: ``round``, ``part`` (its agents in a few words: a part's, or
+    the team's), ``stage`` (of that part: ``lazy rounds``, ``held repair``, ``tightening``, ``up front``),
+    ``agents`` (how many), ``at`` (s since planning started), ``seconds``, ``ended`` (HiGHS's
+    termination), ``bound``, ``best`` (the best plan meeting every requirement so far) and
+    ``held`` (the lazy requirements in the model when it was solved, by kind)."""
     stage_seconds: Mapping[str, float] = field(default_factory=dict)
     """Wall time of each stage of the run (step 1, the continuous stage, a diagnosis, the
     monitor's verification), s."""

@@ -35,6 +35,9 @@ def test_a_small_time_limit_bounds_a_long_horizon_run(tmp_path: Path) -> None:
     # was not the one asked for, and no signal is sent (INTERRUPTED) nor is it infeasible.
     assert result.status is PlanStatus.NO_PLAN, result.message
     assert f"within the time limit of {limit:g} s" in result.message
+    # how far it got: the one agent's own lazy rounds, as many as the records
+    assert "; the whole team was in its own lazy rounds after " in result.message
+    assert result.rounds == len(result.round_log) >= 1
     # Unbounded, the effort floors of this horizon alone take over a minute (about 100 s on an
     # idle 2-core machine), while the bounded run takes about 5 s; the wall-clock bound sits far
     # between the two, so that a loaded machine does not fail it while a build that ignores the

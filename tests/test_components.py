@@ -214,3 +214,21 @@ def test_parts_are_solved_smallest_first_in_shares_with_a_reserve(
     usable = 100.0 * (1 - PlannerConfig().parts.merge_reserve)
     assert [share for _, share in asked] == pytest.approx([usable / 3] * 3)
     assert all(p.step1 is not None for p in parts)
+
+
+def test_every_solve_of_a_merged_part_is_a_round_of_its_own() -> None:
+    # a and b apart, then merged: the held repair's solve, then the merged part's own round;
+    # the two used to share one round number, so `rounds` was one less than the records
+    result = plan(swap_problem(0.5, horizon=3, inter_sample=True))
+    assert result.status is PlanStatus.OPTIMAL
+    log = result.round_log
+    assert result.rounds == len(log) == 4
+    assert [r["round"] for r in log] == [1, 2, 3, 4]
+    assert [(r["part"], r["stage"]) for r in log] == [
+        ("a", "lazy rounds"),
+        ("b", "lazy rounds"),
+        ("a, b", "held repair"),
+        ("a, b", "lazy rounds"),
+    ]
+    assert result.requirements_added == sum(log[-1]["held"].values()) > 0
+    assert result.requirements_completed == 0

@@ -198,12 +198,17 @@ def test_a_known_ceiling_closes_the_loop() -> None:
 def test_a_completion_out_of_time_adds_no_requirement_and_has_no_plan() -> None:
     from stlplan.planner import lazy
     from stlplan.planner.budget import Budget
+    from stlplan.planner.clock import Clock
     from stlplan.planner.config import PlannerConfig
+    from stlplan.planner.session import HighsSession
 
     pm = build_model(swap_problem(0.5, horizon=3, inter_sample=True), PlannerConfig())
+    session = HighsSession(pm.model, PlannerConfig(), Clock(0.0, None), "step1")
+    rows = session.highs.getNumRow()
     pending = len(pm.pending())
     assert pending > 0
-    assert not lazy._added_in_time(pm, Budget.of_seconds(-1.0))
+    assert not lazy._added_in_time(pm, session, Budget.of_seconds(-1.0))
     assert len(pm.pending()) == pending
-    assert lazy._added_in_time(pm, Budget.of_seconds(60.0))
+    assert lazy._added_in_time(pm, session, Budget.of_seconds(60.0))
     assert pm.pending() == []
+    assert session.highs.getNumRow() > rows  # loaded into HiGHS as they were added

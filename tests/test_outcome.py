@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 from stlplan.planner import outcome
@@ -103,3 +105,14 @@ def test_parts_without_a_plan_still_bound_the_whole() -> None:
     assert whole.bound == pytest.approx(3.5)
     unknown = Outcome(S.NO_PLAN, None, None, None, 1.0, 2, 0, "maxTimeLimit")
     assert outcome.combined([a, unknown], 1e-4, False, 2.0, 3).bound is None
+
+
+def test_the_parts_count_their_rounds_requirements_and_completions_apart() -> None:
+    first = Outcome(S.OPTIMAL, -1.0, -1.0, 0.0, 1.0, 2, 5, "optimal")
+    completed = Outcome(S.FEASIBLE, -2.0, -1.5, 0.25, 1.0, 3, 7, "maxTimeLimit", True, 40)
+    both = outcome.combined([first, completed], 1e-4, False, 2.0, 5)
+    assert (both.rounds, both.added, both.completion_added, both.completed) == (5, 12, 40, True)
+    failed = dataclasses.replace(completed, status=S.NO_PLAN, objective=None)
+    none = outcome.combined([first, failed], 1e-4, False, 2.0, 5)
+    assert none.status is S.NO_PLAN
+    assert (none.added, none.completion_added, none.completed) == (12, 40, True)

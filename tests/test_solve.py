@@ -346,6 +346,12 @@ def test_a_failed_completion_is_not_called_completed() -> None:
     assert not any("completed" in e for e in run_events(failed, Finish(), config, clock, False))
     assert "cannot meet" not in step1_message(done, config, clock)
     plain = dataclasses.replace(done, completed=False)
+    for _ in range(3):
+        clock.record_round(["a"], 1.0, "maxTimeLimit", None, None, {"separation step": 4})
     assert run_events(plain, Finish(), config, clock, False) == (
         "3 lazy rounds, 4 requirements added",
+    )
+    more = dataclasses.replace(done, completion_added=5)
+    assert run_events(more, Finish(), config, clock, False)[0] == (
+        "3 lazy rounds, 4 requirements added; the completion added 5 more"
     )

@@ -91,6 +91,7 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "strategy": result.strategy,
         "rounds": result.rounds,
         "requirements_added": result.requirements_added,
+        "requirements_completed": result.requirements_completed,
         "events": list(result.events),
         "round_log": [dict(record) for record in result.round_log],
         "first_plan_seconds": result.first_plan_seconds,

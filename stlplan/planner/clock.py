@@ -1,9 +1,10 @@
 """A planning run's clock: progress reports and what the run records.
 
 The run's time is shared out by :class:`stlplan.planner.budget.Budget`. :class:`Clock` reports
-progress, counts the lazy rounds, sums the time spent building models, keeps every
-confirmation of an infeasible verdict (:mod:`stlplan.planner.confirm`) and the whole problem's
-incumbent and bound over time (:mod:`stlplan.planner.convergence`).
+progress, records the lazy rounds, sums the time spent building models, keeps every
+confirmation of an infeasible verdict (:mod:`stlplan.planner.confirm`), how far step 1 got
+(:class:`stlplan.planner.reached.Reached`) and the whole problem's incumbent and bound over time
+(:mod:`stlplan.planner.convergence`).
 """
 
 from __future__ import annotations
@@ -11,11 +12,12 @@ from __future__ import annotations
 import contextlib
 import math
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from stlplan.planner.convergence import Convergence
+from stlplan.planner.reached import Reached, agent_names
 from stlplan.result import Confirmation
 
 Phase = Literal["build", "step1", "step2", "polish", "done"]
@@ -53,21 +55,23 @@ class Clock:
     """One run's records.
 
     Planning start time (``time.perf_counter`` seconds), the user's progress callback with its
-    first error, the lazy round, the time spent building models, every confirmation of an
-    infeasible verdict (:mod:`stlplan.planner.confirm`), and the whole problem's incumbent and
-    bound over time.
+    first error, the lazy round under way, the time spent building models, every confirmation
+    of an infeasible verdict (:mod:`stlplan.planner.confirm`), the lazy rounds' records, how
+    far step 1 got, and the whole problem's incumbent and bound over time.
     """
 
     start: float
     progress: ProgressCallback | None
     error: BaseException | None = None
     round: int | None = None
+    """The number the lazy round under way will have in :attr:`round_log` (progress reports)."""
     build_seconds: float = 0.0
     confirmations: list[Confirmation] = field(default_factory=list)
     round_log: list[dict[str, Any]] = field(default_factory=list)
-    """One record per lazy round, in the order they ran (parts one after another): the agents of
-    its model, when it ended, how long it took, HiGHS's termination, its bound, the best plan
-    meeting every requirement so far, and the requirements its model held by kind
+    """One record per lazy round (a solve of step 1's model), in the order they ran (parts one
+    after another): its number, the part (its agents in a few words, and how many), the stage
+    of that part, when it ended, how long it took, HiGHS's termination, its bound, the best plan
+    meeting every requirement so far, and the lazy requirements its model held by kind
     (:meth:`record_round`)."""
     first_plan: float | None = None
     """Seconds from the start until step 1 first held a plan of the whole problem that meets
@@ -75,6 +79,8 @@ class Clock:
     convergence: Convergence = field(default_factory=Convergence)
     """The whole problem's incumbent and bound over time (:mod:`stlplan.planner.convergence`
     says which figures count)."""
+    reached: Reached = field(default_factory=Reached)
+    """How far step 1 got: the part, its stage, the counts."""
 
     def plan_found(self, objective: float | None) -> None:
         """Note that step 1 holds a plan of the whole problem with ``objective`` (the first time
@@ -89,14 +95,22 @@ class Clock:
         if force or self.convergence.tighter(bound):
             self.convergence.bounded(self.elapsed(), bound, force)
 
-    def record_round(self, agents: int, seconds: float, ended: str, bound: float | None,
-                     best: float | None, added: dict[str, int]) -> None:  # fmt: skip
-        """Add a lazy round's record to :attr:`round_log`."""
+    def next_round(self) -> None:
+        """A lazy round starts: it will be the next record of :attr:`round_log`."""
+        self.round = len(self.round_log) + 1
+
+    def record_round(self, agents: Sequence[str], seconds: float, ended: str,
+                     bound: float | None, best: float | None, held: dict[str, int]) -> None:  # fmt: skip
+        """Add a lazy round's record to :attr:`round_log` (the round of the part of ``agents``,
+        in the stage :attr:`reached` says)."""
         finite = bound if bound is not None and math.isfinite(bound) else None
+        part = agent_names(agents, self.reached.order or agents)
         self.round_log.append(
-            {"round": len(self.round_log) + 1, "agents": agents, "at": self.elapsed(),
-             "seconds": seconds, "ended": ended, "bound": finite, "best": best, "added": added}
+            {"round": len(self.round_log) + 1, "part": part, "stage": self.reached.stage,
+             "agents": len(agents), "at": self.elapsed(), "seconds": seconds, "ended": ended,
+             "bound": finite, "best": best, "held": held}
         )  # fmt: skip
+        self.reached.round_done(sum(held.values()))
 
     @classmethod
     def started(cls, progress: ProgressCallback | None) -> Clock:

@@ -27,7 +27,9 @@ or of its own bound.
 With no such violation left, the union of the parts' plans is feasible for the full problem and its
 objective is the sum ``F = sum_c F_c``, while ``U = sum_c U_c`` bounds the full optimum. A part is
 solved again with an absolute gap while ``(U - F) / |F|`` exceeds the gap, so the result is the
-full problem's optimum to the same tolerance as one solve. Finally the parts' requirements are
+full problem's optimum to the same tolerance as one solve (with ``solver.first_plan`` neither
+this nor a merged part's own solve after a repair that found a plan: a plan is all that is
+asked for). Finally the parts' requirements are
 encoded in one model of the full problem, its states held near the parts' plans, and one small
 solve sets every indicator (its objective, a point of the full problem, is the one reported);
 step 2 runs on that model as usual (:mod:`stlplan.planner.assembly`). The run records ``U``
@@ -163,7 +165,11 @@ def _tighten(
         if chosen is None:
             return
         worst, abs_gap = chosen
-        parts[worst].step1 = parts[worst].solver.run(budget, abs_gap=abs_gap)
+        part = parts[worst]
+        reached = part.solver.clock.reached
+        reached.solving(part.agents, len(part.merged_from))
+        with reached.within("tightening"):
+            part.step1 = part.solver.run(budget, abs_gap=abs_gap)
 
 
 def _followed(parts: list[Part], clock: Clock) -> list[Part]:
@@ -185,7 +191,8 @@ def _followed(parts: list[Part], clock: Clock) -> list[Part]:
 def _combined(parts: Sequence[Part], config: PlannerConfig, clock: Clock, tick: float) -> Outcome:
     """The parts' results as one :class:`Outcome` of the full problem (started at ``tick``);
     its bound, the sum of the parts' when each has one, is recorded as the whole's."""
-    steps, seconds, rounds = [p.step1 for p in parts], time.perf_counter() - tick, clock.round or 1
+    steps, seconds = [p.step1 for p in parts], time.perf_counter() - tick
+    rounds = len(clock.round_log)
     done = outcome.combined(steps, config.solver.gap, signals.requested(), seconds, rounds)
     clock.bound_found(done.bound)
     return done
@@ -222,12 +229,18 @@ def solve_in_shares(
 
 def _solve_part(part: Part, config: PlannerConfig, budget: Budget) -> Outcome:
     """A part's first solve; a merged part is repaired first (module docstring)."""
+    reached = part.solver.clock.reached
+    reached.solving(part.agents, len(part.merged_from))
     if not part.merged_from:
-        return part.solver.run(budget)
+        done = part.solver.run(budget)
+        reached.planned += done.status.has_plan
+        return done
     repaired = _repair(part, config, budget)
     _, ceiling = _totals(part.merged_from)
     assert part.solver.watch is not None
     part.solver.watch.ceiling = ceiling
+    if repaired is not None and config.solver.first_plan:  # a plan is all that is asked for
+        return outcome.proven(repaired, ceiling, config.solver.gap) or repaired
     return outcome.proven(repaired, ceiling, config.solver.gap) or part.solver.run(budget)
 
 
@@ -275,6 +288,7 @@ def solve_parts(
     names = agent_parts(problem)
     if len(names) < 2:
         return None
+    clock.reached.parts = len(names)
     tick = time.perf_counter()
     with clock.building():
         full = build_model(problem, config.with_overrides({"model.floors": False}))
@@ -294,15 +308,28 @@ def solve_parts(
         if signals.requested():  # the parts' plans collide: no plan of the full problem
             return full, dataclasses.replace(done, status=PlanStatus.INTERRUPTED_NO_PLAN)
         parts = _merged(problem, parts, crossing, config, clock, budget)
-    if not signals.requested():
+    if not (signals.requested() or config.solver.first_plan):
         _tighten(parts, config, budget)
     done = _combined(parts, config, clock, tick)
-    objective = assemble(full, [p.pm for p in parts], config, clock, budget.finishing())
-    if objective is not None:
-        clock.plan_found(objective)
+    objective = _assembled(full, parts, config, clock, budget)
     seconds = time.perf_counter() - tick
     stopped = signals.requested()
     return full, outcome.assembled(done, objective, config.solver.gap, stopped, seconds)
+
+
+def _assembled(
+    full: PlanModel, parts: Sequence[Part], config: PlannerConfig, clock: Clock, budget: Budget
+) -> float | None:
+    """The parts' plans assembled in ``full`` (:func:`assemble`, a finishing solve of the whole
+    team); its objective, or None."""
+    clock.reached.solving([a.name for a in full.problem.agents])
+    with clock.reached.within("assembly"):
+        objective = assemble(full, [p.pm for p in parts], config, clock, budget.finishing())
+        if objective is None:
+            clock.reached.failed("assembly")
+    if objective is not None:
+        clock.plan_found(objective)
+    return objective
 
 
 def _merged(
@@ -326,6 +353,7 @@ def _merged(
         order = [a.name for a in problem.agents if a.name in agents]
         out = [p for p in out if p not in group]
         merged = _part(problem, order, config, clock, budget, seed, group[0].solver.policy)
+        clock.reached.merges += 1
         merged.merged_from = tuple(group)
         merged.free = free
         out.append(merged)

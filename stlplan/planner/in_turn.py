@@ -122,6 +122,7 @@ class InTurn:
         involved = agents_of(self.pm, bad)
         turns = [n for n in names if n in involved]
         done = set(names) - involved
+        self.session.clock.reached.turns(0, len(turns))
         config, trial = self.session.solver.config, self.session.trial
         gap, self.session.trial = config.rel_gap, True
         config.rel_gap = max(self.repair.gap, gap or 0.0)
@@ -143,6 +144,7 @@ class InTurn:
             if free is None:
                 return False
             done |= free
+            self.session.clock.reached.turns(len(done & set(turns)), len(turns))
         return True
 
     def _improve(self, turns: list[str], everyone: set[str], budget: Budget) -> None:

@@ -62,7 +62,7 @@ class LazySolver:
     config
         The run's configuration (solver settings, ``lazy.window``, the repair's share).
     clock
-        Progress reporting; ``clock.round`` counts the solves.
+        Progress reporting; every solve is recorded in ``clock.round_log``.
     policy
         When a round's plan is repaired in turn (default: ``config``'s).
     whole
@@ -81,7 +81,6 @@ class LazySolver:
         self.pm, self.config, self.clock, self.whole = pm, config, clock, whole
         self.policy = policy or RepairPolicy.of(config)
         self.min_solve = config.budget.min_solve_seconds
-        clock.round = (clock.round or 0) + 1
         self.session = HighsSession(pm.model, config, clock, "step1")
         self.watch: Watch | None = None
         if pm.deferral is not None:
@@ -114,9 +113,27 @@ class LazySolver:
             self.session.solver.config.rel_gap = 0.0
             if self.watch is not None:
                 self.watch.abs_gap, self.watch.gap = abs_gap, 0.0
-        if self.watch is None:
-            return _ended(self.session.solve(budget), time.perf_counter() - tick, 1, 0)
+        if self.watch is None:  # every requirement in the model: one solve
+            self.clock.reached.enter("up front")
+            solved = self._solve(budget)
+            return _ended(solved, time.perf_counter() - tick, 1, 0)
         return self._capped(self._rounds(budget, tick))
+
+    def _solve(self, budget: Budget) -> Solved:
+        """One round: a solve within ``budget``, recorded on the clock."""
+        pm, clock, watch = self.pm, self.clock, self.watch
+        clock.next_round()
+        solved = self.session.solve(budget)
+        results = solved.results
+        if watch is not None:
+            best = None if watch.best is None else watch.best.objective
+        else:  # HiGHS's plan meets every requirement
+            best = results.incumbent_objective if has_solution(results) else None
+        held = added_by_kind(pm) if pm.deferral is not None else {}
+        agents = [a.name for a in pm.problem.agents]
+        ended = results.termination_condition.name
+        clock.record_round(agents, solved.seconds, ended, results.objective_bound, best, held)
+        return solved
 
     def _capped(self, step1: Outcome) -> Outcome:
         """``step1`` with the watch's ceiling as its bound when that is tighter."""
@@ -127,18 +144,18 @@ class LazySolver:
     def _rounds(self, budget: Budget, tick: float) -> Outcome:
         pm, clock, watch = self.pm, self.clock, self.watch
         assert pm.deferral is not None and watch is not None
-        first = clock.round or 1
+        first = len(clock.round_log)
         while True:
             watch.stopped = False  # (the session clears HiGHS's stale interrupt flag)
             if watch.best is not None:
                 self.session.start_from(watch.best)
-            solved = self.session.solve(budget)
-            rounds, seconds = (clock.round or 1) - first + 1, time.perf_counter() - tick
+            solved = self._solve(budget)
+            rounds, seconds = len(clock.round_log) - first, time.perf_counter() - tick
             results = solved.results
             bound = results.objective_bound
             if not self.trial and bound is not None and math.isfinite(bound):
                 watch.ceiling = lowest(bound, watch.ceiling)  # every round bounds the problem
-            self._record(solved)
+            self._recorded(bound)
             if watch.best is not None and watch.closed(results.objective_bound):
                 return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
             if watch.done():
@@ -155,40 +172,36 @@ class LazySolver:
             out_of_time = not (converged or watch.stopped) or left < needed
             if solved.stopped or out_of_time:
                 return self._last(solved, tick, rounds, budget)
-            if self._between_rounds(bad, budget, solved.seconds):
+            self._repair_between_rounds(bad, budget, solved.seconds)
+            if watch.closed(watch.ceiling):
                 return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
             if watch.done():  # a repair found the first plan
                 return self._from_best(solved, tick, rounds, PlanStatus.FEASIBLE)
-            clock.round = (clock.round or 0) + 1
+            add_requirements(pm, neighbours(pm.deferral.lazy, bad, self.config.lazy.window))
 
-    def _record(self, solved: Solved) -> None:
-        """Log the round on the clock; outside a trial, its bound (a relaxation's) is the run's
-        when the model is the whole team's, and the parts' sum is brought up to date."""
-        pm, clock, watch, results = self.pm, self.clock, self.watch, solved.results
-        assert watch is not None
-        best = None if watch.best is None else watch.best.objective
-        ended, bound = results.termination_condition.name, results.objective_bound
-        agents = len(pm.problem.agents)
-        clock.record_round(agents, solved.seconds, ended, bound, best, added_by_kind(pm))
-        if self.whole and not self.trial:
-            clock.bound_found(bound, force=True)
-        if self.rounded is not None and not self.trial:
+    def _recorded(self, bound: float | None) -> None:
+        """Outside a trial, a round's bound (a relaxation's) is the run's when the model is the
+        whole team's, and the parts' sum is brought up to date."""
+        if self.trial:
+            return
+        if self.whole:
+            self.clock.bound_found(bound, force=True)
+        if self.rounded is not None:
             self.rounded()
 
-    def _between_rounds(self, bad: list[int], budget: Budget, seconds: float) -> bool:
-        """Add the requirements the round's plan violates (``bad``), first repairing that plan
-        in turn while no plan meets every requirement and the round (of ``seconds``) was long or
-        crowded (the repair policy); whether the best plan closes the gap."""
-        pm, config, watch = self.pm, self.config, self.watch
-        assert pm.deferral is not None and watch is not None
+    def _repair_between_rounds(self, bad: list[int], budget: Budget, seconds: float) -> None:
+        """Repair the round's plan (which violates ``bad``) in turn while no plan meets every
+        requirement and the round (of ``seconds``) was long or crowded (the repair policy); the
+        watch keeps the repaired plan. The violated requirements are added after it, for the
+        next round (none when no round follows)."""
+        pm, watch = self.pm, self.watch
+        assert watch is not None
         repairs = self.policy.round_repairs(seconds, len(agents_of(pm, bad)))
         for repair, share in repairs if watch.best is None else ():
-            plan = repair.repair(Broken(self, bad), config, budget.share(share))
+            plan = repair.repair(Broken(self, bad), self.config, budget.share(share))
             if plan is not None:
                 watch.offer(plan)
-                break
-        add_requirements(pm, neighbours(pm.deferral.lazy, bad, config.lazy.window))
-        return watch.closed(watch.ceiling)
+                return
 
     def _last(self, last: Solved, tick: float, rounds: int, budget: Budget) -> Outcome:
         """The loop ends short of the optimum (time, a stop request, infeasible, an error).
@@ -203,6 +216,7 @@ class LazySolver:
         given_up = outcome.cut_short(ended, last.stopped, has_solution(last.results), self.trial)
         if given_up is not None:
             return given_up
+        self.clock.reached.enter("completion")  # the last stage: it ends the part's solve
         return _complete(self.pm, self.session, last, tick, rounds, budget.finishing())
 
     def _from_best(self, last: Solved, tick: float, rounds: int, status: PlanStatus) -> Outcome:
@@ -268,8 +282,9 @@ def solve_step1(
     start: Plan | None = None,
 ) -> Outcome:
     """Solve problem (step1) of ``pm``, the whole team's model (its plans and bounds are the
-    run's), within ``budget``, lazily when ``pm`` was built with
-    ``lazy=True`` (repairing in turn by ``policy``), the first solve starting from ``start``."""
+    run's), within ``budget``, lazily when ``pm`` was built with ``lazy=True`` (repairing in
+    turn by ``policy``), the first solve starting from ``start``."""
+    clock.reached.solving([a.name for a in pm.problem.agents])
     solver = LazySolver(pm, config, clock, policy, whole=True)
     if start is not None:
         solver.session.start_from(start)
@@ -308,7 +323,7 @@ def _fix_and_solve(
             fixed.append(v)
     trial, session.trial = session.trial, True  # fixed decisions: the verdict is not the mission's
     try:
-        if not _added_in_time(pm, budget):
+        if not _added_in_time(pm, session, budget):
             return None
         return session.solve(budget)
     finally:
@@ -321,15 +336,18 @@ ADD_BATCH = 500
 """Requirements a completion adds between two looks at the clock."""
 
 
-def _added_in_time(pm: PlanModel, budget: Budget) -> bool:
-    """Add every pending requirement to ``pm``, in batches while ``budget`` lasts (a large team
-    has tens of thousands, and encoding them is not bounded by HiGHS's time limit); whether all
-    were added."""
+def _added_in_time(pm: PlanModel, session: HighsSession, budget: Budget) -> bool:
+    """Add every pending requirement to ``pm`` and ``session``'s HiGHS model, in batches while
+    ``budget`` lasts; whether all were added. A large team has tens of thousands: encoding them
+    and loading them into HiGHS (about 1 ms each at 16 agents) is not bounded by HiGHS's time
+    limit, so each batch is loaded before the clock is read again."""
     pending = pm.pending()
     for start in range(0, len(pending), ADD_BATCH):
         if budget.expired():
             return False
         add_requirements(pm, pending[start : start + ADD_BATCH])
+        session.load_changes()
+        session.clock.reached.completing(min(start + ADD_BATCH, len(pending)), len(pending))
     return True
 
 
@@ -346,12 +364,12 @@ def _complete(
 
     The bound stays the last round's (it bounds the full problem); the gap is recomputed.
     """
-    bound = last.results.objective_bound
+    bound, before = last.results.objective_bound, len(pm.added)
     solved = _fix_and_solve(pm, session, model_values(pm.model), budget)
     seconds = time.perf_counter() - tick
     stop = last.results.termination_condition.name
-    base = Outcome(PlanStatus.NO_PLAN, None, bound, None, seconds, rounds + 1, len(pm.added), stop,
-                 completed=True)  # fmt: skip
+    base = Outcome(PlanStatus.NO_PLAN, None, bound, None, seconds, rounds, before, stop,
+                   completed=True, completion_added=len(pm.added) - before)  # fmt: skip
     if solved is None:  # out of time while adding the requirements: no plan
         return outcome.completed(None, bound, signals.requested(), replace(base, completed=False))
     # (an interrupt by the watch still leaves a plan)

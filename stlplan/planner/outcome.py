@@ -46,13 +46,18 @@ class Outcome:
     seconds
         Wall time of every round (and of a completion).
     rounds
-        Solves of the loop (1 without lazy requirements).
+        Lazy rounds: solves of the loop (1 without lazy requirements), each recorded in the
+        clock's ``round_log``.
     added
-        Lazy requirements added to the model.
+        Lazy requirements the rounds and the repairs between them added to the model (a
+        completion's apart).
     stop
         HiGHS's termination condition of the last round, by name.
     completed
         Whether the plan's decisions were completed by a last small solve.
+    completion_added
+        Lazy requirements that completion added (every one still left out, or those added
+        before the time ran out).
     """
 
     status: PlanStatus
@@ -64,6 +69,7 @@ class Outcome:
     added: int
     stop: str
     completed: bool = False
+    completion_added: int = 0
 
 
 VarKey = tuple[str, Hashable]
@@ -193,13 +199,14 @@ def combined(
         status = first.status if first else PlanStatus.ERROR
         if stopped:
             status = PlanStatus.INTERRUPTED_NO_PLAN
-        added = sum(s.added for s in done)
+        added, completion = _added(done)
         bounds = [s.bound for s in done]
         whole = len(done) == len(steps) and None not in bounds
         bound = sum(b for b in bounds if b is not None) if whole else None  # bounds the whole
         return Outcome(
-            status, None, bound, None, seconds, rounds, added, first.stop if first else ""
-        )
+            status, None, bound, None, seconds, rounds, added, first.stop if first else "",
+            first is not None and first.completed, completion,
+        )  # fmt: skip
     objective, bound = totals(done)
     found = relative_gap(objective, bound)
     optimal = all(s.status is PlanStatus.OPTIMAL for s in done)
@@ -207,10 +214,17 @@ def combined(
     status = PlanStatus.OPTIMAL if optimal else PlanStatus.FEASIBLE
     if stopped and not optimal:
         status = PlanStatus.INTERRUPTED
+    added, completion = _added(done)
     return Outcome(
-        status, objective, bound, found, seconds, rounds, sum(s.added for s in done),
-        done[-1].stop, any(s.completed for s in done),
+        status, objective, bound, found, seconds, rounds, added, done[-1].stop,
+        any(s.completed for s in done), completion,
     )  # fmt: skip
+
+
+def _added(steps: Sequence[Outcome]) -> tuple[int, int]:
+    """The requirements the parts' rounds and repairs added, and those their completions
+    added."""
+    return sum(s.added for s in steps), sum(s.completion_added for s in steps)
 
 
 def totals(steps: Sequence[Outcome | None]) -> tuple[float | None, float | None]:

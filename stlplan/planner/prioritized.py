@@ -195,8 +195,10 @@ def prioritized(
     order = list(range(len(parts)))
     saved = [model_values(pm.model) for pm in parts]
     try:
-        for _ in range(max(1, config.repair.orders)):
-            states, failed = plan_in_order(turns, order, budget)
+        for n in range(max(1, config.repair.orders)):
+            _, failed = plan_in_order(turns, order, budget)
+            merged.clock.reached.ordered(len(parts) if failed is None else order.index(failed),
+                                         len(parts), n + 1)  # fmt: skip
             if failed is None:
                 return _held_plan(merged, turns, config, budget)
             if budget.expired():

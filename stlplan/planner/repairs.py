@@ -70,7 +70,12 @@ class InTurnRepair:
 
     def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
         solver = broken.solver
-        return InTurn(solver.pm, solver.session, config).run(broken.bad, budget)
+        reached = solver.clock.reached
+        with reached.within("repair in turn"):
+            plan = InTurn(solver.pm, solver.session, config).run(broken.bad, budget)
+            if plan is None:
+                reached.failed("repair in turn")
+        return plan
 
     def describe(self) -> str:
         return "in turn"
@@ -83,7 +88,12 @@ class PrioritizedRepair:
     def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
         if len(broken.parts) < 2:
             return None
-        return prioritized(broken.solver, broken.parts, config, budget)
+        reached = broken.solver.clock.reached
+        with reached.within("prioritized repair"):
+            plan = prioritized(broken.solver, broken.parts, config, budget)
+            if plan is None:
+                reached.failed("prioritized repair")
+        return plan
 
     def describe(self) -> str:
         return "prioritized"
@@ -95,14 +105,17 @@ class HeldRepair:
 
     def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
         solver = broken.solver
+        reached = solver.clock.reached
         held = hold_plans(solver.pm, broken.parts, config.repair.hold, broken.free)
-        try:
-            found = solver.run(budget, trial=True)
-        finally:
-            release(held)
-        if found.objective is None:
-            return None
-        return loaded_plan(solver.pm)
+        with reached.within("held repair"):
+            try:
+                found = solver.run(budget, trial=True)
+            finally:
+                release(held)
+            plan = None if found.objective is None else loaded_plan(solver.pm)
+            if plan is None:
+                reached.failed("held repair")
+        return plan
 
     def describe(self) -> str:
         return "held"

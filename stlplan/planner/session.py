@@ -204,6 +204,13 @@ class HighsSession:
         if len(columns) < self.highs.getNumCol():
             event.data_in.repairSolution()
 
+    def load_changes(self) -> None:
+        """Send HiGHS what changed in the model since the last solve (rows and variables
+        added, bounds changed) now rather than at the next solve, counted as building: a solve's
+        time limit does not bound it."""
+        with self.clock.building():
+            self.solver.update()
+
     def columns(self) -> dict[int, int]:
         """HiGHS column of each Pyomo variable in the model, by ``id`` (fixed ones have none)."""
         return dict(self.solver._pyomo_var_to_solver_var_map)

@@ -34,6 +34,7 @@ from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.readout import plan_result
 from stlplan.planner.finish import Finish, finish
 from stlplan.planner.outcome import Outcome, Plan
+from stlplan.planner.reached import Reached
 from stlplan.planner.strategy import build_strategy
 from stlplan.planner.values import load_values, plan_of
 from stlplan.result import Fallback, ModelSize, PlanResult, PlanStatus
@@ -82,6 +83,7 @@ class _Run:
 
 def _step_one(run: _Run) -> None:
     """Build and solve problem (step 1) by the strategy the configuration composes."""
+    run.clock.reached = Reached(order=tuple(a.name for a in run.problem.agents))
     run.clock.report("build")
     strategy = build_strategy(run.config)
     with run.budget.stage("step 1"):
@@ -186,8 +188,9 @@ def _readout(run: _Run) -> PlanResult:
     assert run.pm is not None and run.step1 is not None and run.size is not None
     step1, clock, config = run.step1, run.clock, run.config
     found: dict[str, Any] = {
-        "rounds": step1.rounds,
+        "rounds": len(clock.round_log),
         "requirements_added": step1.added,
+        "requirements_completed": step1.completion_added,
         "events": run_events(step1, run.ended, config, clock, run.strictly),
         "confirmations": tuple(clock.confirmations),
         "round_log": tuple(clock.round_log),
@@ -255,16 +258,26 @@ def step1_message(step1: Outcome, config: PlannerConfig, clock: Clock) -> str:
         PlanStatus.INTERRUPTED: f"the best plan found before the stop request ({where})",
         PlanStatus.INTERRUPTED_NO_PLAN: "interrupted before a plan meeting every requirement was found",
     }
-    text = texts[step1.status]
-    outcomes = [c.outcome for c in clock.confirmations]
-    if "undecided" in outcomes and not step1.status.has_plan:
+    return texts[step1.status] + ("" if step1.status.has_plan else _without_plan(step1, clock))
+
+
+def _without_plan(step1: Outcome, clock: Clock) -> str:
+    """Why a step 1 without a plan ended so, and how far it got (empty for a verdict)."""
+    text = ""
+    if "undecided" in [c.outcome for c in clock.confirmations]:
         text += " (HiGHS said infeasible, but a confirmation solve ended without a verdict)"
-    if step1.completed and not step1.status.has_plan:
+    if step1.completed:
         text += (
             "; at the time limit the last round's plan violated requirements that its "
             "decisions, fixed, cannot meet"
         )
+    if step1.status in _UNFINISHED:
+        text += f"; {clock.reached.describe()}"
     return text
+
+
+_UNFINISHED = (PlanStatus.NO_PLAN, PlanStatus.INTERRUPTED_NO_PLAN, PlanStatus.ERROR)
+"""Endings without a plan or a verdict: the message says how far step 1 got."""
 
 
 def run_events(
@@ -288,8 +301,12 @@ def run_events(
         One sentence per event, in the order above; empty for a run without any.
     """
     events = []
-    if config.lazy.enabled and step1.rounds > 1:
-        events.append(f"{step1.rounds} lazy rounds, {step1.added} requirements added")
+    rounds = len(clock.round_log)
+    if config.lazy.enabled and rounds > 1:
+        line = f"{rounds} lazy rounds, {step1.added} requirements added"
+        if step1.completion_added:
+            line += f"; the completion added {step1.completion_added} more"
+        events.append(line)
     if step1.completed and step1.status.has_plan:
         events.append("the last round's plan completed with its step-1 decisions fixed")
     overturned = [c for c in clock.confirmations if c.outcome == "overturned"]

@@ -1,0 +1,168 @@
+"""How far step 1 got: the part of the team it was solving, in which stage, and the counts.
+
+A run that ends without a plan says which part failed, at which stage and how far it got
+(:meth:`Reached.describe`, in the run's message). The strategies and repairs tell the run's
+:class:`Reached` what they start and how they end, each unaware of who wraps it:
+
+* the parts (:mod:`stlplan.planner.components`): how many parts, how many of them planned, the
+  part being solved (its agents, and how many parts it was merged from);
+* a stage of that part: its one solve (every requirement up front), its own lazy rounds, a
+  repair in turn (:mod:`stlplan.planner.in_turn`: agents repaired of those freed), a held
+  repair, the tightening of a part's bound, the assembly of the parts' plans, the completion
+  of the last round's plan at the time limit;
+* every lazy round recorded (:meth:`stlplan.planner.clock.Clock.record_round`): the part's
+  rounds and the requirements its model held.
+
+A stage that ends without a plan leaves a note on its part, so the message also says what was
+tried before the stage the run ended in.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+
+from stlplan.words import counted
+
+SHOWN = 3
+"""Agents named when a part's agents are not a run of the mission's order."""
+
+STAGES = {
+    "up front": "its one solve, every requirement in the model",
+    "lazy rounds": "its own lazy rounds",
+    "prioritized repair": "the prioritized repair",
+    "repair in turn": "the repair in turn",
+    "held repair": "the held repair",
+    "tightening": "the tightening of its bound",
+    "assembly": "the assembly of the parts' plans",
+    "completion": "the completion of the last round's plan",
+}
+"""Each stage of a part, as the message names it."""
+
+
+def agent_names(agents: Sequence[str], order: Sequence[str]) -> str:
+    """A part's agents in a few words: all of them up to :data:`SHOWN`, ``16 agents a01..a16``
+    for a run of the mission's ``order``, else the first :data:`SHOWN` and how many."""
+    if len(agents) <= SHOWN:
+        return ", ".join(agents)
+    place = {name: i for i, name in enumerate(order)}
+    steps = [place.get(b, -2) - place.get(a, -2) for a, b in zip(agents, agents[1:], strict=False)]
+    if all(step == 1 for step in steps):
+        return f"{len(agents)} agents {agents[0]}..{agents[-1]}"
+    return f"{len(agents)} agents {', '.join(agents[:SHOWN])}, ..."
+
+
+@dataclass
+class Reached:
+    """Where step 1 is (module docstring).
+
+    Attributes
+    ----------
+    order
+        The mission's agents, in order.
+    parts, planned, merges
+        Parts the team was split into, how many of them planned on their own, and the merges
+        of parts whose plans collided (1, 0 and 0 for a team solved whole).
+    part, merged_from
+        The agents of the part being solved, and how many parts it was merged from (0: none).
+    stage, progress
+        The stage of that part (a key of :data:`STAGES`), and how far that stage got in words
+        (``14 of 16 agents repaired``; empty when its rounds say it).
+    rounds, held
+        The part's lazy rounds so far, and the requirements its model held in the last one.
+    notes
+        The part's earlier stages that ended without a plan, each with how far it got.
+    """
+
+    order: tuple[str, ...] = ()
+    parts: int = 1
+    planned: int = 0
+    merges: int = 0
+    part: tuple[str, ...] = ()
+    merged_from: int = 0
+    stage: str = "lazy rounds"
+    progress: str = ""
+    rounds: int = 0
+    held: int = 0
+    notes: list[str] = field(default_factory=list)
+
+    def solving(self, agents: Sequence[str], merged_from: int = 0) -> None:
+        """A part's solve starts (the whole team's when ``agents`` are all of them)."""
+        if tuple(agents) != self.part:
+            self.rounds, self.held, self.notes = 0, 0, []
+        self.part, self.merged_from = tuple(agents), merged_from
+        self.stage, self.progress = "lazy rounds", ""
+
+    def round_done(self, held: int) -> None:
+        """A lazy round of the part ended, its model holding ``held`` requirements."""
+        self.rounds, self.held = self.rounds + 1, held
+
+    def enter(self, stage: str) -> None:
+        """The part's last stage starts (the completion: nothing follows it)."""
+        self.stage, self.progress = stage, ""
+
+    @contextlib.contextmanager
+    def within(self, stage: str) -> Iterator[None]:
+        """The block is ``stage`` of the part; the stage before it resumes afterwards."""
+        before = self.stage, self.progress
+        self.enter(stage)
+        try:
+            yield
+        finally:
+            self.stage, self.progress = before
+
+    def turns(self, repaired: int, freed: int) -> None:
+        """A repair in turn has repaired ``repaired`` of the ``freed`` agents."""
+        self.progress = f"{repaired} of {_count(freed, 'agent')} repaired"
+
+    def ordered(self, planned: int, parts: int, orders: int) -> None:
+        """A prioritized repair planned ``planned`` of ``parts`` parts in its ``orders``-th
+        order."""
+        self.progress = f"order {orders}: {planned} of {_count(parts, 'part')} planned"
+
+    def completing(self, added: int, pending: int) -> None:
+        """A completion has added ``added`` of the ``pending`` requirements left out."""
+        self.progress = f"{added:,} of {_count(pending, 'requirement')} left out added"
+
+    def failed(self, stage: str) -> None:
+        """``stage``, just ended, found no plan (a note for the message, with its progress)."""
+        self.notes.append(_stage_words(stage, self.progress))
+
+    def _part_words(self) -> str:
+        if set(self.part) == set(self.order) and not self.merged_from:
+            return "the whole team"
+        words = f"the part of {agent_names(self.part, self.order)}"
+        if self.merged_from:
+            words += f" (merged from {self.merged_from} parts whose plans collided)"
+        return words
+
+    def describe(self) -> str:
+        """Which part step 1 was solving, in which stage, and how far it got, in words."""
+        if not self.part:
+            return "no part of the team was solved"
+        text = f"{self._part_words()} was in {_stage_words(self.stage, self.progress)}"
+        if self.stage != "up front":
+            text += f" after {_count(self.rounds, 'lazy round')}"
+            text += f" ({_count(self.held, 'requirement')} added)"
+        if self.notes:
+            text += "; before that, no plan from " + _listed(self.notes)
+        if self.parts > 1:
+            text += f"; {self.planned} of {self.parts} parts had planned on their own"
+            if self.merges:
+                text += f", then {_count(self.merges, 'merge')}"
+        return text
+
+
+def _listed(items: Sequence[str]) -> str:
+    """``a``, ``a and b``, ``a, b and c``."""
+    return items[0] if len(items) == 1 else f"{', '.join(items[:-1])} and {items[-1]}"
+
+
+def _stage_words(stage: str, progress: str) -> str:
+    return STAGES[stage] + (f" ({progress})" if progress else "")
+
+
+def _count(n: int, noun: str) -> str:
+    """``counted`` with thousands separated: ``1,674 requirements``."""
+    return counted(n, noun).replace(str(n), f"{n:,}", 1)
