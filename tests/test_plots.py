@@ -338,6 +338,6 @@ def test_convergence_without_a_plan_draws_the_bound_and_says_why_it_starts_late(
     ]
     texts = {t.get_text() for t in ax.texts}
     assert "no plan, bound 2.6196 at 56.1 s" in texts
-    assert "no plan or bound of the\nwhole team before 38.4 s" in texts
+    assert "no plan or bound\nof the whole team\nbefore 38.4 s" in texts
     low, high = ax.get_ylim()
     assert low < 2.6196 < high and high - low > 1e-3  # a flat record keeps a readable span
