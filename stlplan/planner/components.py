@@ -60,7 +60,7 @@ from stlplan.planner.outcome import Outcome, Plan
 from stlplan.planner.parts import agent_parts, sub_problem
 from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.repairs import Broken
-from stlplan.planner.watch import VIOLATION_TOL, trajectory_states
+from stlplan.planner.watch import VIOLATION_TOL, least_margin, trajectory_states
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
 
@@ -125,14 +125,9 @@ def crossing_requirements(full: PlanModel, parts: Sequence[Part]) -> list[Requir
     states, owner = {}, {a: i for i, part in enumerate(parts) for a in part.agents}
     for part in parts:
         states.update(trajectory_states(part.pm))
-    found = violated(full.deferral.lazy, states, _margin(full), VIOLATION_TOL)
+    found = violated(full.deferral.lazy, states, least_margin(full), VIOLATION_TOL)
     bad = [full.deferral.lazy[n] for n in found]
     return [r for r in bad if len({owner[a] for a in r.binding.values()}) > 1]
-
-
-def _margin(pm: PlanModel) -> float:
-    """The spatial margin ``r`` of ``pm`` (its lower bound when the margin is maximized)."""
-    return pm.margin if isinstance(pm.margin, float) else float(pm.margin.lb)
 
 
 def _merge(parts: list[Part], linked: list[set[str]]) -> list[list[Part]]:
@@ -267,7 +262,7 @@ def _broken(part: Part) -> Broken:
     models = [p.pm for p in part.merged_from]
     for var, planned in plan_values(pm, models):
         var.set_value(planned, skip_validation=True)
-    bad = violated(pm.deferral.lazy, trajectory_states(pm), _margin(pm), VIOLATION_TOL)
+    bad = violated(pm.deferral.lazy, trajectory_states(pm), least_margin(pm), VIOLATION_TOL)
     return Broken(part.solver, bad, models, part.free)
 
 

@@ -42,7 +42,13 @@ from stlplan.planner.in_turn import hold_agents, release
 from stlplan.planner.outcome import Plan
 from stlplan.planner.session import HighsSession, has_solution
 from stlplan.planner.values import load_values, model_values
-from stlplan.planner.watch import VIOLATION_TOL, loaded_plan, pending_violations, trajectory_states
+from stlplan.planner.watch import (
+    VIOLATION_TOL,
+    least_margin,
+    loaded_plan,
+    pending_violations,
+    trajectory_states,
+)
 
 _log = logging.getLogger(__name__)
 
@@ -92,9 +98,9 @@ class _Turn:
             states = {**fixed, **trajectory_states(self.pm)}
             own = pending_violations(self.pm)
             near = -self.config.repair.near  # and those met by less than repair.near
-            found = violated([lazy[n] for n in mine], states, self._margin(), near)
+            found = violated([lazy[n] for n in mine], states, least_margin(self.pm), near)
             if not own and not violated(
-                [lazy[mine[i]] for i in found], states, self._margin(), VIOLATION_TOL
+                [lazy[mine[i]] for i in found], states, least_margin(self.pm), VIOLATION_TOL
             ):
                 return {a: states[a] for a in self.agents}
             window = self.config.repair.window
@@ -128,10 +134,6 @@ class _Turn:
         assert self.pm.deferral is not None
         return self.pm.deferral.lazy
 
-    def _margin(self) -> float:
-        margin = self.pm.margin
-        return margin if isinstance(margin, float) else float(margin.lb)
-
     def _context(self, fixed: States) -> Any:
         """The part's encoding context, its rows in a fresh block, earlier agents as numbers."""
         self.clear()
@@ -141,7 +143,7 @@ class _Turn:
         block.indicators = VarList(bounds=(0, 1))
         block.rows = ConstraintList()
         block.sos = sos1_block()
-        self.pm.model.add_component(_free_name(self.pm.model, "around"), block)
+        self.pm.model.add_component("around_earlier_parts", block)  # (clear removed the last)
         self.block = block
         points = {a: (s, s) for a, s in fixed.items()}
         return dataclasses.replace(
@@ -154,13 +156,6 @@ class _Turn:
         if self.block is not None:
             self.pm.model.del_component(self.block)
             self.block = None
-
-
-def _free_name(model: Any, stem: str) -> str:
-    n = 0
-    while model.component(f"{stem}{n}") is not None:
-        n += 1
-    return f"{stem}{n}"
 
 
 def plan_in_order(

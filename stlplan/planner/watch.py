@@ -32,6 +32,11 @@ def trajectory_states(pm: PlanModel) -> dict[str, np.ndarray]:
     }
 
 
+def least_margin(pm: PlanModel) -> float:
+    """The spatial margin ``r`` of ``pm`` (its lower bound when the margin is maximized)."""
+    return pm.margin if isinstance(pm.margin, float) else float(pm.margin.lb)
+
+
 def pending_violations(pm: PlanModel) -> list[int]:
     """Lazy requirements not in the model that the loaded plan violates (indices)."""
     assert pm.deferral is not None
