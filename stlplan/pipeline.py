@@ -7,9 +7,10 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import logging
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -74,12 +75,23 @@ def plan(
         check_enumerable(problem)
     run = Budget.for_run(config)
     check_size(problem, config)
-    used: dict[str, Any] = {"config": config.model_dump(), "strategy": describe(config)}
+    used: dict[str, Any] = {
+        "config": config.model_dump(),
+        "strategy": describe(config),
+        "robust_to": problem.robust_to,
+    }
     early = _infeasible_before_solving(problem)
     if early is not None and not config.diagnosis.degrade:
         return problem, dataclasses.replace(early, **used)
     with signals.stop_on_signals(), _quiet_pyomo():
         result = early or solve_plan(problem, config, progress=progress, budget=run, start=start)
+        if result.status is PlanStatus.INFEASIBLE and config.diagnosis.degrade:
+            with run.stage("smaller margins"):
+                fractions = config.diagnosis.margin_fractions
+                solve = functools.partial(
+                    solve_plan, config=config, progress=progress, budget=run, start=start
+                )
+                problem, result = _smaller_margins(problem, result, fractions, solve, run)
         if result.status is PlanStatus.INFEASIBLE and config.diagnosis.degrade:
             with run.stage("degraded"):
                 problem, result = _degraded(problem, config, result, run, progress, start)
@@ -88,6 +100,7 @@ def plan(
                 result = _diagnosed(problem, config, result, run)
         with run.stage("verify"):
             result = verified(problem, result, config.solver.gap)
+        used["robust_to"] = problem.robust_to  # (smaller when the margins were reduced)
         return problem, dataclasses.replace(result, stage_seconds=dict(run.ledger), **used)
 
 
@@ -99,6 +112,10 @@ def _infeasible_before_solving(problem: Problem) -> PlanResult | None:
     diagnosis = cheap_diagnosis(problem, reasons)
     message = f"infeasible before solving: {counted(len(reasons), 'requirement')} cannot be met"
     return PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis)
+
+
+_Solve = Callable[[Problem], PlanResult]
+"""A solve of a problem by the run's planner, settings and budget."""
 
 
 class _DiagnosisStopped(Exception):
@@ -154,6 +171,31 @@ def _diagnosed(
     except _DiagnosisStopped:
         out = dataclasses.replace(result, message=result.message + " (diagnosis interrupted)")
     return dataclasses.replace(out, confirmations=tuple(confirmations))
+
+
+def _smaller_margins(
+    problem: Problem, result: PlanResult, fractions: Sequence[float], solve: _Solve, run: Budget
+) -> tuple[Problem, PlanResult]:
+    """The first plan ``solve`` finds that meets every task with the robust margins scaled by
+    one of ``fractions`` in turn (``problem`` and ``result`` unchanged when none does): a task
+    kept matters more than a margin against the next disturbance."""
+    asked = problem.robust_to
+    confirmations = list(result.confirmations)
+    for fraction in fractions if asked > 0 else ():
+        if run.remaining() <= 0:
+            break
+        smaller = problem.robust(asked * fraction)
+        found = solve(smaller)
+        confirmations.extend(found.confirmations)
+        if found.status.has_plan or found.status.interrupted:
+            message = (
+                f"margins reduced to {smaller.robust_to:g} (no plan keeps every task with "
+                f"margins of {asked:g}); " + found.message
+            )
+            return smaller, dataclasses.replace(
+                found, message=message, confirmations=tuple(confirmations)
+            )
+    return problem, dataclasses.replace(result, confirmations=tuple(confirmations))
 
 
 def _degraded(

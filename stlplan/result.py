@@ -325,6 +325,9 @@ class PlanResult:
     """For a replan: its step, events and time (None for a plan from the initial states)."""
     dropped: tuple[Dropped, ...] = ()
     """For a degraded plan: the tasks given up, each with its reason."""
+    robust_to: float = 0.0
+    """The disturbance bound the plan's margins withstand (``model.robust_to``; lower than asked
+    when keeping every task needed smaller margins, ``diagnosis.margin_fractions``)."""
     values: Mapping[tuple[str, Any], float] = field(default_factory=dict, repr=False)
     """Step 1's plan: the value of each of its model's variables, by component name and index
     (a start for a later solve of the same problem, such as a replan)."""

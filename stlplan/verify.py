@@ -74,7 +74,7 @@ def _check(result: PlanResult, solver: SolverFigures, report: MonitorReport, gap
             raise SolverError(
                 f"synchronous robustness of '{task}' disagrees: solver {rho}, monitor {seen}"
             )
-    if _short_of(solver.margin, result.margin, gap):
+    if _short_of(solver.margin, report.spatial_robustness, gap):  # (inf: nothing to keep)
         raise SolverError(
             f"the spatial margin disagrees beyond the gap: solver {solver.margin}, monitor "
             f"{result.margin}"

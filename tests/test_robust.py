@@ -11,7 +11,10 @@ from stlplan.monitor.verdicts import check
 from stlplan.online import OnlinePlanner
 from stlplan.pipeline import plan
 from stlplan.planner.config import Overrides
-from stlplan.result import Trajectory
+from stlplan.result import PlanStatus, Trajectory
+from stlplan.simulation import report
+from stlplan.simulation.run import disturbances, execute, judge
+from stlplan.simulation.settings import Event, Simulated
 from tests.helpers.missions import mission
 
 W = 0.05
@@ -68,3 +71,59 @@ def test_replanned_every_step_a_robust_plan_survives_the_worst_corners(corner) -
             x[a.name] = a.A @ x[a.name] + a.B @ step.inputs[a.name] + W * sign
     assert _verdicts_hold(problem, loop.history())
     assert loop.replans == problem.horizon - 1  # every step but the first
+
+
+def _narrow_goal() -> object:
+    """a must be in a goal 0.2 wide at step 2: margins above 0.1 leave no room in it."""
+    agents = [{"name": "a", "dynamics": "si", "initial_state": [0, 0]}]
+    regions = {"Goal": {"box": [[0.9, 1.1], [-0.1, 0.1]]}}
+    tasks = {"goal": {"formula": "F[2,2] in(p, Goal)", "roles": {"p": {"agent": "a"}}}}
+    return mission(horizon=3, agents=agents, regions=regions, tasks=tasks)
+
+
+def test_a_degraded_plan_reduces_its_margins_before_it_drops_a_task() -> None:
+    problem = _narrow_goal()
+    _, strict = plan(problem, Overrides(time_limit=60, robust_to=0.15))
+    assert strict.status is PlanStatus.INFEASIBLE  # no room for margins of 0.15
+    planned, result = plan(problem, Overrides(time_limit=60, robust_to=0.15, degrade=True))
+    assert result.status is PlanStatus.OPTIMAL and not result.dropped
+    assert result.robust_to == pytest.approx(0.075) == planned.robust_to  # half the margins
+    assert "margins reduced to 0.075" in result.message
+    assert result.margin is not None and result.margin >= 0.075 - 1e-6
+    assert result.report is not None and result.report.satisfied
+
+
+def test_without_margin_fractions_a_degraded_plan_drops_the_task() -> None:
+    config = {"diagnosis.margin_fractions": []}
+    overrides = Overrides(time_limit=60, robust_to=0.15, degrade=True, config=config)
+    _, result = plan(_narrow_goal(), overrides)
+    assert result.status is PlanStatus.DEGRADED and [d.task for d in result.dropped] == ["goal"]
+    assert result.robust_to == 0.15
+
+
+def test_a_plan_keeps_the_margins_it_was_asked_for_when_it_can() -> None:
+    _, result = plan(_narrow_goal(), Overrides(time_limit=60, robust_to=0.05, degrade=True))
+    assert result.status is PlanStatus.OPTIMAL and result.robust_to == 0.05
+    assert "margins reduced" not in result.message
+
+
+def test_a_run_records_the_replans_that_planned_with_smaller_margins() -> None:
+    # a may end in Wide or in Narrow (0.2 wide); Wide closes at step 1, leaving no room in
+    # Narrow for margins of 0.15: the replan there halves them, the next ones keep halving
+    agents = [{"name": "a", "dynamics": "si", "initial_state": [0, 0]}]
+    regions = {
+        "Wide": {"box": [[0.5, 1.5], [0.5, 1.5]]},
+        "Narrow": {"box": [[0.9, 1.1], [-1.1, -0.9]]},
+    }
+    formula = "F[3,4] (in(p, Wide) | in(p, Narrow))"
+    tasks = {"end": {"formula": formula, "roles": {"p": {"agent": "a"}}}}
+    problem = mission(horizon=4, agents=agents, regions=regions, tasks=tasks)
+    overrides = Overrides(time_limit=60, robust_to=0.15)
+    _, first = plan(problem, overrides)
+    simulated = Simulated(0.0, "every", (Event("close", "Wide", 1),))
+    run = execute(problem, first, overrides, simulated, disturbances(problem, 0.0, 0, 0))
+    assert first.robust_to == 0.15 and run.reduced and set(run.reduced) == {0.075}
+    assert not run.dropped and judge(problem, run.executed, simulated).satisfied
+    found = report.overall([{"reduced_margins": list(run.reduced), "replan_seconds": [1.0]}])
+    assert found["reduced_margins"] == len(run.reduced)
+    assert report.line(found).endswith(f"; {len(run.reduced)} with smaller margins")

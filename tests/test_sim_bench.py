@@ -36,6 +36,8 @@ def test_each_row_counts_its_simulations_records(tmp_path: Path) -> None:
         assert {r["robust_to"] for r in records} == {0.05 if c.robust else 0.0}
         replans = sum(len(r["replan_seconds"]) for r in records)  # type: ignore[arg-type]
         assert int(row["replans"]) == replans
+        smaller = sum(len(r["reduced_margins"]) for r in records)  # type: ignore[arg-type]
+        assert int(row["smaller_margins"]) == smaller
         assert (replans == 0) == (c.policy == "never")
     text = (tmp_path / "simulation.md").read_text(encoding="utf-8")
     assert "| robust to 0.05 | optimal |" in text and "| nominal | optimal |" in text

@@ -21,7 +21,7 @@ from __future__ import annotations
 import difflib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
@@ -31,6 +31,8 @@ Encoding = Literal["log", "standard"]
 """How a disjunction is encoded: a logarithmic SOS1 (``log``) or one binary per entry."""
 TaskForm = Literal["selection", "groups"]
 """How a task is encoded: by selecting elements, or by the paper's group enumeration."""
+Fraction = Annotated[float, Field(ge=0, lt=1)]
+"""A share of a margin: at least 0, below 1."""
 
 
 class ConfigError(StlplanError):
@@ -197,6 +199,10 @@ class DiagnosisConfig(_Section):
     degrade: bool = False
     """When the mission is infeasible, plan as many tasks as possible instead (by priority, else
     by count), naming each task dropped and why (on for a replan)."""
+    margin_fractions: list[Fraction] = Field(default_factory=lambda: [0.5, 0.0])
+    """Before a degraded plan drops a task of a mission with robust margins (``model.robust_to``),
+    plan it again with its margins scaled by each of these fractions in turn and keep the first
+    plan that meets every task. Measured: docs/simulation.md#an-agent-lost."""
 
 
 class PlannerConfig(_Section):

@@ -44,8 +44,8 @@ def _number(value: float | None, digits: int = 6) -> float | None:
 
 
 def overall(records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
-    """The runs, how many satisfy the mission and the fraction, and the replan time (median and
-    max over every replan of every run)."""
+    """The runs, how many satisfy the mission and the fraction, the replan time (median and
+    max over every replan of every run), and how many replans planned with smaller margins."""
     seconds = [s for r in records for s in r.get("replan_seconds") or []]
     satisfied = sum(1 for r in records if r.get("satisfied"))
     return {
@@ -55,6 +55,7 @@ def overall(records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
         "replans": len(seconds),
         "replan_median_s": statistics.median(seconds) if seconds else None,
         "replan_max_s": max(seconds) if seconds else None,
+        "reduced_margins": sum(len(r.get("reduced_margins") or []) for r in records),
     }
 
 
@@ -64,9 +65,11 @@ def line(summary: Mapping[str, Any]) -> str:
     text = f"{summary['satisfied']} of {counted(runs, 'run')} satisfied ({fraction:.0%})"
     if not summary["replans"]:
         return text + "; no replan"
+    reduced = summary.get("reduced_margins")
     return (
         f"{text}; {counted(summary['replans'], 'replan')}, median "
         f"{summary['replan_median_s']:.2f} s, max {summary['replan_max_s']:.2f} s"
+        + (f"; {reduced} with smaller margins" if reduced else "")
     )
 
 

@@ -84,12 +84,15 @@ class Execution:
         The tasks the last degraded replan dropped (empty when none was degraded).
     last
         The plan the run ended with.
+    reduced
+        The margins each replan that had to reduce them planned with (``diagnosis.margin_fractions``).
     """
 
     executed: Trajectory
     replan_seconds: tuple[float, ...]
     dropped: tuple[Dropped, ...]
     last: PlanResult
+    reduced: tuple[float, ...] = ()
 
 
 def disturbances(problem: Problem, bound: float, seed: int, run: int) -> dict[str, np.ndarray]:
@@ -114,6 +117,7 @@ def execute(
     loop = OnlinePlanner(problem, first, overrides, simulated.policy)
     x = {a.name: a.initial_state.copy() for a in problem.agents}
     seconds: list[float] = []
+    reduced: list[float] = []
     dropped: tuple[Dropped, ...] = ()
     for k in range(problem.horizon + 1):
         lost, closed = simulated.at(k)
@@ -124,9 +128,11 @@ def execute(
         if step.replanned:
             seconds.append(time.perf_counter() - tick)
             dropped = step.result.dropped or dropped
+            if step.result.robust_to < first.robust_to:
+                reduced.append(step.result.robust_to)
         if k < problem.horizon:
             x = _advance(problem, x, step.inputs, w, k, loop.lost)
-    return Execution(loop.history(), tuple(seconds), dropped, loop.current)
+    return Execution(loop.history(), tuple(seconds), dropped, loop.current, tuple(reduced))
 
 
 def _advance(
@@ -203,6 +209,7 @@ def figures(report: MonitorReport, run: Execution) -> dict[str, Any]:
         failed=[v.name for v in report.verdicts if not v.satisfied],
         dropped=[d.task for d in run.dropped],
         replans=len(seconds),
+        reduced_margins=list(run.reduced),
         replan_seconds=seconds,
         replan_median_s=statistics.median(seconds) if seconds else None,
         replan_max_s=max(seconds) if seconds else None,
