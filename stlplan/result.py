@@ -311,7 +311,8 @@ class PlanResult:
     the team's), ``stage`` (of that part: ``lazy rounds``, ``held repair``, ``tightening``, ``up front``),
     ``agents`` (how many), ``at`` (s since planning started), ``seconds``, ``ended`` (HiGHS's
     termination), ``bound``, ``best`` (the best plan meeting every requirement so far) and
-    ``held`` (the lazy requirements in the model when it was solved, by kind)."""
+    ``held`` (the lazy requirements in the model when it was solved, by kind) and ``nodes``
+    (HiGHS's branch-and-bound nodes)."""
     stage_seconds: Mapping[str, float] = field(default_factory=dict)
     """Wall time of each stage of the run (step 1, the continuous stage, a diagnosis, the
     monitor's verification), s."""

@@ -232,3 +232,5 @@ def test_every_solve_of_a_merged_part_is_a_round_of_its_own() -> None:
     ]
     assert result.requirements_added == sum(log[-1]["held"].values()) > 0
     assert result.requirements_completed == 0
+    nodes = [r["nodes"] for r in log]  # the parts alone have no integers; the merge has
+    assert nodes[:2] == [None, None] and all(isinstance(n, int) and n >= 1 for n in nodes[2:])

@@ -100,15 +100,16 @@ class Clock:
         self.round = len(self.round_log) + 1
 
     def record_round(self, agents: Sequence[str], seconds: float, ended: str,
-                     bound: float | None, best: float | None, held: dict[str, int]) -> None:  # fmt: skip
+                     bound: float | None, best: float | None, held: dict[str, int],
+                     nodes: int | None = None) -> None:  # fmt: skip
         """Add a lazy round's record to :attr:`round_log` (the round of the part of ``agents``,
-        in the stage :attr:`reached` says)."""
+        in the stage :attr:`reached` says; ``nodes``: HiGHS's branch-and-bound nodes)."""
         finite = bound if bound is not None and math.isfinite(bound) else None
         part = agent_names(agents, self.reached.order or agents)
         self.round_log.append(
             {"round": len(self.round_log) + 1, "part": part, "stage": self.reached.stage,
              "agents": len(agents), "at": self.elapsed(), "seconds": seconds, "ended": ended,
-             "bound": finite, "best": best, "held": held}
+             "bound": finite, "best": best, "held": held, "nodes": nodes}
         )  # fmt: skip
         self.reached.round_done(sum(held.values()))
 

@@ -132,7 +132,8 @@ class LazySolver:
         held = added_by_kind(pm) if pm.deferral is not None else {}
         agents = [a.name for a in pm.problem.agents]
         ended = results.termination_condition.name
-        clock.record_round(agents, solved.seconds, ended, results.objective_bound, best, held)
+        bound = results.objective_bound
+        clock.record_round(agents, solved.seconds, ended, bound, best, held, solved.nodes)
         return solved
 
     def _capped(self, step1: Outcome) -> Outcome:

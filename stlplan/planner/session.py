@@ -110,6 +110,8 @@ class Solved:
     gap: float | None
     stopped: bool = False
     """Whether the user asked to stop (:mod:`stlplan.runtime.signals`): the solve was cut short."""
+    nodes: int | None = None
+    """Branch-and-bound nodes HiGHS explored (None for an LP or without HiGHS's figures)."""
 
 
 class HighsSession:
@@ -231,7 +233,10 @@ class HighsSession:
             first = (self.verdict, time.perf_counter() - tick)
             results = self._confirmed(results, first, budget)
         seconds = time.perf_counter() - tick
-        gap = None
+        gap, nodes = None, None
+        if self.mip and self.highs is not None:  # (HiGHS says -1 for a model without integers)
+            nodes = int(self.highs.getInfo().mip_node_count)
+            nodes = nodes if nodes >= 0 else None
         if self.mip and self.highs is not None and has_solution(results):
             gap = float(self.highs.getInfo().mip_gap)  # HiGHS reports inf without an integer
             if not math.isfinite(gap):
@@ -242,7 +247,7 @@ class HighsSession:
                 gap = 0.0 if optimal else None
         if has_solution(results):
             results.solution_loader.load_vars()
-        return Solved(results, seconds, gap, signals.should_interrupt())
+        return Solved(results, seconds, gap, signals.should_interrupt(), nodes)
 
     def _run(self, seconds: float, settings: confirm.Settings | None = None) -> Results:
         """One HiGHS solve through Pyomo within ``seconds`` (at least
