@@ -6,7 +6,7 @@ STAMP  := $(VENV)/.installed
 OUT    ?= out/farm
 
 .DEFAULT_GOAL := help
-.PHONY: help install farm test test-slow fuzz smoke bench bench-quick bench-replan bench-simulate bench-scale lint format schema crowd clean
+.PHONY: help install farm test test-slow fuzz smoke bench bench-quick bench-replan bench-simulate bench-profile bench-scale lint format schema crowd clean
 
 help:  ## List the targets
 	@grep -E '^[a-zA-Z_-]+:.*?## ' $(MAKEFILE_LIST) | awk 'BEGIN {FS = ":.*?## "}; {printf "  %-15s %s\n", $$1, $$2}'
@@ -48,6 +48,9 @@ bench-replan: $(STAMP)  ## Replanning Case I after drift (K = 2..7, W = 0.05) an
 
 bench-simulate: $(STAMP)  ## Case I executed 20 times under W = 0.02: robust vs nominal, replanning vs open loop, vis1 lost; fraction satisfied against W (~1 h)
 	$(BIN)/python -m stlplan.sim_bench --out bench-results/simulation --curves
+
+bench-profile: $(STAMP)  ## Where the time of Cases I-III goes: rounds, requirements added and binding by kind, nodes, first plan (3 states each, both semantics, ~15 min)
+	$(BIN)/python -m stlplan.profile_bench --out bench-results/profile
 
 bench-scale: $(STAMP)  ## Case I and the scaled farms (16, 24, 32 agents), 3 states each: selection against groups (~2.5 h)
 	$(BIN)/python -m stlplan.bench --cases farm scale/farm-x2-same scale/farm-x2 scale/farm-x3 scale/farm-x4 --runs 3 --formulations default groups --compare-runs 0 --time-limit 600 --name bench-scale
