@@ -9,6 +9,7 @@ import pytest
 
 from stlplan.monitor.verdicts import check
 from stlplan.online import OnlinePlanner
+from stlplan.outputs.summary import summary_dict
 from stlplan.pipeline import plan
 from stlplan.planner.config import Overrides
 from stlplan.result import PlanStatus, Trajectory
@@ -89,6 +90,7 @@ def test_a_degraded_plan_reduces_its_margins_before_it_drops_a_task() -> None:
     assert result.status is PlanStatus.OPTIMAL and not result.dropped
     assert result.robust_to == pytest.approx(0.075) == planned.robust_to  # half the margins
     assert "margins reduced to 0.075" in result.message
+    assert summary_dict(planned, result, {})["robust_to"] == pytest.approx(0.075)
     assert result.margin is not None and result.margin >= 0.075 - 1e-6
     assert result.report is not None and result.report.satisfied
 

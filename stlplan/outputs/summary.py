@@ -101,6 +101,7 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "fallback": fallback_dict(result.fallback),
         "replan": None if result.replan is None else dataclasses.asdict(result.replan),
         "dropped": [dataclasses.asdict(d) for d in result.dropped],
+        "robust_to": result.robust_to,
         "assignments": [
             {
                 "task": a.task,
