@@ -79,7 +79,8 @@ GAP = 1e-4
 
 COLUMNS = (
     "case", "seed", "run", "formulation", "variables", "binaries", "constraints", "build_s",
-    "solve_s", "wall_s", "cpu_s", "first_plan_s", "rounds", "status", "accepted", "gap", "rho_s",
+    "solve_s", "wall_s", "cpu_s", "first_plan_s", "rounds", "requirements_added",
+    "requirements_candidates", "requirements_unneeded", "status", "accepted", "gap", "rho_s",
     "objective", "effort", "message",
 )  # fmt: skip
 
@@ -144,16 +145,11 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
     row: dict[str, Any] = {
         "case": job.case, "seed": seed, "run": job.run, "formulation": job.formulation
     }  # fmt: skip
-    rounds = [1]
-
-    def on_progress(progress: Any) -> None:
-        rounds[0] = max(rounds[0], progress.round or 1)
-
     problem = initial_problem(job.case, seed, job.run)
     overrides = _overrides(job, threads)
     tick, cpu = time.perf_counter(), time.process_time()
     try:
-        _, result = api.plan(problem, overrides, progress=on_progress)
+        _, result = api.plan(problem, overrides)
     except StlplanError as exc:  # the monitor rejected the plan, or HiGHS failed
         row.update(status="error", accepted=False, message=str(exc))
         row["wall_s"] = round(time.perf_counter() - tick, 2)
@@ -172,7 +168,10 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
         first_plan_s=None
         if result.first_plan_seconds is None
         else round(result.first_plan_seconds, 2),
-        rounds=rounds[0],
+        rounds=result.rounds,
+        requirements_added=result.requirements_added,
+        requirements_candidates=result.requirements_candidates,
+        requirements_unneeded=result.requirements_unneeded,
         status=result.status.value,
         accepted=None
         if report is None and result.status.value in NO_PLAN

@@ -300,6 +300,12 @@ class PlanResult:
     """Lazy requirements the rounds and the repairs between them added to the final models
     (the plan's, or the last tried): what the last record of each final part held, and what a
     repair added after it."""
+    requirements_candidates: int = 0
+    """Step requirements (separation, constraints) the lazy loop could have added to the whole
+    team's model: those reachability does not rule out."""
+    requirements_unneeded: int = 0
+    """Step requirements reachability proves met by every reachable state (never encoded): pairs
+    of agents that cannot meet, obstacles out of reach."""
     requirements_completed: int = 0
     """Lazy requirements a completion added at the time limit (every one left out, or those
     added before its time ran out)."""

@@ -13,6 +13,7 @@ from stlplan.mission.problem import Problem
 from stlplan.planner.encoding.deferred import SEPARATION, defer, neighbours, violated
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.outcome import Plan, lowest
+from stlplan.pipeline import plan
 from stlplan.planner.watch import Watch
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model
@@ -212,3 +213,27 @@ def test_a_completion_out_of_time_adds_no_requirement_and_has_no_plan() -> None:
     assert lazy._added_in_time(pm, session, Budget.of_seconds(60.0))
     assert pm.pending() == []
     assert session.highs.getNumRow() > rows  # loaded into HiGHS as they were added
+
+
+def _two_agents(b_at: float, inter_sample: bool) -> Problem:
+    """a reaches a goal at step 3 while b waits at ``b_at`` on the x axis (a starts at -4)."""
+    return mission(
+        horizon=3, safety={"inter_sample": inter_sample}, separation=0.5,
+        agents=[{"name": "a", "dynamics": "si", "initial_state": [-4, 0]},
+                {"name": "b", "dynamics": "si", "initial_state": [b_at, 0]}],
+        regions={"G": {"box": [[-4.1, -3.9], [0.9, 1.1]]}},
+        tasks={"g": {"formula": "F[3,3] in(p, G)", "roles": {"p": {"agent": "a"}}}},
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("inter_sample, pair_steps", [(False, 4), (True, 3)])
+def test_pairs_that_cannot_meet_are_counted_unneeded_not_candidates(
+    inter_sample: bool, pair_steps: int
+) -> None:
+    # |u| <= 1 per step: 8 apart they never meet; 2 apart they may from step 1 on
+    _, far = plan(_two_agents(4.0, inter_sample))
+    assert (far.requirements_candidates, far.requirements_unneeded) == (0, pair_steps)
+    _, near = plan(_two_agents(-2.0, inter_sample))
+    assert near.requirements_candidates + near.requirements_unneeded == pair_steps
+    assert near.requirements_candidates == 3  # steps (or segments) 1-3 are within reach
+    assert near.requirements_added <= near.requirements_candidates

@@ -92,6 +92,8 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "rounds": result.rounds,
         "requirements_added": result.requirements_added,
         "requirements_completed": result.requirements_completed,
+        "requirements_candidates": result.requirements_candidates,
+        "requirements_unneeded": result.requirements_unneeded,
         "events": list(result.events),
         "round_log": [dict(record) for record in result.round_log],
         "first_plan_seconds": result.first_plan_seconds,

@@ -183,6 +183,15 @@ def plan(
     return _readout(run)
 
 
+def _candidates(pm: PlanModel) -> dict[str, int]:
+    """How many step requirements the lazy loop could add, and how many reachability proved
+    unneeded (none of either without a lazy loop)."""
+    if pm.deferral is None:
+        return {}
+    deferral = pm.deferral
+    return {"requirements_candidates": len(deferral.lazy), "requirements_unneeded": deferral.dropped}
+
+
 def _readout(run: _Run) -> PlanResult:
     """The plan of the run's model as a result, with how the run ended and what it did."""
     assert run.pm is not None and run.step1 is not None and run.size is not None
@@ -191,6 +200,7 @@ def _readout(run: _Run) -> PlanResult:
         "rounds": len(clock.round_log),
         "requirements_added": step1.added,
         "requirements_completed": step1.completion_added,
+        **_candidates(run.pm),
         "events": run_events(step1, run.ended, config, clock, run.strictly),
         "confirmations": tuple(clock.confirmations),
         "round_log": tuple(clock.round_log),
