@@ -10,10 +10,10 @@ from stlplan.formula.boundary import EPSILON
 from stlplan.formula.parser import parse
 from stlplan.formula.tree import step_parts
 from stlplan.mission.problem import Problem
+from stlplan.pipeline import plan
 from stlplan.planner.encoding.deferred import SEPARATION, defer, neighbours, violated
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.outcome import Plan, lowest
-from stlplan.pipeline import plan
 from stlplan.planner.watch import Watch
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model

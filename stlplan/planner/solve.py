@@ -189,7 +189,10 @@ def _candidates(pm: PlanModel) -> dict[str, int]:
     if pm.deferral is None:
         return {}
     deferral = pm.deferral
-    return {"requirements_candidates": len(deferral.lazy), "requirements_unneeded": deferral.dropped}
+    return {
+        "requirements_candidates": len(deferral.lazy),
+        "requirements_unneeded": deferral.dropped,
+    }
 
 
 def _readout(run: _Run) -> PlanResult:
