@@ -95,6 +95,9 @@ class OnlinePlanner:
         self.lost: list[str] = []
         self.closed: list[str] = []
         self.replans = 0
+        self.replanned: PlanResult | None = None
+        """The last replan's own result (without a plan when it found none; the current plan
+        is then the one before it)."""
 
     def step(
         self,
@@ -140,6 +143,7 @@ class OnlinePlanner:
             self.overrides, self.progress, start,
         )  # fmt: skip
         self.replans += 1
+        self.replanned = result
         if result.trajectory is not None:
             self.current = result
         else:  # no new plan: keep following the old one

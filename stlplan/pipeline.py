@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import functools
 import logging
 import math
 from collections.abc import Callable, Iterator, Sequence
@@ -85,23 +84,46 @@ def plan(
         return problem, dataclasses.replace(early, **used)
     with signals.stop_on_signals(), _quiet_pyomo():
         result = early or solve_plan(problem, config, progress=progress, budget=run, start=start)
-        if result.status is PlanStatus.INFEASIBLE and config.diagnosis.degrade:
-            with run.stage("smaller margins"):
-                fractions = config.diagnosis.margin_fractions
-                solve = functools.partial(
-                    solve_plan, config=config, progress=progress, budget=run, start=start
-                )
-                problem, result = _smaller_margins(problem, result, fractions, solve, run)
-        if result.status is PlanStatus.INFEASIBLE and config.diagnosis.degrade:
-            with run.stage("degraded"):
-                problem, result = _degraded(problem, config, result, run, progress, start)
-        elif result.status is PlanStatus.INFEASIBLE and diagnose_infeasible:
-            with run.stage("diagnosis"):
-                result = _diagnosed(problem, config, result, run)
+        if result.status is PlanStatus.INFEASIBLE:
+            problem, result = _when_infeasible(
+                problem, config, result, run, progress, start, diagnose_infeasible
+            )
         with run.stage("verify"):
             result = verified(problem, result, config.solver.gap)
         used["robust_to"] = problem.robust_to  # (smaller when the margins were reduced)
         return problem, dataclasses.replace(result, stage_seconds=dict(run.ledger), **used)
+
+
+def _when_infeasible(
+    problem: Problem,
+    config: PlannerConfig,
+    result: PlanResult,
+    run: Budget,
+    progress: Callable[[Any], None] | None,
+    start: Plan | None,
+    diagnose_infeasible: bool,
+) -> tuple[Problem, PlanResult]:
+    """An infeasible mission degraded (smaller robust margins first, then fewer tasks) when
+    ``diagnosis.degrade`` asks for it, else diagnosed when ``diagnose_infeasible`` does."""
+    from stlplan.planner.solve import plan as solve_plan
+
+    if not config.diagnosis.degrade:
+        if not diagnose_infeasible:
+            return problem, result
+        with run.stage("diagnosis"):
+            return problem, _diagnosed(problem, config, result, run)
+    fractions = config.diagnosis.margin_fractions
+    if problem.robust_to > 0 and fractions:
+        with run.stage("smaller margins"):
+
+            def solve(smaller: Problem, budget: Budget) -> PlanResult:
+                return solve_plan(smaller, config, progress=progress, budget=budget, start=start)
+
+            problem, result = _smaller_margins(problem, result, fractions, solve, run)
+    if result.status is not PlanStatus.INFEASIBLE:
+        return problem, result
+    with run.stage("degraded"):
+        return _degraded(problem, config, result, run, progress, start)
 
 
 def _infeasible_before_solving(problem: Problem) -> PlanResult | None:
@@ -114,8 +136,8 @@ def _infeasible_before_solving(problem: Problem) -> PlanResult | None:
     return PlanResult(PlanStatus.INFEASIBLE, message, diagnosis=diagnosis)
 
 
-_Solve = Callable[[Problem], PlanResult]
-"""A solve of a problem by the run's planner, settings and budget."""
+_Solve = Callable[[Problem, Budget], PlanResult]
+"""A solve of a problem by the run's planner and settings within a budget."""
 
 
 class _DiagnosisStopped(Exception):
@@ -178,22 +200,32 @@ def _smaller_margins(
 ) -> tuple[Problem, PlanResult]:
     """The first plan ``solve`` finds that meets every task with the robust margins scaled by
     one of ``fractions`` in turn (``problem`` and ``result`` unchanged when none does): a task
-    kept matters more than a margin against the next disturbance."""
+    kept matters more than a margin against the next disturbance. Each solve has an equal share
+    of the time left, and one more share is kept for the degraded plan; a smaller problem that
+    the cheap reasons already rule out is not solved."""
     asked = problem.robust_to
     confirmations = list(result.confirmations)
-    for fraction in fractions if asked > 0 else ():
-        if run.remaining() <= 0:
+    for n, fraction in enumerate(fractions):
+        if run.expired() or signals.requested():
             break
         smaller = problem.robust(asked * fraction)
-        found = solve(smaller)
-        confirmations.extend(found.confirmations)
-        if found.status.has_plan or found.status.interrupted:
-            message = (
+        if _infeasible_before_solving(smaller) is not None:
+            continue
+        found = solve(smaller, run.share(1 / (len(fractions) - n + 1)))
+        where = f"margins {smaller.robust_to:g}, "
+        confirmations += [
+            dataclasses.replace(c, where=where + c.where) for c in found.confirmations
+        ]
+        if found.status.has_plan:
+            words = (
                 f"margins reduced to {smaller.robust_to:g} (no plan keeps every task with "
-                f"margins of {asked:g}); " + found.message
+                f"margins of {asked:g})"
             )
             return smaller, dataclasses.replace(
-                found, message=message, confirmations=tuple(confirmations)
+                found,
+                message=f"{words}; {found.message}",
+                confirmations=tuple(confirmations),
+                events=(*found.events, words),
             )
     return problem, dataclasses.replace(result, confirmations=tuple(confirmations))
 

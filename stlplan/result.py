@@ -300,6 +300,9 @@ class PlanResult:
     """Lazy requirements the rounds and the repairs between them added to the final models
     (the plan's, or the last tried): what the last record of each final part held, and what a
     repair added after it."""
+    requirements_by_kind: Mapping[str, int] = field(default_factory=dict)
+    """The lazy requirements of the final models (:attr:`requirements_added`) by kind:
+    ``separation`` or ``constraint``, at a ``step`` or on a ``segment``."""
     requirements_candidates: int = 0
     """Step requirements (separation, constraints) the lazy loop could have added to the whole
     team's model: those reachability does not rule out."""

@@ -74,10 +74,10 @@ def _check(result: PlanResult, solver: SolverFigures, report: MonitorReport, gap
             raise SolverError(
                 f"synchronous robustness of '{task}' disagrees: solver {rho}, monitor {seen}"
             )
-    if _short_of(solver.margin, report.spatial_robustness, gap):  # (inf: nothing to keep)
+    seen = report.spatial_robustness  # (inf: nothing has a margin to keep)
+    if _short_of(solver.margin, seen, gap):
         raise SolverError(
-            f"the spatial margin disagrees beyond the gap: solver {solver.margin}, monitor "
-            f"{result.margin}"
+            f"the spatial margin disagrees beyond the gap: solver {solver.margin}, monitor {seen}"
         )
     one_step = result.steps == 1 and result.fallback is None
     if one_step and _short_of(solver.objective, result.objective, gap):

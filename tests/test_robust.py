@@ -11,7 +11,7 @@ from stlplan.monitor.verdicts import check
 from stlplan.online import OnlinePlanner
 from stlplan.outputs.summary import summary_dict
 from stlplan.pipeline import plan
-from stlplan.planner.config import Overrides
+from stlplan.planner.config import ConfigError, Overrides, PlannerConfig
 from stlplan.result import PlanStatus, Trajectory
 from stlplan.simulation import report
 from stlplan.simulation.run import disturbances, execute, judge
@@ -93,6 +93,30 @@ def test_a_degraded_plan_reduces_its_margins_before_it_drops_a_task() -> None:
     assert summary_dict(planned, result, {})["robust_to"] == pytest.approx(0.075)
     assert result.margin is not None and result.margin >= 0.075 - 1e-6
     assert result.report is not None and result.report.satisfied
+
+
+def test_when_no_smaller_margins_do_the_degraded_plan_keeps_the_full_ones() -> None:
+    # 0.3 and half of it, 0.15, both leave no room in the goal: the task is dropped
+    config = {"diagnosis.margin_fractions": [0.5]}
+    overrides = Overrides(time_limit=60, robust_to=0.3, degrade=True, config=config)
+    planned, result = plan(_narrow_goal(), overrides)
+    assert result.status is PlanStatus.DEGRADED and [d.task for d in result.dropped] == ["goal"]
+    assert result.robust_to == 0.3 == planned.robust_to
+    assert "smaller margins" in result.stage_seconds
+    assert any(c.where.startswith("margins 0.15, ") for c in result.confirmations)
+    assert not any("margins reduced" in e for e in result.events)
+
+
+def test_margins_reduced_are_an_event_of_the_run() -> None:
+    _, result = plan(_narrow_goal(), Overrides(time_limit=60, robust_to=0.15, degrade=True))
+    assert "margins reduced to 0.075 (no plan keeps every task with margins of 0.15)" in (
+        result.events
+    )
+
+
+def test_margin_fractions_must_decrease() -> None:
+    with pytest.raises(ConfigError, match="decreasing order"):
+        PlannerConfig().with_overrides({"diagnosis.margin_fractions": [0.0, 0.5]})
 
 
 def test_without_margin_fractions_a_degraded_plan_drops_the_task() -> None:

@@ -92,6 +92,7 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "rounds": result.rounds,
         "requirements_added": result.requirements_added,
         "requirements_completed": result.requirements_completed,
+        "requirements_by_kind": dict(result.requirements_by_kind),
         "requirements_candidates": result.requirements_candidates,
         "requirements_unneeded": result.requirements_unneeded,
         "events": list(result.events),

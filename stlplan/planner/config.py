@@ -19,11 +19,12 @@ This module imports neither Pyomo nor HiGHS.
 from __future__ import annotations
 
 import difflib
+import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from stlplan.errors import StlplanError
 
@@ -203,6 +204,13 @@ class DiagnosisConfig(_Section):
     """Before a degraded plan drops a task of a mission with robust margins (``model.robust_to``),
     plan it again with its margins scaled by each of these fractions in turn and keep the first
     plan that meets every task. Measured: docs/simulation.md#an-agent-lost."""
+
+    @field_validator("margin_fractions")
+    @classmethod
+    def _decreasing(cls, fractions: list[float]) -> list[float]:
+        if any(later >= earlier for earlier, later in itertools.pairwise(fractions)):
+            raise ValueError(f"expected fractions in decreasing order, found {fractions}")
+        return fractions
 
 
 class PlannerConfig(_Section):

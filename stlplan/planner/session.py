@@ -143,6 +143,7 @@ class HighsSession:
         self.model, self.config, self.clock, self.phase, self.mip = (
             model, config, clock, phase, mip
         )  # fmt: skip
+        self._nodes: int | None = None  # branch-and-bound nodes of the solve under way
         self.solver = Highs()
         settings = self.solver.config
         settings.load_solutions = False
@@ -224,6 +225,7 @@ class HighsSession:
         a confirmation solve finds a plan, that solve is the one returned.
         """
         tick = time.perf_counter()
+        self._nodes = None
         results = self._run(budget.remaining())
         infeasible = results.termination_condition in (
             TerminationCondition.provenInfeasible,
@@ -233,10 +235,7 @@ class HighsSession:
             first = (self.verdict, time.perf_counter() - tick)
             results = self._confirmed(results, first, budget)
         seconds = time.perf_counter() - tick
-        gap, nodes = None, None
-        if self.mip and self.highs is not None:  # (HiGHS says -1 for a model without integers)
-            nodes = int(self.highs.getInfo().mip_node_count)
-            nodes = nodes if nodes >= 0 else None
+        gap, nodes = None, self._nodes
         if self.mip and self.highs is not None and has_solution(results):
             gap = float(self.highs.getInfo().mip_gap)  # HiGHS reports inf without an integer
             if not math.isfinite(gap):
@@ -267,6 +266,10 @@ class HighsSession:
         finally:
             config.solver_options = usual
         self.verdict = confirm.verdict(self.highs)
+        if self.mip and self.highs is not None:  # (HiGHS says -1 for a model without integers)
+            nodes = int(self.highs.getInfo().mip_node_count)
+            if nodes >= 0:  # every run of a solve, confirmations included
+                self._nodes = (self._nodes or 0) + nodes
         signals.raise_if_hard()
         if self.clock.error is not None:
             raise self.clock.error

@@ -33,6 +33,7 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.readout import plan_result
 from stlplan.planner.finish import Finish, finish
+from stlplan.planner.lazy import added_by_kind
 from stlplan.planner.outcome import Outcome, Plan
 from stlplan.planner.reached import Reached
 from stlplan.planner.strategy import build_strategy
@@ -183,15 +184,15 @@ def plan(
     return _readout(run)
 
 
-def _candidates(pm: PlanModel) -> dict[str, int]:
-    """How many step requirements the lazy loop could add, and how many reachability proved
-    unneeded (none of either without a lazy loop)."""
+def _candidates(pm: PlanModel) -> dict[str, Any]:
+    """The step requirements of the whole team's model by kind, how many the lazy loop could
+    add, and how many reachability proved unneeded (none without a lazy loop)."""
     if pm.deferral is None:
         return {}
-    deferral = pm.deferral
     return {
-        "requirements_candidates": len(deferral.lazy),
-        "requirements_unneeded": deferral.dropped,
+        "requirements_by_kind": added_by_kind(pm),
+        "requirements_candidates": len(pm.deferral.lazy),
+        "requirements_unneeded": pm.deferral.dropped,
     }
 
 

@@ -125,11 +125,12 @@ def execute(
         step = loop.step(k, x, lost, closed)
         if step.result.status.interrupted or signals.requested():  # --resume runs it again
             raise signals.Interrupted(signals.last_signal() or signal.SIGINT)
-        if step.replanned:
+        if step.replanned and loop.replanned is not None:  # (its own result, plan or not)
             seconds.append(time.perf_counter() - tick)
-            dropped = step.result.dropped or dropped
-            if step.result.robust_to < first.robust_to:
-                reduced.append(step.result.robust_to)
+            own = loop.replanned
+            dropped = own.dropped or dropped
+            if own.trajectory is not None and own.robust_to < first.robust_to:
+                reduced.append(own.robust_to)
         if k < problem.horizon:
             x = _advance(problem, x, step.inputs, w, k, loop.lost)
     return Execution(loop.history(), tuple(seconds), dropped, loop.current, tuple(reduced))
