@@ -10,6 +10,7 @@ import dataclasses
 import logging
 import math
 from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -85,28 +86,32 @@ def plan(
     with signals.stop_on_signals(), _quiet_pyomo():
         result = early or solve_plan(problem, config, progress=progress, budget=run, start=start)
         if result.status is PlanStatus.INFEASIBLE:
-            problem, result = _when_infeasible(
-                problem, config, result, run, progress, start, diagnose_infeasible
-            )
+            how = _Solving(config, run, progress, start)
+            problem, result = _when_infeasible(problem, result, how, diagnose_infeasible)
         with run.stage("verify"):
             result = verified(problem, result, config.solver.gap)
         used["robust_to"] = problem.robust_to  # (smaller when the margins were reduced)
         return problem, dataclasses.replace(result, stage_seconds=dict(run.ledger), **used)
 
 
+@dataclass(frozen=True)
+class _Solving:
+    """How a run solves: its configuration, budget, progress reports and starting plan."""
+
+    config: PlannerConfig
+    run: Budget
+    progress: Callable[[Any], None] | None
+    start: Plan | None
+
+
 def _when_infeasible(
-    problem: Problem,
-    config: PlannerConfig,
-    result: PlanResult,
-    run: Budget,
-    progress: Callable[[Any], None] | None,
-    start: Plan | None,
-    diagnose_infeasible: bool,
+    problem: Problem, result: PlanResult, how: _Solving, diagnose_infeasible: bool
 ) -> tuple[Problem, PlanResult]:
     """An infeasible mission degraded (smaller robust margins first, then fewer tasks) when
     ``diagnosis.degrade`` asks for it, else diagnosed when ``diagnose_infeasible`` does."""
     from stlplan.planner.solve import plan as solve_plan
 
+    config, run, progress, start = how.config, how.run, how.progress, how.start
     if not config.diagnosis.degrade:
         if not diagnose_infeasible:
             return problem, result
@@ -123,7 +128,7 @@ def _when_infeasible(
     if result.status is not PlanStatus.INFEASIBLE:
         return problem, result
     with run.stage("degraded"):
-        return _degraded(problem, config, result, run, progress, start)
+        return _degraded(problem, result, how)
 
 
 def _infeasible_before_solving(problem: Problem) -> PlanResult | None:
@@ -230,19 +235,13 @@ def _smaller_margins(
     return problem, dataclasses.replace(result, confirmations=tuple(confirmations))
 
 
-def _degraded(
-    problem: Problem,
-    config: PlannerConfig,
-    result: PlanResult,
-    run: Budget,
-    progress: Callable[[Any], None] | None,
-    start: Plan | None,
-) -> tuple[Problem, PlanResult]:
+def _degraded(problem: Problem, result: PlanResult, how: _Solving) -> tuple[Problem, PlanResult]:
     """The infeasible mission planned without the fewest tasks (by priority) it must drop
     (:mod:`stlplan.degraded`), within the run's budget; the mission as it was, with a
     diagnosis, when no set of tasks will do."""
     from stlplan.planner.solve import plan as solve_plan
 
+    config, run, progress, start = how.config, how.run, how.progress, how.start
     confirmations = list(result.confirmations)
     probed: dict[int, PlanResult] = {}
     try:
