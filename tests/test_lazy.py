@@ -215,6 +215,35 @@ def test_a_completion_out_of_time_adds_no_requirement_and_has_no_plan() -> None:
     assert session.highs.getNumRow() > rows  # loaded into HiGHS as they were added
 
 
+def test_a_completion_fixes_decisions_by_bounds_and_restores_them() -> None:
+    # a fixed Pyomo variable would make the persistent interface remove and add again every
+    # row it is in; bounds change one column each
+    from pyomo.environ import Var
+
+    from stlplan.planner import lazy
+    from stlplan.planner.budget import Budget
+    from stlplan.planner.clock import Clock
+    from stlplan.planner.config import PlannerConfig
+    from stlplan.planner.session import HighsSession, has_solution
+    from stlplan.planner.values import model_values
+
+    pm = build_model(swap_problem(0.5, horizon=3, inter_sample=True), PlannerConfig())
+    session = HighsSession(pm.model, PlannerConfig(), Clock(0.0, None), "step1")
+    assert has_solution(session.solve(Budget.of_seconds(30.0)).results)
+    binaries = [v for v in pm.model.component_data_objects(Var) if v.is_binary() and not v.fixed]
+    bounds = [v.bounds for v in binaries]
+    assert lazy._added_in_time(pm, session, Budget.of_seconds(60.0))  # rows with binaries
+    rows, removed = session.highs.getNumRow(), []
+    remove = session.solver.remove_constraints
+    session.solver.remove_constraints = lambda found: (removed.extend(found), remove(found))[1]
+    for _ in range(2):  # (the second time, the decisions changed nothing)
+        solved = lazy._fix_and_solve(pm, session, model_values(pm.model), Budget.of_seconds(30))
+        assert solved is not None and has_solution(solved.results)
+    assert removed == [] and session.highs.getNumRow() == rows  # no row taken out, added again
+    assert not any(v.fixed for v in binaries)
+    assert [v.bounds for v in binaries] == bounds
+
+
 def _two_agents(b_at: float, inter_sample: bool) -> Problem:
     """a reaches a goal at step 3 while b waits at ``b_at`` on the x axis (a starts at -4)."""
     return mission(

@@ -52,6 +52,22 @@ def test_a_part_without_a_plan_ends_the_order_and_goes_first_in_the_next() -> No
     assert raised([0, 1, 2], 1) == [1, 0, 2]
 
 
+def test_each_turn_may_use_what_is_left_of_the_order_time() -> None:
+    # an order fails with any of its turns, so a turn is not held to an equal share (with 64
+    # parts, a share shorter than one least solve ended every turn after its first solve)
+    budgets: list[float] = []
+
+    class Timed(_Turn):
+        def solve(self, fixed: dict[str, np.ndarray], budget: Budget) -> Any:
+            budgets.append(budget.remaining())
+            return super().solve(fixed, budget)
+
+    turns = [Timed(name, float(i)) for i, name in enumerate("abcd")]
+    states, failed = plan_in_order(turns, [0, 1, 2, 3], Budget.of_seconds(8))
+    assert failed is None and len(states) == 4
+    assert min(budgets) > 7.0  # not 8 / 4
+
+
 def _merge_repairs(config: PlannerConfig) -> list[str]:
     return [r.describe() for r, _ in RepairPolicy.of(config).merge_repairs(9)]
 

@@ -41,7 +41,7 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.convergence import follow
 from stlplan.planner.encoding.deferred import SEPARATION, best_side, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
-from stlplan.planner.in_turn import agents_of
+from stlplan.planner.in_turn import Held, agents_of, hold_near, release
 from stlplan.planner.outcome import Outcome, Plan, VarKey, lowest, relative_gap
 from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.repairs import Broken
@@ -315,13 +315,15 @@ def _fix_and_solve(
     """Fix the binaries with a value in ``decisions``, add every requirement, solve (a
     finishing solve whose infeasible verdict says only that those decisions admit no plan, so
     it is neither confirmed nor reported as the mission's); None when adding the requirements
-    outlasts ``budget``."""
-    fixed = []
+    outlasts ``budget``.
+
+    A decision is fixed by its bounds: a fixed Pyomo variable would make the persistent
+    interface remove and add again every row it appears in."""
+    held: Held = []
     for v in pm.model.component_data_objects(Var):
         decided = decisions.get(var_key(v)) if v.is_binary() and not v.fixed else None
         if decided is not None:
-            v.fix(float(round(decided)))
-            fixed.append(v)
+            hold_near(v, float(round(decided)), held, 0.0)
     trial, session.trial = session.trial, True  # fixed decisions: the verdict is not the mission's
     try:
         if not _added_in_time(pm, session, budget):
@@ -329,8 +331,7 @@ def _fix_and_solve(
         return session.solve(budget)
     finally:
         session.trial = trial
-        for v in fixed:
-            v.unfix()
+        release(held)
 
 
 ADD_BATCH = 500

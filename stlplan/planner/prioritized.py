@@ -165,9 +165,8 @@ def plan_in_order(
     first part that found none (None when every part found a plan)."""
     fixed: States = {}
     for place, i in enumerate(order):
-        share = budget.share(1 / (len(order) - place))
         tick = time.perf_counter()
-        found = turns[i].solve(fixed, share)
+        found = turns[i].solve(fixed, budget)
         _log.debug("prioritized: part %d, %.2f s", i, time.perf_counter() - tick)
         if found is None:
             _log.debug("prioritized: part %d found no plan after %d parts", i, place)
