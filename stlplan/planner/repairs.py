@@ -107,11 +107,14 @@ class HeldRepair:
         solver = broken.solver
         reached = solver.clock.reached
         held = hold_plans(solver.pm, broken.parts, config.repair.hold, broken.free)
+        settings = solver.session.solver.config
+        gap, settings.rel_gap = settings.rel_gap, max(config.repair.gap, settings.rel_gap or 0.0)
         with reached.within("held repair"):
             try:
                 found = solver.run(budget, trial=True)
             finally:
                 release(held)
+                settings.rel_gap = gap
             plan = None if found.objective is None else loaded_plan(solver.pm)
             if plan is None:
                 reached.failed("held repair")
