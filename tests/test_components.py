@@ -137,6 +137,28 @@ def test_a_merged_part_is_repaired_with_only_the_colliding_agents_free(
     assert accepted(problem, plan(problem, options))
 
 
+def test_the_held_repair_looks_for_a_plan_to_the_repair_gap(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # a repair's bound bounds only the held problem: its rounds need a plan, not a proof
+    seen: list[tuple[LazySolver, float]] = []
+    run = LazySolver.run
+
+    def spy(self: LazySolver, budget: Budget, abs_gap: Any = None, trial: bool = False) -> Any:
+        if trial:
+            seen.append((self, self.session.solver.config.rel_gap))
+        return run(self, budget, abs_gap, trial)
+
+    monkeypatch.setattr(LazySolver, "run", spy)
+    options = PlannerConfig().with_overrides(
+        {"solver.time_limit": 60.0, "solver.gap": 1e-6, "repair.gap": 0.02}
+    )
+    found = solve_parts(detour_for_free(), options, Clock(0.0, None), Budget.of_seconds(60))
+    assert found is not None and found[1].status is PlanStatus.OPTIMAL
+    assert [gap for _, gap in seen] == [0.02]
+    assert seen[0][0].session.solver.config.rel_gap == 1e-6  # the merged part's own rounds'
+
+
 def test_a_solve_starts_from_a_given_plan() -> None:
     # HiGHS stops at its first improving plan: without a start that is a poor one here
     pm = build_model(

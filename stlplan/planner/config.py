@@ -129,7 +129,8 @@ class RepairConfig(_Section):
     """Steps of a violated requirement's family (the same pair, or agent and constraint) a turn
     adds with it (None: all of them). Measured: docs/measurements.md#the-24-agent-farm."""
     gap: float = Field(default=0.01, ge=0)
-    """Relative gap of a turn's solves: the repair looks for a plan, the rounds prove."""
+    """Relative gap of a repair's solves (a turn's, the held repair's rounds): the repair looks
+    for a plan, the rounds prove. Measured: docs/measurements.md#where-farm-x2s-first-plan-comes-from."""
     solve_seconds: float = Field(default=1.0, gt=0)
     """Time limit of one solve of a prioritized repair's turn, s: its best plan within it is
     taken (the turn looks for a plan, not for its optimum). Measured:

@@ -9,8 +9,9 @@ requirement, or None). Three repairs:
   time around the others, as prioritized planners do (:mod:`stlplan.planner.in_turn`);
 * :class:`PrioritizedRepair`: the parts of a merged part solved again one after another, each
   in its own model around the plans of those before it (:mod:`stlplan.planner.prioritized`);
-* :class:`HeldRepair`: the model of a merged part solved once with every agent but those the
-  collisions name held near the parts' plans (``repair.hold``), a small problem.
+* :class:`HeldRepair`: the model of a merged part solved with every agent but those the
+  collisions name held near the parts' plans (``repair.hold``), a small problem, its rounds to
+  the repair's gap (``repair.gap``: its bound bounds only the held problem).
 """
 
 from __future__ import annotations
