@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import Any
 
@@ -137,25 +138,34 @@ def test_a_merged_part_is_repaired_with_only_the_colliding_agents_free(
     assert accepted(problem, plan(problem, options))
 
 
-def test_the_held_repair_looks_for_a_plan_to_the_repair_gap(
-    monkeypatch: pytest.MonkeyPatch,
+@pytest.mark.parametrize(
+    "first_plan, exact_finds, gaps",
+    [(False, True, [1e-6]), (False, False, [1e-6, 0.02]), (True, True, [0.02])],
+)
+def test_the_held_repair_looks_for_a_plan_to_the_repair_gap_when_the_run_gap_finds_none(
+    monkeypatch: pytest.MonkeyPatch, first_plan: bool, exact_finds: bool, gaps: list[float]
 ) -> None:
-    # a repair's bound bounds only the held problem: its rounds need a plan, not a proof
+    # a repair's bound bounds only the held problem: once a solve to the run's gap (which may
+    # prove the merged part) found no plan, or when a plan is all that is asked, the held
+    # rounds stop at the repair's gap
     seen: list[tuple[LazySolver, float]] = []
     run = LazySolver.run
 
     def spy(self: LazySolver, budget: Budget, abs_gap: Any = None, trial: bool = False) -> Any:
-        if trial:
-            seen.append((self, self.session.solver.config.rel_gap))
-        return run(self, budget, abs_gap, trial)
+        done = run(self, budget, abs_gap, trial)
+        if not trial:
+            return done
+        seen.append((self, self.session.solver.config.rel_gap))
+        return done if exact_finds or len(seen) > 1 else dataclasses.replace(done, objective=None)
 
     monkeypatch.setattr(LazySolver, "run", spy)
     options = PlannerConfig().with_overrides(
         {"solver.time_limit": 60.0, "solver.gap": 1e-6, "repair.gap": 0.02}
     )
+    options = options.with_overrides({"solver.first_plan": first_plan})
     found = solve_parts(detour_for_free(), options, Clock(0.0, None), Budget.of_seconds(60))
-    assert found is not None and found[1].status is PlanStatus.OPTIMAL
-    assert [gap for _, gap in seen] == [0.02]
+    assert found is not None and found[1].objective is not None
+    assert [gap for _, gap in seen] == gaps
     assert seen[0][0].session.solver.config.rel_gap == 1e-6  # the merged part's own rounds'
 
 

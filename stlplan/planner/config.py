@@ -131,6 +131,10 @@ class RepairConfig(_Section):
     gap: float = Field(default=0.01, ge=0)
     """Relative gap of a repair's solves (a turn's, the held repair's rounds): the repair looks
     for a plan, the rounds prove. Measured: docs/measurements.md#where-farm-x2s-first-plan-comes-from."""
+    held_exact_share: float = Field(default=0.5, ge=0, le=1)
+    """Share of its time the held repair of a merged part spends solving to the run's gap (its
+    plan may then prove the merged part); the rest, when that found no plan, goes to solving
+    to ``repair.gap``. Measured: docs/measurements.md#where-farm-x2s-first-plan-comes-from."""
     solve_seconds: float = Field(default=1.0, gt=0)
     """Time limit of one solve of a prioritized repair's turn, s: its best plan within it is
     taken (the turn looks for a plan, not for its optimum). Measured:

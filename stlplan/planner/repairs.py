@@ -102,20 +102,19 @@ class PrioritizedRepair:
 
 @dataclass(frozen=True)
 class HeldRepair:
-    """One solve with every agent the collisions do not name held near its part's plan."""
+    """With every agent the collisions do not name held near its part's plan: solved to the
+    run's gap within ``repair.held_exact_share`` of the time, then (without a plan, or with
+    ``solver.first_plan`` at once) to the repair's gap."""
 
     def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
         solver = broken.solver
         reached = solver.clock.reached
         held = hold_plans(solver.pm, broken.parts, config.repair.hold, broken.free)
-        settings = solver.session.solver.config
-        gap, settings.rel_gap = settings.rel_gap, max(config.repair.gap, settings.rel_gap or 0.0)
         with reached.within("held repair"):
             try:
-                found = solver.run(budget, trial=True)
+                found = _held_runs(solver, config, budget)
             finally:
                 release(held)
-                settings.rel_gap = gap
             plan = None if found.objective is None else loaded_plan(solver.pm)
             if plan is None:
                 reached.failed("held repair")
@@ -123,3 +122,19 @@ class HeldRepair:
 
     def describe(self) -> str:
         return "held"
+
+
+def _held_runs(solver: Any, config: PlannerConfig, budget: Budget) -> Any:
+    """The held model's lazy runs (:class:`HeldRepair`); the last one's outcome. A repair's
+    bound bounds only the held problem: the second run looks for a plan, not for a proof."""
+    exact = config.repair.held_exact_share
+    if exact > 0 and not config.solver.first_plan:
+        found = solver.run(budget.share(exact), trial=True)
+        if found.objective is not None or budget.expired():
+            return found
+    settings = solver.session.solver.config
+    gap, settings.rel_gap = settings.rel_gap, max(config.repair.gap, settings.rel_gap or 0.0)
+    try:
+        return solver.run(budget, trial=True)
+    finally:
+        settings.rel_gap = gap
