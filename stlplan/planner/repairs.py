@@ -10,8 +10,9 @@ requirement, or None). Three repairs:
 * :class:`PrioritizedRepair`: the parts of a merged part solved again one after another, each
   in its own model around the plans of those before it (:mod:`stlplan.planner.prioritized`);
 * :class:`HeldRepair`: the model of a merged part solved with every agent but those the
-  collisions name held near the parts' plans (``repair.hold``), a small problem, its rounds to
-  the repair's gap (``repair.gap``: its bound bounds only the held problem).
+  collisions name held near the parts' plans (``repair.hold``), a small problem: to the run's
+  gap first, then, without a plan, to the repair's gap (``repair.gap``: its bound bounds only
+  the held problem).
 """
 
 from __future__ import annotations
