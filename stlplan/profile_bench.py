@@ -33,7 +33,7 @@ from stlplan.bench import initial_problem
 from stlplan.mission.problem import Problem
 from stlplan.pipeline import plan
 from stlplan.planner.config import Overrides, PlannerConfig
-from stlplan.planner.encoding.deferred import SEPARATION, alpha_values
+from stlplan.planner.encoding.deferred import alpha_values, kind
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.values import var_key
 from stlplan.result import PlanResult
@@ -47,12 +47,6 @@ FIELDS = (
     "longest_round_s", "longest_round_nodes", *(f"added {k}" for k in KINDS),
     *(f"binding {k}" for k in KINDS),
 )  # fmt: skip
-
-
-def kind(requirement: Any) -> str:
-    """``separation`` or ``constraint``, ``segment`` or ``step``."""
-    source = "separation" if requirement.source == SEPARATION else "constraint"
-    return f"{source} {'segment' if requirement.span else 'step'}"
 
 
 def step1_states(problem: Problem, values: Mapping[tuple[str, Any], float]) -> dict[str, Any]:

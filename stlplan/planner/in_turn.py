@@ -123,16 +123,11 @@ class InTurn:
         turns = [n for n in names if n in involved]
         done = set(names) - involved
         self.session.clock.reached.turns(0, len(turns))
-        config, trial = self.session.solver.config, self.session.trial
-        gap, self.session.trial = config.rel_gap, True
-        config.rel_gap = max(self.repair.gap, gap or 0.0)
-        try:
+        with self.session.looking_for_a_plan(self.repair.gap):
             if not self._repair(turns, done, budget):
                 return None
             self._improve(turns, set(names), budget)
             return loaded_plan(self.pm)
-        finally:
-            self.session.trial, config.rel_gap = trial, gap
 
     def _repair(self, turns: list[str], done: set[str], budget: Budget) -> bool:
         """The turns of the agents ``turns``, in order; whether each found a plan."""

@@ -39,7 +39,7 @@ from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.convergence import follow
-from stlplan.planner.encoding.deferred import SEPARATION, best_side, neighbours
+from stlplan.planner.encoding.deferred import best_side, kind, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
 from stlplan.planner.in_turn import Held, agents_of, hold_near, release
 from stlplan.planner.outcome import Outcome, Plan, VarKey, lowest, relative_gap
@@ -267,9 +267,7 @@ def added_by_kind(pm: PlanModel) -> dict[str, int]:
     assert pm.deferral is not None
     counts: dict[str, int] = {}
     for n in pm.added:
-        requirement = pm.deferral.lazy[n]
-        kind = "separation" if requirement.source == SEPARATION else "constraint"
-        key = f"{kind} {'segment' if requirement.span else 'step'}"
+        key = kind(pm.deferral.lazy[n])
         counts[key] = counts.get(key, 0) + 1
     return counts
 

@@ -133,9 +133,5 @@ def _held_runs(solver: Any, config: PlannerConfig, budget: Budget) -> Any:
         found = solver.run(budget.share(exact), trial=True)
         if found.objective is not None or budget.expired():
             return found
-    settings = solver.session.solver.config
-    gap, settings.rel_gap = settings.rel_gap, max(config.repair.gap, settings.rel_gap or 0.0)
-    try:
+    with solver.session.looking_for_a_plan(config.repair.gap):
         return solver.run(budget, trial=True)
-    finally:
-        settings.rel_gap = gap

@@ -14,10 +14,12 @@ so whatever the progress callback prints then is forwarded to the real stderr.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import sys
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -206,6 +208,17 @@ class HighsSession:
         event.data_in.setSolution(columns, values)
         if len(columns) < self.highs.getNumCol():
             event.data_in.repairSolution()
+
+    @contextlib.contextmanager
+    def looking_for_a_plan(self, gap: float) -> Iterator[None]:
+        """Within the block, solves stop at the relative gap ``gap`` (or the run's, when looser)
+        and are trials: a repair looks for a plan, and its bound and verdicts prove nothing."""
+        settings, usual, trial = self.solver.config, self.solver.config.rel_gap, self.trial
+        settings.rel_gap, self.trial = max(gap, usual or 0.0), True
+        try:
+            yield
+        finally:
+            settings.rel_gap, self.trial = usual, trial
 
     def load_changes(self) -> None:
         """Send HiGHS what changed in the model since the last solve (rows and variables

@@ -113,6 +113,12 @@ def _is_step_disjunction(formula: Formula) -> bool:
     return isinstance(formula, Or) and all(isinstance(c, Predicate) for c in formula.children)
 
 
+def kind(requirement: Requirement) -> str:
+    """``separation`` or ``constraint``, then ``step`` or ``segment``: e.g. "separation segment"."""
+    source = "separation" if requirement.source == SEPARATION else "constraint"
+    return f"{source} {'segment' if requirement.span else 'step'}"
+
+
 def always_met(requirement: Requirement, boxes: Boxes, margin_ceiling: float) -> bool:
     """Whether some ``alpha_i`` exceeds every admissible margin on the whole reachable box."""
     return any(
