@@ -34,6 +34,7 @@ import numpy as np
 
 from stlplan.errors import StlplanError
 from stlplan.examples import missions_dir
+from stlplan.result import PlanStatus
 
 CASES = ("farm", "farm-case2", "farm-case3")
 SCALE_CASES = ("scale/farm-x2", "scale/farm-x2-same", "scale/farm-x3", "scale/farm-x4")
@@ -199,7 +200,8 @@ def plan_jobs(args: argparse.Namespace) -> Iterator[Job]:
 
 
 def summary_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Per case and formulation: runs, optimal and accepted counts, mean/median/max wall time."""
+    """Per case and formulation: runs, how many ended with a plan, optimal and accepted counts,
+    mean/median/max wall time, the latest first plan and the largest gap of a plan."""
     out = []
     keys = sorted({(r["case"], r["formulation"]) for r in rows}, key=lambda k: (k[0], k[1]))
     for case, name in keys:
@@ -209,6 +211,7 @@ def summary_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
             "case": case,
             "formulation": name,
             "runs": len(mine),
+            "with_plan": sum(1 for r in mine if _has_plan(r)),
             "optimal": sum(1 for r in mine if r.get("status") == "optimal"),
             "infeasible": sum(1 for r in mine if r.get("status") == "infeasible"),
             "accepted": sum(1 for r in mine if r.get("accepted") in (True, "True")),
@@ -217,8 +220,23 @@ def summary_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
             "max_s": round(float(times.max()), 1),
             "mean_cpu_s": _mean(r.get("cpu_s") for r in mine),
             "mean_rounds": round(float(np.mean([float(r.get("rounds") or 1) for r in mine])), 1),
+            "max_first_plan_s": _largest(r.get("first_plan_s") for r in mine),
+            "max_gap": _largest(r.get("gap") for r in mine if _has_plan(r)),
         })  # fmt: skip
     return out
+
+
+def _has_plan(row: dict[str, Any]) -> bool:
+    """Whether the solve of ``row`` ended with a plan."""
+    return PlanStatus(row.get("status") or "error").has_plan
+
+
+def _largest(values: Iterator[Any]) -> float | None:
+    """The largest of the recorded numbers; None when one is missing (a run without it)."""
+    numbers = [_number(v) for v in values]
+    if not numbers or None in numbers:
+        return None
+    return max(n for n in numbers if n is not None)
 
 
 def side_by_side(rows: Sequence[dict[str, Any]], base: str = "default") -> list[dict[str, Any]]:

@@ -74,3 +74,17 @@ def test_crowd_cases_run_once_as_written() -> None:
     problem = bench.initial_problem("crowd/crowd-16", seed=0, run=0)
     assert len(problem.agents) == 16
     assert list(problem.agents[0].initial_state) == [7.5, 4.0]
+
+
+def test_the_summary_counts_plans_and_gives_the_latest_first_plan_and_largest_gap() -> None:
+    rows = [
+        {**row(0, "default", 600.0, "feasible", 2.5), "first_plan_s": 50.9, "gap": 0.02},
+        {**row(1, "default", 300.0, "optimal", 2.4), "first_plan_s": 26.2, "gap": 1e-5},
+        {**row(2, "default", 600.0, "no_plan", None), "first_plan_s": None, "gap": None},
+    ]
+    (summary,) = bench.summary_rows(rows)
+    assert summary["runs"] == 3 and summary["with_plan"] == 2 and summary["optimal"] == 1
+    assert summary["max_first_plan_s"] is None  # a run without a plan has no first plan
+    assert summary["max_gap"] == 0.02
+    (planned,) = bench.summary_rows(rows[:2])
+    assert planned["max_first_plan_s"] == 50.9 and planned["with_plan"] == 2

@@ -90,9 +90,14 @@ def test_every_knob_is_documented() -> None:
 def test_the_strategy_line_follows_the_configuration() -> None:
     line = describe(PlannerConfig())
     assert "parts(lazy rounds(" in line and ">= 7 agents" in line
+    assert "; plan first if >= 10 agents)" in line
     direct = describe(PlannerConfig().with_overrides({"lazy.enabled": False}))
     assert "lazy" not in direct and "parts" not in direct
-    quiet = describe(PlannerConfig().with_overrides({"repair.crowd_agents": None}))
+    quiet = describe(
+        PlannerConfig().with_overrides(
+            {"repair.crowd_agents": None, "parts.plan_first_agents": None}
+        )
+    )
     assert "agents" not in quiet
 
 

@@ -23,7 +23,7 @@ POLICY = RepairPolicy.of(EXACT)
 
 
 def test_the_configuration_composes_the_strategy() -> None:
-    assert build_strategy(EXACT) == Parts(LazyRounds(POLICY))
+    assert build_strategy(EXACT) == Parts(LazyRounds(POLICY), 10)
     assert build_strategy(EXACT.with_overrides({"parts.enabled": False})) == LazyRounds(POLICY)
     assert build_strategy(EXACT.with_overrides({"lazy.enabled": False})) == Direct()
     line = describe(EXACT)
@@ -50,7 +50,10 @@ PROBLEMS: dict[str, Callable[[], Problem]] = {
 
 
 @pytest.mark.parametrize("name", sorted(PROBLEMS))
-@pytest.mark.parametrize("strategy", [Direct(), LazyRounds(POLICY), Parts(LazyRounds(POLICY))])
+@pytest.mark.parametrize(
+    "strategy",
+    [Direct(), LazyRounds(POLICY), Parts(LazyRounds(POLICY)), Parts(LazyRounds(POLICY), 1)],
+)
 def test_every_strategy_reaches_the_up_front_optimum(name: str, strategy: object) -> None:
     problem = PROBLEMS[name]()
     reference = up_front_optimum(problem)

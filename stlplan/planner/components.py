@@ -37,6 +37,10 @@ whenever every part has a bound (at the end of each round of a part, from the le
 each part's rounds so far), and the assembled plan's objective, as the whole problem's
 figures (:mod:`stlplan.planner.convergence`); a part's own figures are not the whole's, unless
 it is a merge of every part.
+
+When the largest part has ``parts.plan_first_agents`` agents or more, all of the above is first
+done for a first plan only, in a model of the whole team of its own, before the parts go on
+towards their proofs (:mod:`stlplan.planner.plan_first`).
 """
 
 from __future__ import annotations
@@ -58,6 +62,7 @@ from stlplan.planner.encoding.model import PlanModel, add_requirements, build_mo
 from stlplan.planner.lazy import LazySolver
 from stlplan.planner.outcome import Outcome, Plan
 from stlplan.planner.parts import agent_parts, sub_problem
+from stlplan.planner.plan_first import Solved, better, plans_first
 from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.repairs import Broken
 from stlplan.planner.watch import VIOLATION_TOL, least_margin, trajectory_states
@@ -273,10 +278,13 @@ def solve_parts(
     budget: Budget,
     policy: RepairPolicy | None = None,
     start: Plan | None = None,
+    plan_first: int | None = None,
 ) -> tuple[PlanModel, Outcome] | None:
     """Solve step 1 part by part (module docstring) within ``budget``, repairing in turn by
     ``policy`` (default: ``config``'s), each part's first solve starting from ``start`` (a plan
     of the whole team: its keys of the part's variables); None when the problem has one part.
+    When a part has ``plan_first`` agents or more, a first plan of the whole team comes before
+    the parts' proofs (:mod:`stlplan.planner.plan_first`).
 
     Returns the full problem's model with the plan loaded (when there is one) and the result.
     """
@@ -292,24 +300,88 @@ def solve_parts(
     if start is not None:  # its agents' states and inputs; HiGHS completes the rest
         for part in parts:
             part.solver.session.start_from(start)
+    early = None
+    if plan_first is not None and plans_first(problem, config, plan_first):
+        early = _first_plan(problem, parts, config, clock, budget)
+        parts = _followed(parts, clock)
+    gap = config.solver.gap
+    parts, done = _apart(problem, full, parts, config, clock, budget, tick)
+    if not done.status.has_plan:
+        return better(early, (full, done), gap)
+    if not (signals.requested() or config.solver.first_plan):
+        _tighten(parts, config, budget)
+    return better(early, (full, _whole(full, parts, config, clock, budget, tick)), gap)
+
+
+def _apart(
+    problem: Problem,
+    full: PlanModel,
+    parts: list[Part],
+    config: PlannerConfig,
+    clock: Clock,
+    budget: Budget,
+    tick: float,
+) -> tuple[list[Part], Outcome]:
+    """Solve the parts in shares, merging those whose plans collide, until none do (or one
+    has no plan); the parts and their combined outcome."""
     while True:
         solve_in_shares(parts, config, budget)
         done = _combined(parts, config, clock, tick)
         if not done.status.has_plan:
-            return full, done
+            return parts, done
         crossing = crossing_requirements(full, parts)
         if not crossing:
-            break
+            return parts, done
         if signals.requested():  # the parts' plans collide: no plan of the full problem
-            return full, dataclasses.replace(done, status=PlanStatus.INTERRUPTED_NO_PLAN)
+            return parts, dataclasses.replace(done, status=PlanStatus.INTERRUPTED_NO_PLAN)
         parts = _merged(problem, parts, crossing, config, clock, budget)
-    if not (signals.requested() or config.solver.first_plan):
-        _tighten(parts, config, budget)
+
+
+def _whole(
+    full: PlanModel,
+    parts: Sequence[Part],
+    config: PlannerConfig,
+    clock: Clock,
+    budget: Budget,
+    tick: float,
+) -> Outcome:
+    """The parts' plans assembled in ``full`` as the outcome of the whole problem."""
     done = _combined(parts, config, clock, tick)
     objective = _assembled(full, parts, config, clock, budget)
     seconds = time.perf_counter() - tick
     stopped = signals.requested()
-    return full, outcome.assembled(done, objective, config.solver.gap, stopped, seconds)
+    return outcome.assembled(done, objective, config.solver.gap, stopped, seconds)
+
+
+def _first_plan(
+    problem: Problem, parts: list[Part], config: PlannerConfig, clock: Clock, budget: Budget
+) -> Solved | None:
+    """A plan of the whole team from the parts' first plans, merged where they collide, in a
+    model of its own, within ``parts.plan_first_share`` of the time
+    (:mod:`stlplan.planner.plan_first`); None without one. The parts not proven are left to go
+    on from their first plans: unsolved, with the requirements they added."""
+    tick = time.perf_counter()
+    quick = config.with_overrides({"solver.first_plan": True})
+    share = budget.share(config.parts.plan_first_share)
+    with clock.building():
+        full = build_model(problem, config.with_overrides({"model.floors": False}))
+    _stop_at_first_plans(parts, True)
+    try:
+        merged, done = _apart(problem, full, parts, quick, clock, share, tick)
+        found = _whole(full, merged, quick, clock, share, tick) if done.status.has_plan else None
+    finally:
+        _stop_at_first_plans(parts, False)
+    for part in parts:
+        if part.step1 is not None and part.step1.status is not PlanStatus.OPTIMAL:
+            part.step1 = None
+    return (full, found) if found is not None and found.status.has_plan else None
+
+
+def _stop_at_first_plans(parts: Sequence[Part], first: bool) -> None:
+    """Make the parts' lazy loops stop at their first plan that meets every requirement (or
+    not)."""
+    for part in parts:
+        part.solver.stop_at_first_plan(first)
 
 
 def _assembled(

@@ -168,6 +168,11 @@ class PartsConfig(_Section):
     take. Measured: docs/dropped.md#parts-and-merges."""
     assembly_seconds: float = Field(default=60.0, gt=0)
     """Time limit of the solve that assembles the parts' plans in one model, s."""
+    plan_first_agents: int | None = Field(default=10, ge=1)
+    """When the largest part has this many agents, the parts look for a plan of the whole team
+    before their proofs (null: never). Measured: docs/measurements.md#a-first-plan-before-the-proof."""
+    plan_first_share: float = Field(default=0.75, gt=0, lt=1)
+    """Share of the time left that looking for that first plan may take."""
 
 
 class BudgetConfig(_Section):

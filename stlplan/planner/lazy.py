@@ -99,6 +99,16 @@ class LazySolver:
             if self.watch is not None:
                 self.watch.found = clock.plan_found
 
+    def stop_at_first_plan(self, first: bool) -> None:
+        """Stop at the first plan that meets every requirement, the rounds meanwhile solved to
+        ``repair.gap`` (their plans show what to add; their bounds still bound), or go back to
+        the run's gap."""
+        if self.watch is None:
+            return
+        self.watch.first = first
+        gap = self.config.solver.gap
+        self.session.solver.config.rel_gap = max(gap, self.config.repair.gap) if first else gap
+
     def run(self, budget: Budget, abs_gap: float | None = None, trial: bool = False) -> Outcome:
         """Solve within ``budget``, to the relative gap (or to ``abs_gap`` alone).
 
@@ -166,7 +176,8 @@ class LazySolver:
             )
             bad = pending_violations(pm) if has_solution(results) else []
             if converged and not bad:
-                return _ended(solved, seconds, rounds, len(pm.added))
+                done = _ended(solved, seconds, rounds, len(pm.added))
+                return _within(done, watch.gap) if watch.first else done  # (maybe a loose round)
             left = budget.remaining()
             # another round while the time left is what this one took (or a least solve)
             needed = min(self.min_solve, solved.seconds)
@@ -291,6 +302,15 @@ def solve_step1(
     if ended.status.has_plan:
         clock.plan_found(ended.objective)  # (at the latest: when step 1 ends with one)
     return ended
+
+
+def _within(done: Outcome, gap: float) -> Outcome:
+    """``done``, feasible rather than optimal when its plan is not within ``gap`` of its bound
+    (a round solved to a looser gap)."""
+    found = outcome.relative_gap(done.objective, done.bound)
+    if done.status is PlanStatus.OPTIMAL and (found is None or found > gap * outcome.SLACK):
+        return replace(done, status=PlanStatus.FEASIBLE)
+    return done
 
 
 def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Outcome:

@@ -12,7 +12,8 @@ Three strategies, each wrapping the one before:
   parts' plans in one model (:mod:`stlplan.planner.components`); a plan of the whole team to
   start from (a replan's) starts each part; when the parts' plans do not assemble into a plan
   of the whole (a part's plan that met its decisions only within HiGHS's integrality
-  tolerance), the team is solved whole by the strategy inside.
+  tolerance), the team is solved whole by the strategy inside. With a large part, a first plan
+  of the whole team comes before the parts' proofs (:mod:`stlplan.planner.plan_first`).
 
 Each strategy takes the problem, the configuration, the run's clock and a budget, and returns
 the model with the plan loaded and the :class:`~stlplan.planner.outcome.Outcome`. Each describes
@@ -105,9 +106,11 @@ class LazyRounds:
 
 @dataclass(frozen=True)
 class Parts:
-    """Independent parts solved apart by ``inner``, merged where their plans collide."""
+    """Independent parts solved apart by ``inner``, merged where their plans collide; a first
+    plan before the parts' proofs when a part has ``plan_first`` agents or more."""
 
     inner: LazyRounds
+    plan_first: int | None = None
 
     def solve(
         self,
@@ -117,7 +120,9 @@ class Parts:
         budget: Budget,
         start: Plan | None = None,
     ) -> tuple[PlanModel, Outcome]:
-        by_parts = solve_parts(problem, config, clock, budget, self.inner.policy, start)
+        by_parts = solve_parts(
+            problem, config, clock, budget, self.inner.policy, start, self.plan_first
+        )
         if by_parts is not None and by_parts[1].stop == ASSEMBLY_FAILED and not budget.expired():
             return self.inner.solve(problem, config, clock, budget, start)  # no plan of the whole
         return by_parts or self.inner.solve(problem, config, clock, budget, start)
@@ -126,7 +131,8 @@ class Parts:
         policy = self.inner.policy
         crowd, first = policy.crowd_agents, "prioritized, " if policy.orders else ""
         merge = f"{first}in turn if >= {crowd} agents, held" if crowd is not None else "held"
-        return f"parts({self.inner.describe()}; merge: {merge})"
+        early = "" if self.plan_first is None else f"; plan first if >= {self.plan_first} agents"
+        return f"parts({self.inner.describe()}; merge: {merge}{early})"
 
 
 def build_strategy(config: PlannerConfig) -> Strategy:
@@ -134,7 +140,7 @@ def build_strategy(config: PlannerConfig) -> Strategy:
     if not config.lazy.enabled:
         return Direct()
     rounds = LazyRounds(RepairPolicy.of(config))
-    return Parts(rounds) if config.parts.enabled else rounds
+    return Parts(rounds, config.parts.plan_first_agents) if config.parts.enabled else rounds
 
 
 def describe(config: PlannerConfig) -> str:
