@@ -156,3 +156,18 @@ def test_a_round_solved_to_a_looser_gap_is_not_optimal() -> None:
     assert _within(loose, GAP).status is PlanStatus.FEASIBLE
     assert _within(loose, 0.01).status is PlanStatus.OPTIMAL
     assert _within(ended(PlanStatus.OPTIMAL, 2.0, 2.0), GAP).status is PlanStatus.OPTIMAL
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(600)
+def test_the_16_agent_farm_with_doubled_counts_has_a_plan_within_two_minutes() -> None:
+    # from the bench's state 0, whose first plan came after 540 s while the parts were proven
+    # before they were merged
+    from stlplan.bench import initial_problem
+    from stlplan.pipeline import plan as plan_mission
+    from stlplan.planner.config import Overrides
+
+    problem = initial_problem("scale/farm-x2", 0, 0)
+    _, result = plan_mission(problem, Overrides(time_limit=120, threads=2))
+    assert result.status.has_plan and result.report is not None and result.report.satisfied
+    assert result.first_plan_seconds is not None and result.gap is not None
