@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from stlplan import bench
+from stlplan import bench, bench_report
 
 
 def row(run: int, name: str, wall: float, status: str, objective: float | None) -> dict:
@@ -22,7 +22,7 @@ def test_side_by_side_ratio_and_agreement() -> None:
         row(2, "straightforward", 50.0, "optimal", 4.1),  # a better optimum: disagreement
         row(3, "default", 5.0, "optimal", 4.0),  # no comparison for this state
     ]
-    pairs = {p["run"]: p for p in bench.side_by_side(rows)}
+    pairs = {p["run"]: p for p in bench_report.side_by_side(rows)}
     assert sorted(pairs) == [0, 1, 2]
     assert pairs[0]["speed_up"] == 15.0 and pairs[0]["agree"] is True
     assert pairs[1]["speed_up"] == 30.0 and pairs[1]["agree"] is True
@@ -64,7 +64,7 @@ def test_side_by_side_infeasible_on_both_sides_agrees() -> None:
         {**row(0, "log", 3.0, "infeasible", None), "case": "stl/door-locked"},
         {**row(0, "standard", 1.5, "infeasible", None), "case": "stl/door-locked"},
     ]
-    (pair,) = bench.side_by_side(rows, base="log")
+    (pair,) = bench_report.side_by_side(rows, base="log")
     assert pair["speed_up"] == 0.5 and pair["agree"] is True
 
 
@@ -82,9 +82,9 @@ def test_the_summary_counts_plans_and_gives_the_latest_first_plan_and_largest_ga
         {**row(1, "default", 300.0, "optimal", 2.4), "first_plan_s": 26.2, "gap": 1e-5},
         {**row(2, "default", 600.0, "no_plan", None), "first_plan_s": None, "gap": None},
     ]
-    (summary,) = bench.summary_rows(rows)
+    (summary,) = bench_report.summary_rows(rows)
     assert summary["runs"] == 3 and summary["with_plan"] == 2 and summary["optimal"] == 1
     assert summary["max_first_plan_s"] is None  # a run without a plan has no first plan
     assert summary["max_gap"] == 0.02
-    (planned,) = bench.summary_rows(rows[:2])
+    (planned,) = bench_report.summary_rows(rows[:2])
     assert planned["max_first_plan_s"] == 50.9 and planned["with_plan"] == 2

@@ -56,6 +56,7 @@ from stlplan.planner import outcome
 from stlplan.planner.assembly import added_keys, assemble, plan_values
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
+from stlplan.planner.collisions import crossing_requirements, merge_groups
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import Requirement, requirement_key, violated
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
@@ -103,49 +104,6 @@ def _part(
     add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
     whole = len(sub.agents) == len(problem.agents)  # a merge of every part: the whole problem
     return Part(tuple(agents), pm, LazySolver(pm, config, clock, policy, whole))
-
-
-def crossing_requirements(full: PlanModel, parts: Sequence[Part]) -> list[Requirement]:
-    """Requirements of the full problem linking agents of different parts that the combined
-    plan violates.
-
-    A requirement within one part is that part's own: its plan meets it as HiGHS meets any row,
-    within the solver's tolerances, which may exceed :data:`VIOLATION_TOL`; merging could not
-    change that, so such a requirement is not a crossing.
-
-    Parameters
-    ----------
-    full
-        The lazy model of the full problem: its lazy requirements and its margin.
-    parts
-        The parts, each with its plan loaded in its own model.
-
-    Returns
-    -------
-    list[Requirement]
-        The lazy requirements of ``full`` that the parts' plans together violate by more than
-        :data:`VIOLATION_TOL` and that name agents of at least two parts.
-    """
-    assert full.deferral is not None
-    states, owner = {}, {a: i for i, part in enumerate(parts) for a in part.agents}
-    for part in parts:
-        states.update(trajectory_states(part.pm))
-    found = violated(full.deferral.lazy, states, least_margin(full), VIOLATION_TOL)
-    bad = [full.deferral.lazy[n] for n in found]
-    return [r for r in bad if len({owner[a] for a in r.binding.values()}) > 1]
-
-
-def _merge(parts: list[Part], linked: list[set[str]]) -> list[list[Part]]:
-    """Groups of parts to merge, one per connected set of ``linked`` agents."""
-    owner = {a: i for i, part in enumerate(parts) for a in part.agents}
-    groups: list[set[int]] = []
-    for agents in linked:
-        touched = {owner[a] for a in agents}
-        for g in [g for g in groups if g & touched]:
-            touched |= g
-            groups.remove(g)
-        groups.append(touched)
-    return [[parts[i] for i in sorted(g)] for g in groups if len(g) > 1]
 
 
 def _totals(parts: Sequence[Part]) -> tuple[float | None, float | None]:
@@ -410,7 +368,7 @@ def _merged(
     """``parts`` with those linked by ``crossing`` merged (seeded with what they had added),
     each recording the whole's bound (:func:`_followed`)."""
     out = list(parts)
-    for group in _merge(parts, [set(r.binding.values()) for r in crossing]):
+    for group in merge_groups(parts, [set(r.binding.values()) for r in crossing]):
         agents = {a for p in group for a in p.agents}
         free = frozenset(a for r in crossing for a in r.binding.values()) & agents
         seed = set().union(*(added_keys(p.pm) for p in group))
