@@ -102,7 +102,9 @@ def test_a_crowded_round_is_repaired_however_short(
         return run(self, bad, budget)
 
     monkeypatch.setattr(InTurn, "run", spy)
-    result, _ = solve(problem, {"repair.after_round_seconds": 1e6, "repair.crowd_agents": crowd})
+    # without the prioritized repair, which plans these four one-agent parts before any turn
+    config = {"repair.after_round_seconds": 1e6, "repair.crowd_agents": crowd, "repair.orders": 0}
+    result, _ = solve(problem, config)
     assert result.status is PlanStatus.OPTIMAL and accepted(problem, result)
     assert bool(runs) is repairs
     assert all(len(agents) >= crowd for agents in runs)

@@ -208,7 +208,8 @@ def _repair(part: Part, config: PlannerConfig, budget: Budget) -> Outcome | None
     repaired plan (None: no plan)."""
     tick = time.perf_counter()
     broken = _broken(part)
-    for repair, share in part.solver.policy.merge_repairs(len(part.free)):
+    largest = max(len(p.pm.problem.agents) for p in part.merged_from)
+    for repair, share in part.solver.policy.merge_repairs(len(part.free), largest):
         plan = repair.repair(broken, config, budget.share(share))
         if plan is not None:
             repaired = part.solver.repaired(plan, time.perf_counter() - tick)

@@ -147,6 +147,18 @@ class RepairConfig(_Section):
     """Orders of the parts a prioritized repair of a merged crowd tries, each starting with the
     part that failed the one before (0: no prioritized repair). Measured:
     docs/measurements.md#the-prioritized-repair."""
+    guide: bool = True
+    """A prioritized turn of one agent that moves as a single integrator in the plane first
+    searches a grid of positions in time for a path around the earlier agents, and solves once
+    with the sides that path keeps (no binaries for them); without a plan it solves as usual.
+    Measured: docs/measurements.md#guided-turns."""
+    guide_near: float = Field(default=0.5, ge=0)
+    """A guided turn first holds the sides of the requirements its guide path meets by less
+    than this; the others when its plan breaks them. Measured: docs/measurements.md#guided-turns."""
+    part_agents: int = Field(default=4, ge=1)
+    """A prioritized repair runs only when the parts of the merge have at most this many agents
+    each: a larger part's turn is a MILP of its own that does not finish. Measured:
+    docs/measurements.md#guided-turns."""
     hold: float = Field(default=1e-4, gt=0)
     """How far a held state or input may move from its plan (room for HiGHS's integrality
     tolerance, ``big-M * 1e-6``)."""

@@ -34,10 +34,17 @@ from pyomo.environ import Block, ConstraintList, VarList
 
 from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.encoding.deferred import Requirement, neighbours, violated
+from stlplan.planner.encoding.deferred import (
+    Requirement,
+    alpha_values,
+    best_side,
+    neighbours,
+    violated,
+)
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.encoding.sos1 import sos1_block
 from stlplan.planner.encoding.stl import Ledger
+from stlplan.planner.guide import guide_path, single_integrator
 from stlplan.planner.in_turn import hold_agents, release
 from stlplan.planner.outcome import Plan
 from stlplan.planner.session import HighsSession, has_solution
@@ -51,6 +58,9 @@ from stlplan.planner.watch import (
 )
 
 _log = logging.getLogger(__name__)
+
+HELD_ROOM = 10.0
+"""A requirement the turns' plans meet by less than this many holds goes into the held solve."""
 
 States = dict[str, np.ndarray]
 """Agent name to its states ``x(0..H)``, an (H+1, n) array."""
@@ -91,6 +101,9 @@ class _Turn:
         mine = [
             n for n in self.crossing if set(lazy[n].binding.values()) <= self.agents | set(fixed)
         ]
+        guided = self._guided(fixed, [lazy[n] for n in mine], budget)
+        if guided is not None:
+            return guided
         ctx, added = self._context(fixed), set[int]()
         for _ in range(self.config.repair.solves_per_turn):
             if not self._solved(budget):
@@ -112,6 +125,64 @@ class _Turn:
                 return None
         _log.debug("prioritized: a turn used its %d solves", self.config.repair.solves_per_turn)
         return None
+
+    def _guided(self, fixed: States, mine: Sequence[Requirement], budget: Budget) -> States | None:
+        """The part's states from a solve with the sides of a guide path
+        (:mod:`stlplan.planner.guide`), its distance from the part's own plan weighed evenly,
+        then more the later it is; or None (a part of several agents or of other dynamics, no
+        path, or no plan that meets every requirement)."""
+        agents = self.pm.problem.agents
+        if not self.config.repair.guide or len(agents) != 1 or not single_integrator(agents[0]):
+            return None
+        agent = agents[0]
+        first = _fixed_steps(self.pm, agent.name)
+        reference = trajectory_states(self.pm)[agent.name]
+        wanted = [r for r in (*mine, *self._own_lazy()) if r.k + r.span > first]
+        margin = least_margin(self.pm)
+        for late in (False, True):
+            path = guide_path(agent, first, reference, wanted, fixed, margin, late)
+            if path is None:
+                _log.debug("prioritized: no guide path for %s", agent.name)
+                return None
+            found = self._sided(fixed, mine, wanted, {**fixed, agent.name: path}, budget)
+            if found is not None or budget.expired():
+                return found
+        return None
+
+    def _sided(
+        self,
+        fixed: States,
+        mine: Sequence[Requirement],
+        wanted: Sequence[Requirement],
+        guide: States,
+        budget: Budget,
+    ) -> States | None:
+        """The part's states from solves with the requirements of ``wanted`` held on the side
+        ``guide`` keeps: first those it meets by less than ``repair.guide_near``, then, solve
+        after solve, those the plan breaks; or None."""
+        ctx, margin = self._context(fixed), least_margin(self.pm)
+        sides = [best_side(req, guide) for req in wanted]
+        spare = [
+            alpha_values(req, guide)[side] - margin for req, side in zip(wanted, sides, strict=True)
+        ]
+        pending = [n for n, room in enumerate(spare) if room < self.config.repair.guide_near]
+        held: set[int] = set()
+        for _ in range(self.config.repair.solves_per_turn):
+            for n in pending:
+                wanted[n].encode_side(ctx, sides[n])
+            held.update(pending)
+            solved = self.session.solve(budget.seconds(self.config.repair.solve_seconds))
+            if solved.stopped or not has_solution(solved.results):
+                _log.debug("prioritized: a guided solve ended %s", self.session.verdict)
+                return None
+            found = {**fixed, **trajectory_states(self.pm)}
+            pending = [n for n in violated(wanted, found, margin, VIOLATION_TOL) if n not in held]
+            if not pending:
+                break
+        if pending or pending_violations(self.pm) or violated(mine, found, margin, VIOLATION_TOL):
+            _log.debug("prioritized: a guided plan breaks a requirement")
+            return None
+        return {a: found[a] for a in self.agents}
 
     def _solved(self, budget: Budget) -> bool:
         """Whether a solve found a plan: within ``repair.solve_seconds`` or, with none by then,
@@ -156,6 +227,14 @@ class _Turn:
         if self.block is not None:
             self.pm.model.del_component(self.block)
             self.block = None
+
+
+def _fixed_steps(pm: PlanModel, agent: str) -> int:
+    """The last step whose states are fixed (the initial one, or a replan's past)."""
+    k = 0
+    while k < pm.problem.horizon and pm.model.x[agent, k + 1, 0].fixed:
+        k += 1
+    return k
 
 
 def plan_in_order(
@@ -213,6 +292,11 @@ def _held_plan(
     for turn in turns:
         planned.update((k, v) for k, v in model_values(turn.pm.model).items() if k[0] in ("x", "u"))
     load_values(pm.model, planned)
+    # a requirement the turns' plans meet with less to spare than the holds allow to move
+    # (both agents of a pair) would be broken by the held solve: it goes in with them
+    assert pm.deferral is not None
+    close = -HELD_ROOM * config.repair.hold
+    add_requirements(pm, violated(pm.deferral.lazy, trajectory_states(pm), least_margin(pm), close))
     held = hold_agents(pm, [a.name for a in pm.problem.agents], config.repair.hold)
     try:
         found = merged.run(budget, trial=True)

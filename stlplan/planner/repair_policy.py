@@ -6,7 +6,8 @@ where the next solve would not. After a lazy round that was long (``repair.after
 or whose violations name a crowd (``repair.crowd_agents``), the round's plan is repaired in
 turn within ``repair.share`` of the loop's time left. A merge of parts whose collisions name a
 crowd is repaired part by part, each part in its own model around those before it (up to
-``repair.orders`` orders; none when 0), then in turn, each within ``parts.crowd_repair_share``
+``repair.orders`` orders; none when 0, or when a part has more than ``repair.part_agents``
+agents), then in turn, each within ``parts.crowd_repair_share``
 of the time left; then, without a plan, with the other agents held (within
 ``parts.held_repair_share``).
 """
@@ -32,6 +33,7 @@ class RepairPolicy:
     crowd_share: float = 0.75
     held_share: float = 0.25
     orders: int = 3
+    part_agents: int = 4
 
     @classmethod
     def of(cls, config: PlannerConfig) -> RepairPolicy:
@@ -39,19 +41,21 @@ class RepairPolicy:
         repair, parts = config.repair, config.parts
         return cls(
             repair.after_round_seconds, repair.crowd_agents, repair.share,
-            parts.crowd_repair_share, parts.held_repair_share, repair.orders,
+            parts.crowd_repair_share, parts.held_repair_share, repair.orders, repair.part_agents,
         )  # fmt: skip
 
     def round_repairs(self, seconds: float, agents: int) -> Planned:
         """The repairs of a lazy round of ``seconds`` whose violations name ``agents``."""
         return ((InTurnRepair(), self.round_share),) if self.after_round(seconds, agents) else ()
 
-    def merge_repairs(self, agents: int) -> Planned:
-        """The repairs of a merged part whose collisions name ``agents`` agents."""
+    def merge_repairs(self, agents: int, largest: int = 1) -> Planned:
+        """The repairs of a merged part whose collisions name ``agents`` agents, from parts of
+        at most ``largest`` agents."""
         held: Planned = ((HeldRepair(), self.held_share),)
         if not self.on_merge(agents):
             return held
-        first: Planned = ((PrioritizedRepair(), self.crowd_share),) if self.orders else ()
+        ordered = self.orders and largest <= self.part_agents
+        first: Planned = ((PrioritizedRepair(), self.crowd_share),) if ordered else ()
         return (*first, (InTurnRepair(), self.crowd_share), *held)
 
     def after_round(self, seconds: float, agents: int) -> bool:

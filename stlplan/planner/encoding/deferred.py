@@ -37,7 +37,14 @@ from stlplan.formula.boundary import HOLDS_AT
 from stlplan.formula.tree import Formula, Or, Predicate, step_parts
 from stlplan.mission.problem import Problem
 from stlplan.planner.encoding.segments import require_on_steps
-from stlplan.planner.encoding.stl import Boxes, Enforced, StlContext, predicate_range, require
+from stlplan.planner.encoding.stl import (
+    Boxes,
+    Enforced,
+    StlContext,
+    predicate_range,
+    require,
+    require_predicate,
+)
 from stlplan.planner.encoding.tasks import separation_formula
 
 Part = tuple[Formula, int, Mapping[str, str]]
@@ -97,6 +104,12 @@ class Requirement:
     def options(self) -> list[list[Enforced]]:
         """Each half-plane as the predicates ``(alpha_i, t, binding)`` enforcing it, t in steps."""
         return [[(alt, t, self.binding) for t in self.steps] for alt in self.alternatives]
+
+    def encode_side(self, ctx: StlContext, side: int) -> None:
+        """Enforce the half-plane ``side`` at every step, without a binary."""
+        scope = ctx.bound(self.binding)
+        for t in self.steps:
+            require_predicate(self.alternatives[side], t, scope)
 
     def encode(self, ctx: StlContext) -> None:
         """Enforce the requirement in the model of ``ctx`` (as if it had been there from the start)."""

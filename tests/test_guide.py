@@ -1,0 +1,105 @@
+"""The guide of a prioritized turn: a grid path in the plane and in time around fixed agents."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from stlplan import crowd
+from stlplan.analysis.reach import reachable_boxes
+from stlplan.mission.loader import load_problem, problem_from_text
+from stlplan.planner import guide
+from stlplan.planner.encoding.deferred import defer, violated
+from tests.helpers.paths import FARM
+
+ROOM = crowd.Room(side=4.0, radius=1.6, pillar_offset=0.6, pillar_half=0.25, horizon=12, hold=2)
+MARGIN = 1e-6
+
+
+@pytest.fixture(scope="module")
+def pair() -> Any:
+    """Two agents swapping places across a room with four pillars, and its lazy requirements."""
+    problem = problem_from_text(crowd.mission_text(2, ROOM), "crowd-2.yaml")
+    return problem, defer(problem, reachable_boxes(problem), 10.0).lazy
+
+
+def _straight(start: np.ndarray, goal: np.ndarray, horizon: int, step: float) -> np.ndarray:
+    """From ``start`` towards ``goal`` at most ``step`` along each axis per step, then still."""
+    path = [np.asarray(start, float)]
+    for _ in range(horizon):
+        path.append(path[-1] + np.clip(goal - path[-1], -step, step))
+    return np.array(path)
+
+
+def _references(problem: Any) -> dict[str, np.ndarray]:
+    step = float(problem.agents[0].input_hi[0])
+    return {
+        a.name: _straight(a.initial_state, ROOM.side - a.initial_state, problem.horizon, step)
+        for a in problem.agents
+    }
+
+
+def test_single_integrators_in_the_plane_are_guided_and_double_integrators_are_not(
+    pair: Any,
+) -> None:
+    problem, _ = pair
+    assert all(guide.single_integrator(a) for a in problem.agents)
+    farm = load_problem(FARM)
+    assert not any(guide.single_integrator(a) for a in farm.agents)
+
+
+def test_with_nothing_in_the_way_the_path_is_the_reference(pair: Any) -> None:
+    problem, _ = pair
+    agent = problem.agents[0]
+    reference = _references(problem)[agent.name]
+    path = guide.guide_path(agent, 0, reference, [], {}, MARGIN)
+    assert path is not None
+    np.testing.assert_allclose(path, reference, atol=1e-9)
+
+
+def test_the_path_keeps_every_requirement_on_every_segment_within_the_input_bounds(
+    pair: Any,
+) -> None:
+    problem, lazy = pair
+    first, second = problem.agents
+    references = _references(problem)
+    fixed = {first.name: references[first.name]}
+    # the straight references cross at the centre, through the pillars and each other
+    assert violated(lazy, references, MARGIN, 0.0)
+    path = guide.guide_path(second, 0, references[second.name], lazy, fixed, MARGIN)
+    assert path is not None
+    states = {**fixed, second.name: path}
+    mine = [r for r in lazy if second.name in r.binding.values()]
+    assert mine and violated(mine, states, MARGIN, 0.0) == []
+    moves = np.abs(np.diff(path, axis=0))
+    assert np.all(moves <= second.input_hi + 1e-9)
+    np.testing.assert_allclose(path[0], second.initial_state)
+
+
+def test_a_later_start_within_the_earlier_step_is_kept_as_it_was(pair: Any) -> None:
+    problem, lazy = pair
+    first, second = problem.agents
+    references = _references(problem)
+    fixed = {first.name: references[first.name]}
+    reference = references[second.name]
+    path = guide.guide_path(second, 2, reference, lazy, fixed, MARGIN)
+    assert path is not None
+    np.testing.assert_allclose(path[:3], reference[:3])
+
+
+def test_an_agent_on_top_of_another_from_its_start_has_no_path(pair: Any) -> None:
+    problem, lazy = pair
+    first, second = problem.agents
+    reference = _references(problem)[second.name]
+    fixed = {first.name: reference.copy()}  # the earlier agent follows the very same path
+    assert guide.guide_path(second, 0, reference, lazy, fixed, MARGIN) is None
+
+
+def test_a_requirement_on_an_agent_not_yet_planned_is_not_read(pair: Any) -> None:
+    problem, lazy = pair
+    first, second = problem.agents
+    separation = [r for r in lazy if set(r.binding.values()) == {first.name, second.name}]
+    assert separation
+    assert guide.half_planes(separation[0], second.name, {}, MARGIN) is None
