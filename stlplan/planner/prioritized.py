@@ -94,6 +94,8 @@ class _Turn:
             if self.agents & set(r.binding.values()) and not set(r.binding.values()) <= self.agents
         ]  # fmt: skip
         self.block: Any = None
+        self.own = trajectory_states(pm)
+        """The part's plan on its own (loaded when the repair starts): the guide's reference."""
 
     def solve(self, fixed: States, budget: Budget) -> States | None:
         """The part's states around ``fixed`` (the earlier agents' plans), or None."""
@@ -136,7 +138,7 @@ class _Turn:
             return None
         agent = agents[0]
         first = _fixed_steps(self.pm, agent.name)
-        reference = trajectory_states(self.pm)[agent.name]
+        reference = self.own[agent.name]
         wanted = [r for r in (*mine, *self._own_lazy()) if r.k + r.span > first]
         margin = least_margin(self.pm)
         for late in (False, True):
