@@ -96,9 +96,11 @@ def reported(problem: Problem, result: PlanResult, report: MonitorReport, gap: f
     solver = SolverFigures(result.objective, result.margin, dict(result.rho_s))
     margin = report.spatial_robustness
     rho_s = {t: report.verdict(t).rho_s for t in result.rho_s}
+    objective = plan_objective(problem, result.trajectory, report)
     out = dataclasses.replace(
         result,
-        objective=plan_objective(problem, result.trajectory, report),
+        objective=objective,
+        gap=_plan_gap(result, objective),
         margin=margin if math.isfinite(margin) else None,
         rho_s={t: float(v) for t, v in rho_s.items() if v is not None},
         solver=solver,
@@ -116,6 +118,17 @@ def reported(problem: Problem, result: PlanResult, report: MonitorReport, gap: f
         }
         out = dataclasses.replace(out, fallback=dataclasses.replace(out.fallback, cost=cost))
     return out
+
+
+def _plan_gap(result: PlanResult, objective: float | None) -> float | None:
+    """The gap of the written plan to the solver's bound when step 1 was not proven (a plan
+    improved after the solver's gap was taken, by a polish or a whole team's solve, gets its
+    own); a proven step 1 keeps the solver's."""
+    if result.status is PlanStatus.OPTIMAL or objective is None or result.bound is None:
+        return result.gap
+    if not math.isfinite(result.bound):
+        return result.gap
+    return max(0.0, result.bound - objective) / max(abs(objective), 1e-9)
 
 
 def verified(problem: Problem, result: PlanResult, gap: float) -> PlanResult:

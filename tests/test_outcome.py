@@ -43,6 +43,16 @@ def test_a_ceiling_tightens_the_bound_and_may_prove_the_plan() -> None:
     assert outcome.proven(None, 1.0, 1e-4) is None
 
 
+def test_a_repaired_plan_gets_its_parts_bound_and_its_gap_to_it() -> None:
+    repaired = _part(S.FEASIBLE, -7.1, None)
+    bounded = outcome.bounded(repaired, -6.9)
+    assert bounded.status is S.FEASIBLE and bounded.bound == -6.9
+    assert bounded.gap == pytest.approx(0.2 / 7.1)
+    assert outcome.bounded(repaired, None) is repaired
+    known = _part(S.FEASIBLE, -7.1, -7.0)
+    assert outcome.bounded(known, -6.9) is known
+
+
 def test_a_loop_cut_short_keeps_a_plan_or_says_why_it_has_none() -> None:
     ended = _part(S.FEASIBLE, 1.0, 2.0)
     assert outcome.cut_short(ended, True, True, False).status is S.INTERRUPTED_NO_PLAN  # type: ignore[union-attr]

@@ -134,6 +134,10 @@ def test_single_integrators_turns_are_solved_on_the_sides_of_a_guide_path(
     result, sided = _guided_turns(small_crowd, monkeypatch, {})
     assert sum(found is not None for found in sided) >= 2
     assert result.status.has_plan and result.report is not None and result.report.satisfied
+    # the parts' bound stays with the plan, and the gap printed is the written plan's own
+    assert result.bound is not None and result.objective is not None
+    own = (result.bound - result.objective) / abs(result.objective)
+    assert result.gap == pytest.approx(max(0.0, own))
 
 
 def test_turns_without_the_guide_solve_their_disjunctions(

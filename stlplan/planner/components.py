@@ -198,7 +198,9 @@ def _solve_part(part: Part, config: PlannerConfig, budget: Budget) -> Outcome:
     assert part.solver.watch is not None
     part.solver.watch.ceiling = ceiling
     if repaired is not None and config.solver.first_plan:  # a plan is all that is asked for
-        return outcome.proven(repaired, ceiling, config.solver.gap) or repaired
+        return outcome.proven(repaired, ceiling, config.solver.gap) or outcome.bounded(
+            repaired, ceiling
+        )
     return outcome.proven(repaired, ceiling, config.solver.gap) or part.solver.run(budget)
 
 

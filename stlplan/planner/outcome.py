@@ -153,6 +153,14 @@ def proven(outcome: Outcome | None, ceiling: float | None, gap: float) -> Outcom
     return dataclasses.replace(outcome, status=PlanStatus.OPTIMAL, bound=ceiling, gap=found)
 
 
+def bounded(outcome: Outcome, ceiling: float | None) -> Outcome:
+    """``outcome`` with ``ceiling`` (a bound of its problem) as its bound when it has none, and
+    the gap of its plan to it."""
+    if outcome.bound is not None or ceiling is None:
+        return outcome
+    return dataclasses.replace(outcome, bound=ceiling, gap=relative_gap(outcome.objective, ceiling))
+
+
 def cut_short(ended: Outcome, stopped: bool, has_plan: bool, trial: bool) -> Outcome | None:
     """The loop ended without a plan meeting every requirement: the outcome when nothing more
     is tried (a stop request, no plan at all, a trial), or None when the last round's plan is
