@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -48,6 +49,10 @@ def test_single_integrators_in_the_plane_are_guided_and_double_integrators_are_n
     assert all(guide.single_integrator(a) for a in problem.agents)
     farm = load_problem(FARM)
     assert not any(guide.single_integrator(a) for a in farm.agents)
+    still = dataclasses.replace(
+        problem.agents[0], input_lo=np.zeros(2), input_hi=np.array([0.5, 0])
+    )
+    assert not guide.single_integrator(still)  # no move along y: no grid
 
 
 def test_with_nothing_in_the_way_the_path_is_the_reference(pair: Any) -> None:

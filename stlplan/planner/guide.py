@@ -85,8 +85,9 @@ def single_integrator(agent: AgentModel) -> bool:
     if agent.n != 2 or agent.m != 2 or tuple(agent.position) != (0, 1):
         return False
     b = agent.B
-    return bool(np.array_equal(agent.A, np.eye(2)) and np.all(np.diag(b) != 0)
-                and b[0, 1] == 0 and b[1, 0] == 0)  # fmt: skip
+    diagonal = bool(np.all(np.diag(b) != 0) and b[0, 1] == 0 and b[1, 0] == 0)
+    reach = np.maximum(np.abs(np.diag(b) * agent.input_lo), np.abs(np.diag(b) * agent.input_hi))
+    return bool(np.array_equal(agent.A, np.eye(2)) and diagonal and np.all(reach > 0))
 
 
 def make_grid(agent: AgentModel, reference: np.ndarray) -> Grid:
