@@ -26,6 +26,7 @@ import numpy as np
 from stlplan.errors import SolverError
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
+from stlplan.planner.outcome import relative_gap
 from stlplan.result import (
     Dropped,
     MonitorReport,
@@ -124,11 +125,11 @@ def _plan_gap(result: PlanResult, objective: float | None) -> float | None:
     """The gap of the written plan to the solver's bound when step 1 was not proven (a plan
     improved after the solver's gap was taken, by a polish or a whole team's solve, gets its
     own); a proven step 1 keeps the solver's."""
-    if result.status is PlanStatus.OPTIMAL or objective is None or result.bound is None:
+    if result.status is PlanStatus.OPTIMAL or result.bound is None:
         return result.gap
     if not math.isfinite(result.bound):
         return result.gap
-    return max(0.0, result.bound - objective) / max(abs(objective), 1e-9)
+    return relative_gap(objective, result.bound)
 
 
 def verified(problem: Problem, result: PlanResult, gap: float) -> PlanResult:
