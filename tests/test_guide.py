@@ -11,6 +11,7 @@ import pytest
 from stlplan import crowd
 from stlplan.analysis.reach import reachable_boxes
 from stlplan.mission.loader import load_problem, problem_from_text
+from stlplan.monitor.robustness import robustness
 from stlplan.planner import guide
 from stlplan.planner.encoding.deferred import defer, violated
 from tests.helpers.paths import FARM
@@ -59,7 +60,7 @@ def test_with_nothing_in_the_way_the_path_is_the_reference(pair: Any) -> None:
     problem, _ = pair
     agent = problem.agents[0]
     reference = _references(problem)[agent.name]
-    path = guide.guide_path(agent, 0, reference, [], {}, MARGIN)
+    path = guide.guide_path(agent, 0, reference, [], {}, MARGIN).path
     assert path is not None
     np.testing.assert_allclose(path, reference, atol=1e-9)
 
@@ -73,7 +74,7 @@ def test_the_path_keeps_every_requirement_on_every_segment_within_the_input_boun
     fixed = {first.name: references[first.name]}
     # the straight references cross at the centre, through the pillars and each other
     assert violated(lazy, references, MARGIN, 0.0)
-    path = guide.guide_path(second, 0, references[second.name], lazy, fixed, MARGIN)
+    path = guide.guide_path(second, 0, references[second.name], lazy, fixed, MARGIN).path
     assert path is not None
     states = {**fixed, second.name: path}
     mine = [r for r in lazy if second.name in r.binding.values()]
@@ -89,17 +90,20 @@ def test_a_later_start_within_the_earlier_step_is_kept_as_it_was(pair: Any) -> N
     references = _references(problem)
     fixed = {first.name: references[first.name]}
     reference = references[second.name]
-    path = guide.guide_path(second, 2, reference, lazy, fixed, MARGIN)
+    path = guide.guide_path(second, 2, reference, lazy, fixed, MARGIN).path
     assert path is not None
     np.testing.assert_allclose(path[:3], reference[:3])
 
 
-def test_an_agent_on_top_of_another_from_its_start_has_no_path(pair: Any) -> None:
+def test_an_agent_on_top_of_another_from_its_start_has_no_path_and_names_it(pair: Any) -> None:
     problem, lazy = pair
     first, second = problem.agents
     reference = _references(problem)[second.name]
     fixed = {first.name: reference.copy()}  # the earlier agent follows the very same path
-    assert guide.guide_path(second, 0, reference, lazy, fixed, MARGIN) is None
+    found = guide.guide_path(second, 0, reference, lazy, fixed, MARGIN)
+    assert found.path is None and found.blockers == {first.name}
+    pillars = [r for r in lazy if set(r.binding.values()) == {second.name}]
+    assert guide.guide_path(second, 0, reference, pillars, {}, MARGIN).blockers == set()
 
 
 def test_a_requirement_on_an_agent_not_yet_planned_is_not_read(pair: Any) -> None:
@@ -108,3 +112,21 @@ def test_a_requirement_on_an_agent_not_yet_planned_is_not_read(pair: Any) -> Non
     separation = [r for r in lazy if set(r.binding.values()) == {first.name, second.name}]
     assert separation
     assert guide.half_planes(separation[0], second.name, {}, MARGIN) is None
+
+
+def test_the_task_planes_are_where_and_when_the_reference_meets_its_task(pair: Any) -> None:
+    problem, lazy = pair
+    first, second = problem.agents
+    references = _references(problem)
+    reference = references[second.name]
+    planes = guide.task_planes(problem, second.name, reference, MARGIN)
+    steps = sorted({hp.k for hp in planes})  # the latest window of the hold the reference keeps
+    assert steps == list(range(ROOM.arrival, ROOM.arrival + ROOM.hold + 1))
+    for hp in planes:  # the reference keeps each, so the path may be the reference there
+        assert float(hp.a[0] @ reference[hp.k]) >= float(hp.c[0, 0])
+    fixed = {first.name: references[first.name]}
+    path = guide.guide_path(second, 0, reference, lazy, fixed, MARGIN, task=planes).path
+    assert path is not None
+    task = next(t for t in problem.tasks if t.elements[0] == (second.name,))
+    formula = problem.lowered(task.formula, task.binding(task.elements[0]))
+    assert robustness(formula, {"p": path}, problem.horizon)[0] >= 0

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -9,15 +11,24 @@ from stlplan.analysis.reach import reachable_boxes
 from stlplan.formula.boundary import EPSILON
 from stlplan.formula.parser import parse
 from stlplan.formula.tree import step_parts
+from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from stlplan.pipeline import plan
-from stlplan.planner.encoding.deferred import SEPARATION, defer, neighbours, violated
+from stlplan.planner.encoding.deferred import (
+    SEPARATION,
+    alpha_maxima,
+    alpha_values,
+    defer,
+    neighbours,
+    violated,
+)
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.outcome import Plan, lowest
 from stlplan.planner.watch import Watch
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model
 from tests.helpers.missions import mission, swap_problem
+from tests.helpers.paths import MISSIONS
 from tests.helpers.solving import accepted, solve
 
 
@@ -266,3 +277,20 @@ def test_pairs_that_cannot_meet_are_counted_unneeded_not_candidates(
     assert near.requirements_candidates + near.requirements_unneeded == pair_steps
     assert near.requirements_candidates == 3  # steps (or segments) 1-3 are within reach
     assert near.requirements_added <= near.requirements_candidates
+
+
+@pytest.mark.parametrize("mission_path", ["farm.yaml", "crowd/crowd-16.yaml"])
+def test_many_requirements_evaluated_at_once_agree_with_each_alone(mission_path: str) -> None:
+    problem = load_problem(MISSIONS / mission_path)
+    problem = dataclasses.replace(problem, robust_to=0.01)  # tightened half-planes too
+    lazy = defer(problem, reachable_boxes(problem), 10.0).lazy
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        states = {
+            a.name: rng.uniform(a.state_lo, a.state_hi, (problem.horizon + 1, a.n))
+            for a in problem.agents
+        }
+        alone = np.array([alpha_values(r, states).max() for r in lazy])
+        np.testing.assert_allclose(alpha_maxima(lazy, states), alone, atol=1e-12)
+        some = list(lazy[::7])
+        np.testing.assert_allclose(alpha_maxima(some, states), alone[::7], atol=1e-12)

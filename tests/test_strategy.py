@@ -109,7 +109,7 @@ def test_a_strict_retry_out_of_time_keeps_the_first_plan(
 
 
 def test_the_policy_names_the_repairs_and_their_shares() -> None:
-    from stlplan.planner.repairs import HeldRepair, InTurnRepair
+    from stlplan.planner.repairs import HeldRepair, InTurnRepair, PrioritizedRepair
 
     policy = RepairPolicy.of(EXACT)
     assert policy.round_repairs(10.0, 1) == ((InTurnRepair(), EXACT.repair.share),)
@@ -121,9 +121,13 @@ def test_the_policy_names_the_repairs_and_their_shares() -> None:
         "in turn",
         "held",
     ]
+    # the prioritized repair's orders take the crowd's share; the solve joining their plans
+    # may take all the time left
     assert [share for _, share in policy.merge_repairs(crowd)] == [
-        EXACT.parts.crowd_repair_share,
+        1.0,
         EXACT.parts.crowd_repair_share,
         EXACT.parts.held_repair_share,
     ]
+    first = policy.merge_repairs(crowd)[0][0]
+    assert first == PrioritizedRepair(EXACT.parts.crowd_repair_share)
     assert policy.merge_repairs(crowd - 1) == ((HeldRepair(), EXACT.parts.held_repair_share),)

@@ -271,6 +271,8 @@ def solve_parts(
         return better(early, (full, done), gap)
     if not (signals.requested() or config.solver.first_plan):
         _tighten(parts, config, budget)
+    if len(parts) == 1:  # merged into one part of the whole team: its model is a full one
+        return better(early, (dataclasses.replace(parts[0].pm, problem=problem), done), gap)
     return better(early, (full, _whole(full, parts, config, clock, budget, tick)), gap)
 
 

@@ -152,6 +152,11 @@ class RepairConfig(_Section):
     searches a grid of positions in time for a path around the earlier agents, and solves once
     with the sides that path keeps (no binaries for them); without a plan it solves as usual.
     Measured: docs/measurements.md#guided-turns."""
+    guided_orders: int = Field(default=16, ge=0)
+    """Orders a prioritized repair first tries with the guided parts on their guide paths only
+    (no MILP of theirs; the parts that shared the last order's start keep their plans), before
+    the ``repair.orders`` orders with the turns' MILPs. Measured:
+    docs/measurements.md#guided-turns."""
     guide_near: float = Field(default=0.5, ge=0)
     """A guided turn first holds the sides of the requirements its guide path meets by less
     than this; the others when its plan breaks them. Measured: docs/measurements.md#guided-turns."""
@@ -177,7 +182,8 @@ class PartsConfig(_Section):
     """Share of the time left that the held repair of a merged part may take."""
     crowd_repair_share: float = Field(default=0.75, gt=0, le=1)
     """Share of the time left that each repair of a merged crowd (prioritized, then in turn) may
-    take. Measured: docs/dropped.md#parts-and-merges."""
+    take; the solve that joins the prioritized repair's plans may take all of it. Measured:
+    docs/dropped.md#parts-and-merges."""
     assembly_seconds: float = Field(default=60.0, gt=0)
     """Time limit of the solve that assembles the parts' plans in one model, s."""
     plan_first_agents: int | None = Field(default=10, ge=1)

@@ -31,8 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stlplan.mission.problem import AgentModel
+from stlplan.mission.problem import AgentModel, Problem
 from stlplan.planner.encoding.deferred import Requirement
+from stlplan.planner.witness import witness
 
 CELLS_PER_MOVE = 3
 """Grid spacing: the longest move along an axis is this many cells."""
@@ -107,6 +108,17 @@ class HalfPlanes:
     c: np.ndarray  # (n_alt, n_steps): the requirement's steps, margin and clearance included
     k: int
     span: int
+    reads: frozenset[str] = frozenset()
+    """The other agents whose states are in ``c``."""
+
+
+@dataclass(frozen=True)
+class Search:
+    """A path (positions from the first free step on), or None and the agents whose
+    requirements stopped the moves the search had left."""
+
+    path: np.ndarray | None
+    blockers: frozenset[str] = frozenset()
 
 
 def half_planes(
@@ -115,6 +127,7 @@ def half_planes(
     """``req`` with the states of ``fixed`` as numbers (None when it reads another agent)."""
     alts = req.alternatives
     a, c = np.zeros((len(alts), 2)), np.zeros((len(alts), req.span + 1))
+    reads = frozenset(req.binding.values()) - {agent}
     for i, alt in enumerate(alts):
         for s, t in enumerate(req.steps):
             c[i, s] = alt.bound + req.tightening(alt, t) + margin + CLEARANCE
@@ -126,7 +139,7 @@ def half_planes(
                 c[i] -= term.coef * fixed[who][list(req.steps), term.component]
             else:
                 return None
-    return HalfPlanes(a, c, req.k, req.span)
+    return HalfPlanes(a, c, req.k, req.span, reads)
 
 
 def _window(hp: HalfPlanes, grid: Grid, t: int) -> tuple[slice, slice]:
@@ -196,10 +209,10 @@ def search(
     first: int,
     requirements: Sequence[HalfPlanes],
     weights: np.ndarray,
-) -> np.ndarray | None:
+) -> Search:
     """The path from the reference's position at step ``first`` to the horizon closest to
     the reference (its distance at step ``t`` weighted by ``weights[t]``) that keeps
-    ``requirements``: its positions at steps ``first..H``, or None."""
+    ``requirements``: its positions at steps ``first..H``, or why there is none."""
     by_step: dict[int, list[HalfPlanes]] = {}
     for hp in requirements:  # the moves from step t read the segment (t, t+1) and step t+1
         by_step.setdefault(hp.k if hp.span else hp.k - 1, []).append(hp)
@@ -222,10 +235,24 @@ def search(
             best[better], parent[better] = arrive[better], m
         best[_outside(grid, t + 1, agent)] = np.inf
         if not np.isfinite(best).any():
-            return None
+            return Search(None, _blockers(by_step.get(t, ()), grid, t, shifts, cost))
         cost = best + weights[t + 1] * far
         parents.append((cells, parent))
-    return _backtrack(grid, first, cost, parents)
+    return Search(_backtrack(grid, first, cost, parents))
+
+
+def _blockers(
+    found: Sequence[HalfPlanes], grid: Grid, t: int, shifts: np.ndarray, cost: np.ndarray
+) -> frozenset[str]:
+    """The agents read by the requirements of ``found`` that stop a move from a cell the
+    search reached at step ``t``."""
+    reached, out = np.isfinite(cost), set[str]()
+    for hp in found:
+        stop = np.zeros((len(shifts), *grid.shape), dtype=bool)
+        _block(hp, grid, t, shifts, stop)
+        if (stop & reached).any():
+            out |= hp.reads
+    return frozenset(out)
 
 
 def _backtrack(
@@ -242,6 +269,32 @@ def _backtrack(
     return np.array([grid.origin(first + t) + grid.h * np.array(c) for t, c in enumerate(cells)])
 
 
+def task_planes(
+    problem: Problem, agent: str, reference: np.ndarray, margin: float
+) -> list[HalfPlanes]:
+    """The half-planes, one a step, by which ``reference`` (the plan of ``agent`` alone in
+    ``problem``) meets each of its tasks of one element and no synchronous window
+    (:mod:`stlplan.planner.witness`): a path keeping them all meets those tasks too. Each is
+    raised to the task's margin, but never past the reference, which keeps them all."""
+    out = []
+    for task in problem.tasks:
+        bindings = [task.binding(e) for e in task.elements]
+        if task.sync is not None or task.count != 1 or len(bindings) != 1:
+            continue
+        if set(bindings[0].values()) != {agent}:
+            continue
+        formula = problem.lowered(task.formula, bindings[0])
+        kept = witness(formula, {role: reference for role in bindings[0]})
+        for w in kept or ():
+            a = np.zeros((1, 2))
+            for term in w.predicate.terms:
+                a[0, term.component] += term.coef
+            wanted = w.predicate.bound + margin + problem.tightening(w.predicate, w.step)
+            c = min(wanted, float(a[0] @ reference[w.step, :2])) - 1e-9
+            out.append(HalfPlanes(a, np.array([[c]]), w.step, 0))
+    return out
+
+
 def guide_path(
     agent: AgentModel,
     first: int,
@@ -250,13 +303,15 @@ def guide_path(
     fixed: Mapping[str, np.ndarray],
     margin: float,
     late: bool = False,
-) -> np.ndarray | None:
+    task: Sequence[HalfPlanes] = (),
+) -> Search:
     """The agent's positions at steps ``0..H`` (``reference`` up to ``first``, then a grid
-    path) keeping one alternative of every requirement it can read, or None. ``late``: a step's
-    distance from the reference weighs more the later it is (the path strays early rather than
-    late, when the reference ends where the task wants it)."""
+    path) keeping one alternative of every requirement it can read and every half-plane of
+    ``task``; or no path, and the agents in the way. ``late``: a step's distance from the
+    reference weighs more the later it is (the path strays early rather than late, when the
+    reference ends where the task wants it)."""
     grid = make_grid(agent, reference)
-    readable = []
+    readable = [hp for hp in task if hp.k > first]
     for req in requirements:
         if (req.k if req.span else req.k - 1) < first:
             continue
@@ -265,7 +320,7 @@ def guide_path(
             readable.append(hp)
     steps = np.arange(len(reference), dtype=float)
     weights = (1.0 + np.maximum(0.0, steps - first)) ** 2 if late else np.ones_like(steps)
-    path = search(grid, agent, first, readable, weights)
-    if path is None:
-        return None
-    return np.vstack([reference[:first], path])
+    found = search(grid, agent, first, readable, weights)
+    if found.path is None:
+        return found
+    return Search(np.vstack([reference[:first], found.path]))

@@ -44,7 +44,7 @@ from stlplan.planner.encoding.deferred import (
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.encoding.sos1 import sos1_block
 from stlplan.planner.encoding.stl import Ledger
-from stlplan.planner.guide import guide_path, single_integrator
+from stlplan.planner.guide import guide_path, single_integrator, task_planes
 from stlplan.planner.in_turn import hold_agents, release
 from stlplan.planner.outcome import Plan
 from stlplan.planner.session import HighsSession, has_solution
@@ -94,17 +94,20 @@ class _Turn:
             if self.agents & set(r.binding.values()) and not set(r.binding.values()) <= self.agents
         ]  # fmt: skip
         self.block: Any = None
+        self.blockers: set[str] = set()
+        """Agents whose plans left the guide no path, in this turn's last solve."""
         self.own = trajectory_states(pm)
         """The part's plan on its own (loaded when the repair starts): the guide's reference."""
 
-    def solve(self, fixed: States, budget: Budget) -> States | None:
-        """The part's states around ``fixed`` (the earlier agents' plans), or None."""
-        lazy = self._lazy()
+    def solve(self, fixed: States, budget: Budget, exact: bool = True) -> States | None:
+        """The part's states around ``fixed`` (the earlier agents' plans), or None. Without
+        ``exact`` a guided part (:attr:`guided`) tries its guided solves only, not its MILP."""
+        lazy, self.blockers = self._lazy(), set()
         mine = [
             n for n in self.crossing if set(lazy[n].binding.values()) <= self.agents | set(fixed)
         ]
         guided = self._guided(fixed, [lazy[n] for n in mine], budget)
-        if guided is not None:
+        if guided is not None or (self.guided and not exact):
             return guided
         ctx, added = self._context(fixed), set[int]()
         for _ in range(self.config.repair.solves_per_turn):
@@ -133,23 +136,30 @@ class _Turn:
         (:mod:`stlplan.planner.guide`), its distance from the part's own plan weighed evenly,
         then more the later it is; or None (a part of several agents or of other dynamics, no
         path, or no plan that meets every requirement)."""
-        agents = self.pm.problem.agents
-        if not self.config.repair.guide or len(agents) != 1 or not single_integrator(agents[0]):
+        if not self.guided:
             return None
-        agent = agents[0]
+        agent = self.pm.problem.agents[0]
         first = _fixed_steps(self.pm, agent.name)
         reference = self.own[agent.name]
         wanted = [r for r in (*mine, *self._own_lazy()) if r.k + r.span > first]
         margin = least_margin(self.pm)
-        for late in (False, True):
-            path = guide_path(agent, first, reference, wanted, fixed, margin, late)
-            if path is None:
-                _log.debug("prioritized: no guide path for %s", agent.name)
-                return None
-            found = self._sided(fixed, mine, wanted, {**fixed, agent.name: path}, budget)
-            if found is not None or budget.expired():
-                return found
+        task = task_planes(self.pm.problem, agent.name, reference, margin)
+        for planes, late in ((task, False), ((), False), ((), True)):
+            found = guide_path(agent, first, reference, wanted, fixed, margin, late, planes)
+            if found.path is None:
+                self.blockers |= found.blockers
+                continue
+            states = self._sided(fixed, mine, wanted, {**fixed, agent.name: found.path}, budget)
+            if states is not None or budget.expired():
+                return states
+        _log.debug("prioritized: no guided plan for %s", agent.name)
         return None
+
+    @property
+    def guided(self) -> bool:
+        """Whether the part's turns start from a guide path: one single-integrator agent."""
+        agents = self.pm.problem.agents
+        return self.config.repair.guide and len(agents) == 1 and single_integrator(agents[0])
 
     def _sided(
         self,
@@ -239,46 +249,79 @@ def _fixed_steps(pm: PlanModel, agent: str) -> int:
     return k
 
 
+Planned = list[tuple[int, States]]
+"""The parts planned in an order, in turn, with their states."""
+
+
 def plan_in_order(
-    turns: Sequence[Any], order: Sequence[int], budget: Budget
-) -> tuple[States, int | None]:
-    """Each part of ``order`` around the plans of those before it; the states found, and the
-    first part that found none (None when every part found a plan)."""
+    turns: Sequence[Any],
+    order: Sequence[int],
+    budget: Budget,
+    exact: bool = True,
+    before: Sequence[tuple[int, States]] = (),
+) -> tuple[Planned, int | None]:
+    """Each part of ``order`` around the plans of those before it (guided parts without their
+    MILPs, without ``exact``); the parts planned, and the first part that found none (None
+    when every part found a plan). The parts the order shares with the start of ``before``
+    (the last order's) keep their plans: a turn's plan depends on those before it only."""
     fixed: States = {}
+    planned: Planned = []
     for place, i in enumerate(order):
-        tick = time.perf_counter()
-        found = turns[i].solve(fixed, budget)
-        _log.debug("prioritized: part %d, %.2f s", i, time.perf_counter() - tick)
+        if place < len(before) and before[place][0] == i and len(planned) == place:
+            found: States | None = before[place][1]
+        else:
+            tick = time.perf_counter()
+            found = turns[i].solve(fixed, budget, exact)
+            _log.debug("prioritized: part %d, %.2f s", i, time.perf_counter() - tick)
         if found is None:
             _log.debug("prioritized: part %d found no plan after %d parts", i, place)
-            return fixed, i
+            return planned, i
+        planned.append((i, found))
         fixed.update(found)
-    return fixed, None
+    return planned, None
 
 
-def raised(order: Sequence[int], failed: int) -> list[int]:
-    """``order`` with the part ``failed`` moved to its front."""
-    return [failed] + [i for i in order if i != failed]
+def raised(
+    order: Sequence[int], failed: int, ahead: Sequence[int] = (), tries: int = 1
+) -> list[int]:
+    """``order`` with the part ``failed`` moved before a part in its way: of those of ``ahead``
+    in ``order``, the last at its first failure (``tries``), the one before at its second, and
+    so on; to the front when none is left (or none is known)."""
+    rest = [i for i in order if i != failed]
+    places = [n for n, i in enumerate(rest) if i in ahead]
+    place = places[-tries] if 0 < tries <= len(places) else 0
+    return rest[:place] + [failed] + rest[place:]
 
 
 def prioritized(
-    merged: Any, parts: Sequence[PlanModel], config: PlannerConfig, budget: Budget
+    merged: Any,
+    parts: Sequence[PlanModel],
+    config: PlannerConfig,
+    budget: Budget,
+    last: Budget | None = None,
 ) -> Plan | None:
     """A plan of the merged part of ``merged`` (its lazy solver) from its ``parts`` planned in
-    turn (module docstring), or None."""
+    turn (module docstring) within ``budget``, their plans joined within ``last`` (the same
+    budget when None); or None."""
     turns = [_Turn(pm, merged.pm, config, merged.clock) for pm in parts]
-    order = list(range(len(parts)))
+    order, tried, fails = list(range(len(parts))), 0, dict[int, int]()
+    planned: Planned = []
     saved = [model_values(pm.model) for pm in parts]
-    try:
-        for n in range(max(1, config.repair.orders)):
-            _, failed = plan_in_order(turns, order, budget)
-            merged.clock.reached.ordered(len(parts) if failed is None else order.index(failed),
-                                         len(parts), n + 1)  # fmt: skip
-            if failed is None:
-                return _held_plan(merged, turns, config, budget)
-            if budget.expired():
-                return None
-            order = raised(order, failed)
+    guided = any(turn.guided for turn in turns)
+    passes = ((False, config.repair.guided_orders),) if guided else ()
+    try:  # guided parts on their guide paths only, then with their MILPs
+        for exact, orders in (*passes, (True, max(1, config.repair.orders))):
+            for _ in range(orders):
+                planned, failed = plan_in_order(turns, order, budget, exact, planned)
+                tried += 1
+                merged.clock.reached.ordered(len(planned), len(parts), tried)
+                if failed is None:
+                    return _held_plan(merged, turns, config, last or budget)
+                if budget.expired():
+                    return None
+                fails[failed] = fails.get(failed, 0) + 1
+                ahead = [i for i in order if turns[i].agents & turns[failed].blockers]
+                order = raised(order, failed, ahead, fails[failed])
         return None
     finally:
         for turn, values in zip(turns, saved, strict=True):

@@ -7,7 +7,8 @@ or whose violations name a crowd (``repair.crowd_agents``), the round's plan is 
 turn within ``repair.share`` of the loop's time left. A merge of parts whose collisions name a
 crowd is repaired part by part, each part in its own model around those before it (up to
 ``repair.orders`` orders; none when 0, or when a part has more than ``repair.part_agents``
-agents), then in turn, each within ``parts.crowd_repair_share``
+agents; its orders within ``parts.crowd_repair_share`` of the time left and the solve that
+joins their plans within all of it), then in turn, within ``parts.crowd_repair_share``
 of the time left; then, without a plan, with the other agents held (within
 ``parts.held_repair_share``).
 """
@@ -55,7 +56,8 @@ class RepairPolicy:
         if not self.on_merge(agents):
             return held
         ordered = self.orders and largest <= self.part_agents
-        first: Planned = ((PrioritizedRepair(), self.crowd_share),) if ordered else ()
+        prioritized = PrioritizedRepair(self.crowd_share)  # its last solve: any time left
+        first: Planned = ((prioritized, 1.0),) if ordered else ()
         return (*first, (InTurnRepair(), self.crowd_share), *held)
 
     def after_round(self, seconds: float, agents: int) -> bool:

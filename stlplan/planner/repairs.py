@@ -85,14 +85,19 @@ class InTurnRepair:
 
 @dataclass(frozen=True)
 class PrioritizedRepair:
-    """Part by part, each in its own model around the parts before it (prioritized planning)."""
+    """Part by part, each in its own model around the parts before it (prioritized planning):
+    the orders within ``orders_share`` of the repair's time, the solve that turns the parts'
+    plans into the merged part's within all of it."""
+
+    orders_share: float = 1.0
 
     def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
         if len(broken.parts) < 2:
             return None
         reached = broken.solver.clock.reached
+        orders = budget.share(self.orders_share)
         with reached.within("prioritized repair"):
-            plan = prioritized(broken.solver, broken.parts, config, budget)
+            plan = prioritized(broken.solver, broken.parts, config, orders, budget)
             if plan is None:
                 reached.failed("prioritized repair")
         return plan
