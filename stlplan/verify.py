@@ -26,7 +26,7 @@ import numpy as np
 from stlplan.errors import SolverError
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
-from stlplan.planner.outcome import relative_gap
+from stlplan.planner.outcome import gap_words, relative_gap
 from stlplan.result import (
     Dropped,
     MonitorReport,
@@ -98,10 +98,13 @@ def reported(problem: Problem, result: PlanResult, report: MonitorReport, gap: f
     margin = report.spatial_robustness
     rho_s = {t: report.verdict(t).rho_s for t in result.rho_s}
     objective = plan_objective(problem, result.trajectory, report)
+    gap_of_plan = _plan_gap(result, objective)
+    said = gap_words(result.gap, result.bound)  # the message speaks of the written plan too
     out = dataclasses.replace(
         result,
         objective=objective,
-        gap=_plan_gap(result, objective),
+        gap=gap_of_plan,
+        message=result.message.replace(said, gap_words(gap_of_plan, result.bound)),
         margin=margin if math.isfinite(margin) else None,
         rho_s={t: float(v) for t, v in rho_s.items() if v is not None},
         solver=solver,

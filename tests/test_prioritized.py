@@ -158,6 +158,7 @@ def test_single_integrators_turns_are_solved_on_the_sides_of_a_guide_path(
     assert result.bound is not None and result.objective is not None
     own = (result.bound - result.objective) / abs(result.objective)
     assert result.gap == pytest.approx(max(0.0, own))
+    assert f"gap {result.gap:.2%}" in result.message  # the message speaks of the same plan
 
 
 def test_turns_without_the_guide_solve_their_disjunctions(

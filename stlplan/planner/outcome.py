@@ -21,6 +21,7 @@ Gaps are relative, as HiGHS's: ``(bound - objective) / |objective|`` for a maxim
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -282,3 +283,10 @@ def assembled(
     if status is PlanStatus.OPTIMAL and (found is None or found > gap * SLACK):
         status = PlanStatus.INTERRUPTED if stopped else PlanStatus.FEASIBLE
     return dataclasses.replace(done, status=status, objective=objective, gap=found, seconds=seconds)
+
+
+def gap_words(gap: float | None, bound: float | None) -> str:
+    """A plan's gap and bound in the words of a run's message."""
+    if gap is None or bound is None or not math.isfinite(bound):
+        return "no bound yet"
+    return f"gap {gap:.2%}, bound {bound:.6g}"

@@ -19,7 +19,6 @@ stage, the half-plane the step-1 plan meets best: the side an up-front encoding 
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -34,7 +33,7 @@ from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.readout import plan_result
 from stlplan.planner.finish import Finish, finish
 from stlplan.planner.lazy import added_by_kind
-from stlplan.planner.outcome import Outcome, Plan
+from stlplan.planner.outcome import Outcome, Plan, gap_words
 from stlplan.planner.reached import Reached
 from stlplan.planner.strategy import build_strategy
 from stlplan.planner.values import load_values, plan_of
@@ -256,9 +255,7 @@ def step1_message(step1: Outcome, config: PlannerConfig, clock: Clock) -> str:
     str
         The status in words, with why a run without a plan ended so.
     """
-    bound, gap = step1.bound, step1.gap
-    known = gap is not None and bound is not None and math.isfinite(bound)
-    where = f"gap {gap:.2%}, bound {bound:.6g}" if known else "no bound yet"
+    where = gap_words(step1.gap, step1.bound)
     texts = {
         PlanStatus.OPTIMAL: "optimal plan",
         PlanStatus.FEASIBLE: (
