@@ -144,8 +144,9 @@ class RepairConfig(_Section):
     those it meets by less than this (fewer solves per turn). Measured:
     docs/measurements.md#the-prioritized-repair."""
     orders: int = Field(default=3, ge=0)
-    """Orders of the parts a prioritized repair of a merged crowd tries, each starting with the
-    part that failed the one before (0: no prioritized repair). Measured:
+    """Orders of the parts a prioritized repair of a merged crowd tries with the turns' MILPs,
+    each with the part that failed the one before moved ahead, before the parts in its way (0:
+    no prioritized repair). Measured:
     docs/measurements.md#the-prioritized-repair."""
     guide: bool = True
     """A prioritized turn of one agent that moves as a single integrator in the plane first

@@ -8,9 +8,12 @@ or a constraint binding agents of both) are encoded exactly as the full model en
 (:meth:`~stlplan.planner.encoding.deferred.Requirement.encode`), with the earlier agents'
 states as numbers: the rows read the later agents' variables only. They are added lazily, as
 the part's plans violate them, with every step of their family (``repair.window``), and so are
-the part's own requirements. A part that finds no plan around those before it is moved to the
-front of the order and the parts are taken again (at most ``repair.orders`` orders), as
-revised prioritized planning raises the priority of a robot that failed. When every part
+the part's own requirements. A part that finds no plan around those before it is moved ahead,
+before the last part in its way (the guide names them), at its next failure before the one
+before that, then to the front, and the parts are taken again, as revised prioritized planning
+raises the priority of a robot that failed; the parts an order starts with as the last one did
+keep their plans. The first ``repair.guided_orders`` orders take guided parts on their guide
+paths only, the next ``repair.orders`` with their MILPs too. When every part
 found one, the union of their plans meets every requirement between them; the merged model is
 then solved once with every agent held near its plan (``repair.hold``), which sets every
 indicator, and its plan is returned when it meets every requirement (the watch of the loop
