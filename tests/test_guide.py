@@ -13,7 +13,8 @@ from stlplan.analysis.reach import reachable_boxes
 from stlplan.mission.loader import load_problem, problem_from_text
 from stlplan.monitor.robustness import robustness
 from stlplan.planner import guide
-from stlplan.planner.encoding.deferred import defer, violated
+from stlplan.planner.encoding.alphas import violated
+from stlplan.planner.encoding.deferred import defer
 from tests.helpers.paths import FARM
 
 ROOM = crowd.Room(side=4.0, radius=1.6, pillar_offset=0.6, pillar_half=0.25, horizon=12, hold=2)

@@ -14,13 +14,11 @@ from stlplan.formula.tree import step_parts
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from stlplan.pipeline import plan
+from stlplan.planner.encoding.alphas import alpha_maxima, alpha_values, violated
 from stlplan.planner.encoding.deferred import (
     SEPARATION,
-    alpha_maxima,
-    alpha_values,
     defer,
     neighbours,
-    violated,
 )
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.outcome import Plan, lowest

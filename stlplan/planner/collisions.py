@@ -6,7 +6,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Protocol, TypeVar
 
-from stlplan.planner.encoding.deferred import Requirement, violated
+from stlplan.planner.encoding.alphas import violated
+from stlplan.planner.encoding.deferred import Requirement
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.watch import VIOLATION_TOL, least_margin, trajectory_states
 

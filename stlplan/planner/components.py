@@ -58,7 +58,8 @@ from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.collisions import crossing_requirements, merge_groups
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.encoding.deferred import Requirement, requirement_key, violated
+from stlplan.planner.encoding.alphas import violated
+from stlplan.planner.encoding.deferred import Requirement, requirement_key
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
 from stlplan.planner.lazy import LazySolver
 from stlplan.planner.outcome import Outcome, Plan

@@ -144,9 +144,8 @@ class RepairConfig(_Section):
     those it meets by less than this (fewer solves per turn). Measured:
     docs/measurements.md#the-prioritized-repair."""
     orders: int = Field(default=3, ge=0)
-    """Orders of the parts a prioritized repair of a merged crowd tries with the turns' MILPs,
-    each with the part that failed the one before moved ahead, before the parts in its way (0:
-    no prioritized repair). Measured:
+    """Orders of the parts a prioritized repair of a merged crowd tries with the turns' MILPs, a
+    failed part moved before the parts in its way (0: no prioritized repair). Measured:
     docs/measurements.md#the-prioritized-repair."""
     guide: bool = True
     """A prioritized turn of one agent that moves as a single integrator in the plane first
@@ -154,9 +153,8 @@ class RepairConfig(_Section):
     with the sides that path keeps (no binaries for them); without a plan it solves as usual.
     Measured: docs/measurements.md#guided-turns."""
     guided_orders: int = Field(default=16, ge=0)
-    """Orders a prioritized repair first tries with the guided parts on their guide paths only
-    (no MILP of theirs; the parts that shared the last order's start keep their plans), before
-    the ``repair.orders`` orders with the turns' MILPs. Measured:
+    """Orders a prioritized repair first tries with guided parts on their guide paths only,
+    before its ``repair.orders`` orders with the turns' MILPs. Measured:
     docs/measurements.md#guided-turns."""
     guide_near: float = Field(default=0.5, ge=0)
     """A guided turn first holds the sides of the requirements its guide path meets by less

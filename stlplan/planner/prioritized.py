@@ -37,12 +37,11 @@ from pyomo.environ import Block, ConstraintList, VarList
 
 from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.encoding.alphas import alpha_values, violated
 from stlplan.planner.encoding.deferred import (
     Requirement,
-    alpha_values,
     best_side,
     neighbours,
-    violated,
 )
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.encoding.sos1 import sos1_block

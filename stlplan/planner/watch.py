@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from pyomo.environ import value
 
-from stlplan.planner.encoding.deferred import violated
+from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.outcome import Plan, lowest
 from stlplan.planner.values import ColumnKeys, plan_of

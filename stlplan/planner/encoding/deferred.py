@@ -37,6 +37,7 @@ import numpy as np
 from stlplan.formula.boundary import HOLDS_AT
 from stlplan.formula.tree import Formula, Or, Predicate, step_parts
 from stlplan.mission.problem import Problem
+from stlplan.planner.encoding.alphas import Flat, alpha_values, flatten
 from stlplan.planner.encoding.segments import require_on_steps
 from stlplan.planner.encoding.stl import (
     Boxes,
@@ -53,23 +54,6 @@ Part = tuple[Formula, int, Mapping[str, str]]
 
 SEPARATION = "separation"
 """Source name of the pairwise separation requirements."""
-
-
-@dataclass(frozen=True)
-class Flat:
-    """A requirement's half-planes at its steps as arrays: slot ``i * steps + s`` holds
-    ``alpha_i`` at its step ``s``, the constant ``const[slot]`` plus ``coef`` times the state
-    ``component`` of agent ``names[who]`` at ``step``, summed over the terms of that slot."""
-
-    names: tuple[str, ...]
-    alternatives: int
-    steps: int
-    const: np.ndarray
-    slot: np.ndarray
-    who: np.ndarray
-    step: np.ndarray
-    component: np.ndarray
-    coef: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -121,20 +105,9 @@ class Requirement:
 
     @functools.cached_property
     def flat(self) -> Flat:
-        """The requirement as arrays, for evaluating many at once (:func:`alpha_maxima`)."""
-        alts, steps = self.alternatives, self.steps
-        names = tuple(dict.fromkeys(self.binding[t.role] for a in alts for t in a.terms))
-        rows = [
-            (i * len(steps) + s, names.index(self.binding[term.role]), t, term.component, term.coef)
-            for i, alt in enumerate(alts)
-            for s, t in enumerate(steps)
-            for term in alt.terms
-        ]
-        columns = list(zip(*rows, strict=True)) or [()] * 5
-        slot, who, step, component = (np.array(c, dtype=int) for c in columns[:4])
-        coef = np.array(columns[4], dtype=float)
-        const = np.array([-a.bound - self.tightening(a, t) for a in alts for t in steps])
-        return Flat(names, len(alts), len(steps), const, slot, who, step, component, coef)
+        """The requirement as arrays, for evaluating many at once
+        (:func:`stlplan.planner.encoding.alphas.alpha_maxima`)."""
+        return flatten(self)
 
     def options(self) -> list[list[Enforced]]:
         """Each half-plane as the predicates ``(alpha_i, t, binding)`` enforcing it, t in steps."""
@@ -298,83 +271,6 @@ def defer(problem: Problem, boxes: Boxes, margin_ceiling: float) -> Deferral:
         else:
             lazy.append(requirement)
     return Deferral(tuple(lazy), tuple(eager), dropped)
-
-
-def alpha_values(requirement: Requirement, states: Mapping[str, np.ndarray]) -> np.ndarray:
-    """``min_t alpha_i(x(t))`` over the requirement's steps, for every half-plane, on a trajectory
-    (agent name to (H+1, n) states): what the encoding demands of the alternative ``i``."""
-    flat = requirement.flat
-    values = flat.const.copy()
-    for n, agent in enumerate(flat.names):
-        mine = flat.who == n
-        read = states[agent][flat.step[mine], flat.component[mine]]
-        values += np.bincount(flat.slot[mine], flat.coef[mine] * read, minlength=len(values))
-    return values.reshape(flat.alternatives, flat.steps).min(axis=1)
-
-
-def alpha_maxima(
-    requirements: Sequence[Requirement], states: Mapping[str, np.ndarray]
-) -> np.ndarray:
-    """``max_i alpha_values(req, states)[i]`` for every requirement, evaluated at once."""
-    if not requirements:
-        return np.empty(0)
-    table = _table(tuple(requirements))
-    offset, cols, start = {}, {}, 0
-    for agent, x in states.items():
-        offset[agent], cols[agent], start = start, x.shape[1], start + x.size
-    values = np.concatenate([np.asarray(x, float).ravel() for x in states.values()])
-    at = np.array([offset[a] for a in table.agents])[table.who]
-    width = np.array([cols[a] for a in table.agents])[table.who]
-    read = values[at + table.step * width + table.component]
-    alpha = table.const + np.bincount(table.slot, table.coef * read, len(table.const))
-    return np.maximum.reduceat(np.minimum.reduceat(alpha, table.alternatives), table.firsts)
-
-
-@dataclass(frozen=True)
-class _Table:
-    """Many requirements' :class:`Flat` forms, one after the other: ``who`` indexes ``agents``;
-    ``alternatives`` holds the first slot of every half-plane, ``firsts`` the first half-plane
-    of every requirement."""
-
-    agents: tuple[str, ...]
-    who: np.ndarray
-    step: np.ndarray
-    component: np.ndarray
-    slot: np.ndarray
-    coef: np.ndarray
-    const: np.ndarray
-    alternatives: np.ndarray
-    firsts: np.ndarray
-
-
-@functools.lru_cache(maxsize=32)
-def _table(requirements: tuple[Requirement, ...]) -> _Table:
-    flats = [r.flat for r in requirements]
-    agents = tuple(dict.fromkeys(a for f in flats for a in f.names))
-    index = {a: n for n, a in enumerate(agents)}
-    slots = np.cumsum([0] + [len(f.const) for f in flats])
-    sizes = [f.steps for f in flats for _ in range(f.alternatives)]
-    return _Table(
-        agents,
-        np.concatenate([np.array([index[a] for a in f.names], int)[f.who] for f in flats]),
-        np.concatenate([f.step for f in flats]),
-        np.concatenate([f.component for f in flats]),
-        np.concatenate([f.slot + b for f, b in zip(flats, slots, strict=False)]),
-        np.concatenate([f.coef for f in flats]),
-        np.concatenate([f.const for f in flats]),
-        np.cumsum([0] + sizes[:-1]),
-        np.cumsum([0] + [f.alternatives for f in flats[:-1]]),
-    )
-
-
-def violated(
-    requirements: Sequence[Requirement],
-    states: Mapping[str, np.ndarray],
-    margin: float,
-    tolerance: float,
-) -> list[int]:
-    """Indices of the requirements with ``max_i alpha_i(x(k)) - r < -tolerance``."""
-    return np.flatnonzero(alpha_maxima(requirements, states) - margin < -tolerance).tolist()
 
 
 def requirement_key(req: Requirement) -> tuple[Any, ...]:

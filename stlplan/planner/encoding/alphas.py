@@ -1,0 +1,151 @@
+"""The half-planes of step requirements evaluated on a trajectory, one by one or many at once.
+
+A requirement (:class:`stlplan.planner.encoding.deferred.Requirement`) holds when one of its
+half-planes ``alpha_i`` is at least the margin at each of its steps. Its :class:`Flat` form lays
+those half-planes out as arrays, so that the thousands of requirements of a large team are
+checked against a plan in one numpy evaluation (:func:`alpha_maxima`, :func:`violated`).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from stlplan.formula.tree import Predicate
+
+
+@dataclass(frozen=True)
+class Flat:
+    """A requirement's half-planes at its steps as arrays: slot ``i * steps + s`` holds
+    ``alpha_i`` at its step ``s``, the constant ``const[slot]`` plus ``coef`` times the state
+    ``component`` of agent ``names[who]`` at ``step``, summed over the terms of that slot."""
+
+    names: tuple[str, ...]
+    alternatives: int
+    steps: int
+    const: np.ndarray
+    slot: np.ndarray
+    who: np.ndarray
+    step: np.ndarray
+    component: np.ndarray
+    coef: np.ndarray
+
+
+class Requirement(Protocol):
+    """What is read of a step requirement
+    (:class:`stlplan.planner.encoding.deferred.Requirement`)."""
+
+    @property
+    def alternatives(self) -> tuple[Predicate, ...]: ...
+    @property
+    def steps(self) -> range: ...
+    @property
+    def binding(self) -> Mapping[str, str]: ...
+    @property
+    def tightening(self) -> Callable[[Predicate, int], float]: ...
+    @property
+    def flat(self) -> Flat: ...
+
+
+def flatten(requirement: Requirement) -> Flat:
+    """``requirement`` as arrays (:class:`Flat`)."""
+    alts, steps = requirement.alternatives, requirement.steps
+    names = tuple(dict.fromkeys(requirement.binding[t.role] for a in alts for t in a.terms))
+    rows = [
+        (
+            i * len(steps) + s,
+            names.index(requirement.binding[term.role]),
+            t,
+            term.component,
+            term.coef,
+        )
+        for i, alt in enumerate(alts)
+        for s, t in enumerate(steps)
+        for term in alt.terms
+    ]
+    columns = list(zip(*rows, strict=True)) or [()] * 5
+    slot, who, step, component = (np.array(c, dtype=int) for c in columns[:4])
+    coef = np.array(columns[4], dtype=float)
+    const = np.array([-a.bound - requirement.tightening(a, t) for a in alts for t in steps])
+    return Flat(names, len(alts), len(steps), const, slot, who, step, component, coef)
+
+
+def alpha_values(requirement: Requirement, states: Mapping[str, np.ndarray]) -> np.ndarray:
+    """``min_t alpha_i(x(t))`` over the requirement's steps, for every half-plane, on a trajectory
+    (agent name to (H+1, n) states): what the encoding demands of the alternative ``i``."""
+    flat = requirement.flat
+    values = flat.const.copy()
+    for n, agent in enumerate(flat.names):
+        mine = flat.who == n
+        read = states[agent][flat.step[mine], flat.component[mine]]
+        values += np.bincount(flat.slot[mine], flat.coef[mine] * read, minlength=len(values))
+    return values.reshape(flat.alternatives, flat.steps).min(axis=1)
+
+
+def alpha_maxima(
+    requirements: Sequence[Requirement], states: Mapping[str, np.ndarray]
+) -> np.ndarray:
+    """``max_i alpha_values(req, states)[i]`` for every requirement, evaluated at once."""
+    if not requirements:
+        return np.empty(0)
+    table = _table(tuple(requirements))
+    offset, cols, start = {}, {}, 0
+    for agent, x in states.items():
+        offset[agent], cols[agent], start = start, x.shape[1], start + x.size
+    values = np.concatenate([np.asarray(x, float).ravel() for x in states.values()])
+    at = np.array([offset[a] for a in table.agents])[table.who]
+    width = np.array([cols[a] for a in table.agents])[table.who]
+    read = values[at + table.step * width + table.component]
+    alpha = table.const + np.bincount(table.slot, table.coef * read, len(table.const))
+    return np.maximum.reduceat(np.minimum.reduceat(alpha, table.alternatives), table.firsts)
+
+
+@dataclass(frozen=True)
+class _Table:
+    """Many requirements' :class:`Flat` forms, one after the other: ``who`` indexes ``agents``;
+    ``alternatives`` holds the first slot of every half-plane, ``firsts`` the first half-plane
+    of every requirement."""
+
+    agents: tuple[str, ...]
+    who: np.ndarray
+    step: np.ndarray
+    component: np.ndarray
+    slot: np.ndarray
+    coef: np.ndarray
+    const: np.ndarray
+    alternatives: np.ndarray
+    firsts: np.ndarray
+
+
+@functools.lru_cache(maxsize=32)
+def _table(requirements: tuple[Requirement, ...]) -> _Table:
+    flats = [r.flat for r in requirements]
+    agents = tuple(dict.fromkeys(a for f in flats for a in f.names))
+    index = {a: n for n, a in enumerate(agents)}
+    slots = np.cumsum([0] + [len(f.const) for f in flats])
+    sizes = [f.steps for f in flats for _ in range(f.alternatives)]
+    return _Table(
+        agents,
+        np.concatenate([np.array([index[a] for a in f.names], int)[f.who] for f in flats]),
+        np.concatenate([f.step for f in flats]),
+        np.concatenate([f.component for f in flats]),
+        np.concatenate([f.slot + b for f, b in zip(flats, slots, strict=False)]),
+        np.concatenate([f.coef for f in flats]),
+        np.concatenate([f.const for f in flats]),
+        np.cumsum([0] + sizes[:-1]),
+        np.cumsum([0] + [f.alternatives for f in flats[:-1]]),
+    )
+
+
+def violated(
+    requirements: Sequence[Requirement],
+    states: Mapping[str, np.ndarray],
+    margin: float,
+    tolerance: float,
+) -> list[int]:
+    """Indices of the requirements with ``max_i alpha_i(x(k)) - r < -tolerance``."""
+    return np.flatnonzero(alpha_maxima(requirements, states) - margin < -tolerance).tolist()
