@@ -89,6 +89,20 @@ def test_parts_give_the_up_front_optimum() -> None:
     assert accepted(problem, parted)
 
 
+def test_parts_solved_side_by_side_give_the_optimum_of_parts_one_after_another() -> None:
+    options = PlannerConfig().with_overrides(
+        {"solver.time_limit": 60.0, "solver.gap": 1e-6, "solver.threads": 2}
+    )
+    problem = two_teams()
+    apart = plan(problem, options.with_overrides({"parts.side_by_side": 1}))
+    beside = plan(problem, options)  # two threads: both parts at the same time
+    assert beside.status is apart.status is PlanStatus.OPTIMAL
+    assert beside.objective == pytest.approx(apart.objective, abs=1e-5)
+    parts = {r["part"] for r in apart.round_log}
+    assert len(parts) == 3 and {r["part"] for r in beside.round_log} == parts
+    assert accepted(problem, beside)
+
+
 def test_a_collision_between_parts_merges_them() -> None:
     # a and b are separate parts whose straight plans collide at step 1
     problem = swap_problem(separation=0.5)

@@ -115,7 +115,10 @@ GapOption = Annotated[
 ThreadsOption = Annotated[
     int | None,
     typer.Option(
-        help="HiGHS threads, at least 1 (default: the mission's or HiGHS').", min=1, metavar="N"
+        help="Threads, at least 1: HiGHS's, and independent parts solved at the same time "
+        "(default: the mission's or HiGHS').",
+        min=1,
+        metavar="N",
     ),
 ]
 SeedOption = Annotated[

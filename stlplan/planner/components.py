@@ -46,6 +46,7 @@ towards their proofs (:mod:`stlplan.planner.plan_first`).
 from __future__ import annotations
 
 import dataclasses
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -67,6 +68,7 @@ from stlplan.planner.parts import agent_parts, sub_problem
 from stlplan.planner.plan_first import Solved, better, plans_first
 from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.repairs import Broken
+from stlplan.planner.side_by_side import in_shares, workers
 from stlplan.planner.watch import VIOLATION_TOL, least_margin, trajectory_states
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
@@ -83,6 +85,9 @@ class Part:
     merged_from: tuple[Part, ...] = ()
     free: frozenset[str] = frozenset()
 
+
+_COUNTING = threading.Lock()
+"""Parts solved side by side count the planned ones one at a time."""
 
 PartSolve = Callable[[Part, PlannerConfig, Budget], Outcome]
 """One part's solve within its share of the time, ``(part, config, budget) -> result``."""
@@ -163,7 +168,9 @@ def solve_in_shares(
     """Solve the parts not solved yet, the smallest first, each within an equal share of the
     time left but ``parts.merge_reserve`` (what one leaves goes to the next); the reserve is for
     merging parts whose plans collide, and :func:`_tighten` spends what is left at the end on
-    the part furthest from its bound. A stop request ends the loop before the next part.
+    the part furthest from its bound. With ``parts.side_by_side`` workers, as many parts are
+    solved at the same time (:mod:`stlplan.planner.side_by_side`). A stop request ends the loop
+    before the next part.
 
     Parameters
     ----------
@@ -179,11 +186,12 @@ def solve_in_shares(
     """
     solve = solve or _solve_part
     waiting = sorted((p for p in parts if p.step1 is None), key=lambda p: len(p.agents))
-    shares = budget.split(len(waiting), reserve=config.parts.merge_reserve)
-    for part, share in zip(waiting, shares, strict=True):
-        if signals.requested():
-            return
+
+    def run(part: Part, share: Budget) -> None:
         part.step1 = solve(part, config, share)
+
+    reserve = config.parts.merge_reserve
+    in_shares(waiting, run, budget, reserve, workers(config))
 
 
 def _solve_part(part: Part, config: PlannerConfig, budget: Budget) -> Outcome:
@@ -192,7 +200,8 @@ def _solve_part(part: Part, config: PlannerConfig, budget: Budget) -> Outcome:
     reached.solving(part.agents, len(part.merged_from))
     if not part.merged_from:
         done = part.solver.run(budget)
-        reached.planned += done.status.has_plan
+        with _COUNTING:
+            reached.planned += done.status.has_plan
         return done
     repaired = _repair(part, config, budget)
     _, ceiling = _totals(part.merged_from)

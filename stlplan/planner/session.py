@@ -8,8 +8,9 @@ of the same model send HiGHS only what changed (Pyomo's persistent interface det
 and variables, and changed bounds), which the lazy loop of :mod:`stlplan.planner.lazy` relies on.
 
 Progress: HiGHS callbacks (improving solution, MIP interrupt) are registered on the
-``highspy.Highs`` object inside Pyomo's solver; Pyomo redirects stdout/stderr during a solve,
-so whatever the progress callback prints then is forwarded to the real stderr.
+``highspy.Highs`` object inside Pyomo's solver. Pyomo's capture of the process's output around
+a solve is off for the planner's solves (:mod:`stlplan.planner.uncaptured`), so what a progress
+callback prints meanwhile goes where it would otherwise.
 """
 
 from __future__ import annotations
@@ -17,7 +18,6 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
-import sys
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -30,7 +30,7 @@ from pyomo.contrib.solver.common.results import Results, SolutionStatus, Termina
 from pyomo.contrib.solver.solvers.highs import Highs
 from pyomo.environ import ConcreteModel
 
-from stlplan.planner import confirm
+from stlplan.planner import confirm, uncaptured
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock, Phase
 from stlplan.planner.config import PlannerConfig
@@ -163,7 +163,7 @@ class HighsSession:
         # lazy loop's, a stop request) and mapped by plan_status.
         logging.getLogger("pyomo.contrib.solver.solvers.highs").setLevel(logging.ERROR)
         use_threads(config.solver.threads)
-        with clock.building():
+        with clock.building(), uncaptured.solves():
             self.solver.set_instance(model)
         self.highs: Any = getattr(self.solver, "_solver_model", None)
         self._fresh = True
@@ -271,11 +271,8 @@ class HighsSession:
         usual = config.solver_options
         config.solver_options = {**usual, **(settings or {})}
         try:
-            # Pyomo redirects the process's stdout/stderr while HiGHS runs; send what the
-            # progress callback writes meanwhile to the real stderr (HiGHS's own log is off).
-            with signals.solving():
-                tee = [sys.stderr] if self.clock.progress else []
-                results = self.solver.solve(self.model, tee=tee)
+            with signals.solving(), uncaptured.solves():
+                results = self.solver.solve(self.model)
         finally:
             config.solver_options = usual
         self.verdict = confirm.verdict(self.highs)

@@ -65,6 +65,7 @@ class StopState:
 
 
 STATE = StopState()
+_COUNT = threading.Lock()
 
 
 def requested() -> bool:
@@ -100,12 +101,15 @@ def raise_if_hard() -> None:
 
 @contextmanager
 def solving() -> Iterator[None]:
-    """Mark a HiGHS solve as running (signals then only record the request)."""
-    STATE.solving += 1
+    """Mark a HiGHS solve as running (signals then only record the request); solves in two
+    threads count one at a time."""
+    with _COUNT:
+        STATE.solving += 1
     try:
         yield
     finally:
-        STATE.solving -= 1
+        with _COUNT:
+            STATE.solving -= 1
 
 
 def _on_signal(signum: int, frame: FrameType | None) -> None:
