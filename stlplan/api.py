@@ -180,7 +180,9 @@ def solve(
     """Plan, verify and (with ``out``) write the plan directory; returns the verified result.
 
     ``animation``: write ``plan.gif`` (and ``plan.mp4``) too; ``viewer``: write ``plan.html``
-    too (:func:`write_plan`).
+    too (:func:`write_plan`). ``progress`` is called with each
+    :class:`~stlplan.planner.clock.Progress`, one call at a time, from the thread that solves
+    (with two threads or more, parts are solved in threads of their own).
     """
     # a bad mission leaves no output folder behind
     problem = mission if isinstance(mission, Problem) else load_problem(mission)

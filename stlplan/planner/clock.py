@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -81,6 +82,9 @@ class Clock:
     says which figures count)."""
     reached: Reached = field(default_factory=Reached)
     """How far step 1 got: the part, its stage, the counts."""
+    reporting: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
+    """Parts solved side by side report one at a time: the progress callback is never called
+    from two threads at once."""
 
     def plan_found(self, objective: float | None) -> None:
         """Note that step 1 holds a plan of the whole problem with ``objective`` (the first time
@@ -142,6 +146,7 @@ class Clock:
             return
         step_round = self.round if phase == "step1" else None
         try:
-            self.progress(Progress(phase, self.elapsed(), incumbent, bound, gap, step_round))
+            with self.reporting:
+                self.progress(Progress(phase, self.elapsed(), incumbent, bound, gap, step_round))
         except Exception as exc:  # re-raised once HiGHS has returned
             self.error = exc

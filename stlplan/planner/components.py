@@ -68,7 +68,7 @@ from stlplan.planner.parts import agent_parts, sub_problem
 from stlplan.planner.plan_first import Solved, better, plans_first
 from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.repairs import Broken
-from stlplan.planner.side_by_side import in_shares, workers
+from stlplan.planner.side_by_side import in_shares, part_workers
 from stlplan.planner.watch import VIOLATION_TOL, least_margin, trajectory_states
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
@@ -191,7 +191,7 @@ def solve_in_shares(
         part.step1 = solve(part, config, share)
 
     reserve = config.parts.merge_reserve
-    in_shares(waiting, run, budget, reserve, workers(config))
+    in_shares(waiting, run, budget, reserve, part_workers(config))
 
 
 def _solve_part(part: Part, config: PlannerConfig, budget: Budget) -> Outcome:

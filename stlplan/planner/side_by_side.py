@@ -26,7 +26,7 @@ from stlplan.runtime import signals
 Job = TypeVar("Job")
 
 
-def workers(config: PlannerConfig) -> int:
+def part_workers(config: PlannerConfig) -> int:
     """Parts solved at the same time: ``parts.side_by_side``, else the solver's threads."""
     return config.parts.side_by_side or config.solver.threads or 1
 
