@@ -2,18 +2,15 @@
 
 The planner reads its strategy from this tree and nowhere else: which formulation it builds,
 how the lazy rounds, the parts and the repairs share the time, and when the continuous stage
-gives up. Each field has its type, its default and a docstring; a default chosen by measurement
-names where that measurement is written (``Measured:``). Numerical tolerances that decide what
-counts as met (a violated requirement, an effort floor, a step-2 slack) are not strategy and
-stay beside the code that applies them.
+gives up. Each field has its type, default and docstring; a default chosen by measurement names
+where that measurement is written (``Measured:``). Numerical tolerances that decide what counts
+as met are not strategy and stay beside the code that applies them.
 
 A run's configuration is the mission's settings (:meth:`PlannerConfig.from_mission`) with dotted
-overrides applied (:meth:`PlannerConfig.with_overrides`, e.g. ``{"repair.crowd_agents": 5}``);
-an unknown key or a value of the wrong type is a :class:`ConfigError` naming it. ``summary.json``
-records the whole tree and the composed strategy's line
-(:func:`stlplan.planner.strategy.describe`).
-
-This module imports neither Pyomo nor HiGHS.
+overrides (:meth:`PlannerConfig.with_overrides`, e.g. ``{"repair.crowd_agents": 5}``); an
+unknown key or a wrong type is a :class:`ConfigError` naming it. ``summary.json`` records the
+tree and the strategy's line (:func:`stlplan.planner.strategy.describe`). This module imports
+neither Pyomo nor HiGHS.
 """
 
 from __future__ import annotations
