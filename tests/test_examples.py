@@ -126,11 +126,18 @@ def test_the_readme_python_api_runs(tmp_path: Path) -> None:
     assert any(line.startswith("meet True") for line in lines[1:])
 
 
-def test_every_api_function_the_readme_names_exists_as_described() -> None:
+def test_every_api_function_the_readme_and_docs_name_exists_as_described() -> None:
     start = README.index("## Python API")
     prose = README[start : README.index("\n## ", start)]
-    for name in set(re.findall(r"`api\.(\w+)", prose)):
+    reference = (ROOT / "docs" / "api.md").read_text(encoding="utf-8")
+    named = set(re.findall(r"`api\.(\w+)", prose + reference))
+    assert {"solve", "plan", "check", "replan", "sweep", "Overrides"} <= named
+    for name in named:
         assert hasattr(api, name), name
+    for name, arguments in re.findall(r"`api\.(\w+)\(([^)]*)\)`", reference):
+        parameters = inspect.signature(getattr(api, name)).parameters
+        for argument in filter(None, (a.split("=")[0].strip() for a in arguments.split(","))):
+            assert argument in parameters, (name, argument)
     assert "tuple[Problem, PlanResult]" in str(inspect.signature(api.plan).return_annotation)
     assert "tolerance" in inspect.signature(api.check).parameters
     assert "Problem" in str(inspect.signature(api.solve).parameters["mission"].annotation)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 import time
 
 import pytest
@@ -148,3 +149,52 @@ def test_a_team_solved_up_front_names_its_one_solve() -> None:
     assert reached.describe() == (
         "the whole team was in its one solve, every requirement in the model"
     )
+
+
+def test_parts_side_by_side_each_report_their_own_stage_and_rounds() -> None:
+    # two threads, as parts solved side by side: one part in a repair in turn while the other
+    # records its lazy rounds; each round is labelled with its own part's stage
+    clock = Clock(0.0, None, reached=Reached(order=CROWD, parts=2))
+    reached = clock.reached
+    in_repair, recorded = threading.Event(), threading.Event()
+
+    def first() -> None:
+        reached.solving(CROWD[:8])
+        with reached.within("repair in turn"):
+            reached.turns(3, 8)
+            in_repair.set()
+            assert recorded.wait(10)
+            clock.record_round(CROWD[:8], 1.0, "optimal", None, None, {"separation": 4})
+            reached.failed("repair in turn")
+
+    def second() -> None:
+        reached.solving(CROWD[8:])
+        assert in_repair.wait(10)
+        clock.record_round(CROWD[8:], 1.0, "optimal", None, None, {"separation": 7})
+        reached.planned += 1
+        recorded.set()
+
+    threads = [threading.Thread(target=first), threading.Thread(target=second)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    stages = {record["part"]: record["stage"] for record in clock.round_log}
+    assert stages == {"8 agents a01..a08": "repair in turn", "8 agents a09..a16": "lazy rounds"}
+    # the run's thread names the part that found no plan, as that part's thread left it
+    reached.follow(CROWD[:8])
+    assert reached.describe() == (
+        "the part of 8 agents a01..a08 was in its own lazy rounds after 1 lazy round "
+        "(4 requirements added); before that, no plan from the repair in turn (3 of 8 agents "
+        "repaired); 1 of 2 parts had planned on their own"
+    )
+
+
+def test_a_part_solved_again_in_the_same_thread_starts_its_counts_again() -> None:
+    reached = Reached(order=CROWD, parts=2)
+    reached.solving(CROWD[:8])
+    reached.round_done(5)
+    reached.solving(CROWD[8:])
+    reached.solving(CROWD[:8])  # (the tightening of a part's bound, after the other part)
+    reached.round_done(6)
+    assert "after 1 lazy round (6 requirements added)" in reached.describe()

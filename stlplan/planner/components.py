@@ -29,9 +29,8 @@ objective is the sum ``F = sum_c F_c``, while ``U = sum_c U_c`` bounds the full 
 solved again with an absolute gap while ``(U - F) / |F|`` exceeds the gap, so the result is the
 full problem's optimum to the same tolerance as one solve (with ``solver.first_plan`` neither
 this nor a merged part's own solve after a repair that found a plan: a plan is all that is
-asked for). Finally the parts' requirements are
-encoded in one model of the full problem, its states held near the parts' plans, and one small
-solve sets every indicator (its objective, a point of the full problem, is the one reported);
+asked for). Finally the parts' requirements are encoded in one model of the full problem, its
+states held near the parts' plans, and one small solve sets every indicator (its objective, a point of the full problem, is the one reported);
 step 2 runs on that model as usual (:mod:`stlplan.planner.assembly`). The run records ``U``
 whenever every part has a bound (at the end of each round of a part, from the least bound of
 each part's rounds so far), and the assembled plan's objective, as the whole problem's
@@ -300,7 +299,9 @@ def _apart(
     while True:
         solve_in_shares(parts, config, budget)
         done = _combined(parts, config, clock, tick)
-        if not done.status.has_plan:
+        if not done.status.has_plan:  # the message names a part without a plan
+            failed = [p.agents for p in parts if p.step1 is None or not p.step1.status.has_plan]
+            clock.reached.follow(failed[0] if failed else ())
             return parts, done
         crossing = crossing_requirements(full, parts)
         if not crossing:
@@ -351,8 +352,7 @@ def _first_plan(
 
 
 def _stop_at_first_plans(parts: Sequence[Part], first: bool) -> None:
-    """Make the parts' lazy loops stop at their first plan that meets every requirement (or
-    not)."""
+    """Make the parts' lazy loops stop at their first plan meeting every requirement, or not."""
     for part in parts:
         part.solver.stop_at_first_plan(first)
 

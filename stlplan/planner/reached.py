@@ -20,6 +20,7 @@ tried before the stage the run ended in.
 from __future__ import annotations
 
 import contextlib
+import threading
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 
@@ -54,20 +55,15 @@ def agent_names(agents: Sequence[str], order: Sequence[str]) -> str:
 
 
 @dataclass
-class Reached:
-    """Where step 1 is (module docstring).
+class Track:
+    """How far one part got.
 
     Attributes
     ----------
-    order
-        The mission's agents, in order.
-    parts, planned, merges
-        Parts the team was split into, how many of them planned on their own, and the merges
-        of parts whose plans collided (1, 0 and 0 for a team solved whole).
     part, merged_from
-        The agents of the part being solved, and how many parts it was merged from (0: none).
+        The part's agents, and how many parts it was merged from (0: none).
     stage, progress
-        The stage of that part (a key of :data:`STAGES`), and how far that stage got in words
+        The part's stage (a key of :data:`STAGES`), and how far that stage got in words
         (``14 of 16 agents repaired``; empty when its rounds say it).
     rounds, held
         The part's lazy rounds so far, and the requirements its model held in the last one.
@@ -75,10 +71,6 @@ class Reached:
         The part's earlier stages that ended without a plan, each with how far it got.
     """
 
-    order: tuple[str, ...] = ()
-    parts: int = 1
-    planned: int = 0
-    merges: int = 0
     part: tuple[str, ...] = ()
     merged_from: int = 0
     stage: str = "lazy rounds"
@@ -87,66 +79,119 @@ class Reached:
     held: int = 0
     notes: list[str] = field(default_factory=list)
 
+
+@dataclass
+class Reached:
+    """Where step 1 is (module docstring). Parts solved side by side each report from a
+    thread of their own: every thread follows its own part (:class:`Track`), and what a
+    thread reads is its part's.
+
+    Attributes
+    ----------
+    order
+        The mission's agents, in order.
+    parts, planned, merges
+        Parts the team was split into, how many of them planned on their own, and the merges
+        of parts whose plans collided (1, 0 and 0 for a team solved whole).
+    """
+
+    order: tuple[str, ...] = ()
+    parts: int = 1
+    planned: int = 0
+    merges: int = 0
+    _tracks: dict[tuple[str, ...], Track] = field(default_factory=dict, repr=False)
+    _local: threading.local = field(default_factory=threading.local, repr=False)
+    _first: Track = field(default_factory=Track, repr=False)
+
+    @property
+    def track(self) -> Track:
+        """The part the calling thread is solving (or last followed)."""
+        return getattr(self._local, "track", None) or self._first
+
+    @property
+    def stage(self) -> str:
+        """The calling thread's part's stage."""
+        return self.track.stage
+
+    @property
+    def progress(self) -> str:
+        """How far the calling thread's part's stage got, in words."""
+        return self.track.progress
+
     def solving(self, agents: Sequence[str], merged_from: int = 0) -> None:
-        """A part's solve starts (the whole team's when ``agents`` are all of them)."""
-        if tuple(agents) != self.part:
-            self.rounds, self.held, self.notes = 0, 0, []
-        self.part, self.merged_from = tuple(agents), merged_from
-        self.stage, self.progress = "lazy rounds", ""
+        """A part's solve starts in the calling thread (the whole team's when ``agents`` are
+        all of them); its counts start again when the thread was solving another part."""
+        key = tuple(agents)
+        track = self._tracks.setdefault(key, Track(key))
+        if track is not self.track:
+            track.rounds, track.held, track.notes = 0, 0, []
+        self._local.track = track
+        track.merged_from, track.stage, track.progress = merged_from, "lazy rounds", ""
+
+    def follow(self, agents: Sequence[str]) -> None:
+        """The calling thread reports (and describes) the part of ``agents`` from now on, as
+        it was left (a part solved in another thread that found no plan)."""
+        track = self._tracks.get(tuple(agents))
+        if track is not None:
+            self._local.track = track
 
     def round_done(self, held: int) -> None:
         """A lazy round of the part ended, its model holding ``held`` requirements."""
-        self.rounds, self.held = self.rounds + 1, held
+        track = self.track
+        track.rounds, track.held = track.rounds + 1, held
 
     def enter(self, stage: str) -> None:
         """The part's last stage starts (the completion: nothing follows it)."""
-        self.stage, self.progress = stage, ""
+        self.track.stage, self.track.progress = stage, ""
 
     @contextlib.contextmanager
     def within(self, stage: str) -> Iterator[None]:
         """The block is ``stage`` of the part; the stage before it resumes afterwards."""
-        before = self.stage, self.progress
+        track = self.track
+        before = track.stage, track.progress
         self.enter(stage)
         try:
             yield
         finally:
-            self.stage, self.progress = before
+            track.stage, track.progress = before
 
     def turns(self, repaired: int, freed: int) -> None:
         """A repair in turn has repaired ``repaired`` of the ``freed`` agents."""
-        self.progress = f"{repaired} of {_count(freed, 'agent')} repaired"
+        self.track.progress = f"{repaired} of {_count(freed, 'agent')} repaired"
 
     def ordered(self, planned: int, parts: int, orders: int) -> None:
         """A prioritized repair planned ``planned`` of ``parts`` parts in its ``orders``-th
         order."""
-        self.progress = f"order {orders}: {planned} of {_count(parts, 'part')} planned"
+        self.track.progress = f"order {orders}: {planned} of {_count(parts, 'part')} planned"
 
     def completing(self, added: int, pending: int) -> None:
         """A completion has added ``added`` of the ``pending`` requirements left out."""
-        self.progress = f"{added:,} of {_count(pending, 'requirement')} left out added"
+        self.track.progress = f"{added:,} of {_count(pending, 'requirement')} left out added"
 
     def failed(self, stage: str) -> None:
         """``stage``, just ended, found no plan (a note for the message, with its progress)."""
-        self.notes.append(_stage_words(stage, self.progress))
+        self.track.notes.append(_stage_words(stage, self.track.progress))
 
-    def _part_words(self) -> str:
-        if set(self.part) == set(self.order) and not self.merged_from:
+    def _part_words(self, track: Track) -> str:
+        if set(track.part) == set(self.order) and not track.merged_from:
             return "the whole team"
-        words = f"the part of {agent_names(self.part, self.order)}"
-        if self.merged_from:
-            words += f" (merged from {self.merged_from} parts whose plans collided)"
+        words = f"the part of {agent_names(track.part, self.order)}"
+        if track.merged_from:
+            words += f" (merged from {track.merged_from} parts whose plans collided)"
         return words
 
     def describe(self) -> str:
-        """Which part step 1 was solving, in which stage, and how far it got, in words."""
-        if not self.part:
+        """Which part step 1 was solving (the calling thread's), in which stage, and how far it
+        got, in words."""
+        track = self.track
+        if not track.part:
             return "no part of the team was solved"
-        text = f"{self._part_words()} was in {_stage_words(self.stage, self.progress)}"
-        if self.stage != "up front":
-            text += f" after {_count(self.rounds, 'lazy round')}"
-            text += f" ({_count(self.held, 'requirement')} added)"
-        if self.notes:
-            text += "; before that, no plan from " + _listed(self.notes)
+        text = f"{self._part_words(track)} was in {_stage_words(track.stage, track.progress)}"
+        if track.stage != "up front":
+            text += f" after {_count(track.rounds, 'lazy round')}"
+            text += f" ({_count(track.held, 'requirement')} added)"
+        if track.notes:
+            text += "; before that, no plan from " + _listed(track.notes)
         if self.parts > 1:
             text += f"; {self.planned} of {self.parts} parts had planned on their own"
             if self.merges:
