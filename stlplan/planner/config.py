@@ -7,10 +7,9 @@ where that measurement is written (``Measured:``). Numerical tolerances that dec
 as met are not strategy and stay beside the code that applies them.
 
 A run's configuration is the mission's settings (:meth:`PlannerConfig.from_mission`) with dotted
-overrides (:meth:`PlannerConfig.with_overrides`, e.g. ``{"repair.crowd_agents": 5}``); an
-unknown key or a wrong type is a :class:`ConfigError` naming it. ``summary.json`` records the
-tree and the strategy's line (:func:`stlplan.planner.strategy.describe`). This module imports
-neither Pyomo nor HiGHS.
+overrides (:meth:`PlannerConfig.with_overrides`, e.g. ``{"repair.crowd_agents": 5}``); an unknown
+key or a wrong type is a :class:`ConfigError` naming it. ``summary.json`` records the tree and
+the strategy's line (:func:`stlplan.planner.strategy.describe`). No Pyomo, no HiGHS here.
 """
 
 from __future__ import annotations
