@@ -181,11 +181,13 @@ def test_a_turn_adds_every_step_of_a_pair_it_crosses() -> None:
     assert all(n in pm.added for n, r in enumerate(lazy) if r.family in families)
 
 
-@pytest.mark.parametrize("crowd, in_turn", [(2, True), (3, False)])
+@pytest.mark.parametrize(
+    "crowd, team, in_turn", [(2, None, True), (2, 3, True), (3, None, False), (2, 4, False)]
+)
 def test_a_merged_part_colliding_in_a_crowd_is_repaired_in_turn(
-    crowd: int, in_turn: bool, monkeypatch: pytest.MonkeyPatch
+    crowd: int, team: int | None, in_turn: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    # a's plan crosses the idle e (another part): a crowd of two merges them
+    # a's plan crosses the idle e (another part): a crowd of two merges them, in a team of three
     problem = detour_for_free()
     turns: list[set[str]] = []
     repairs: list[tuple[str, Plan | None]] = []
@@ -214,6 +216,7 @@ def test_a_merged_part_colliding_in_a_crowd_is_repaired_in_turn(
             "solver.time_limit": 60.0,
             "solver.gap": 1e-6,
             "repair.crowd_agents": crowd,
+            "repair.crowd_team": team,
             "repair.orders": 0,
         }  # the repair in turn alone (prioritized: test_prioritized.py)
     )

@@ -112,7 +112,10 @@ def test_a_colliding_crowd_gets_its_plan_from_the_prioritized_repair(
 
     monkeypatch.setattr(repairs, "prioritized", spy)
     overrides = Overrides(
-        time_limit=120, threads=1, first_plan=True, config={"repair.crowd_agents": 2}
+        time_limit=120,
+        threads=1,
+        first_plan=True,
+        config={"repair.crowd_agents": 2, "repair.crowd_team": None},
     )
     _, result = plan(small_crowd, overrides)
     assert found and found[0] is not None and found[0].meets_all
@@ -142,7 +145,7 @@ def _guided_turns(small_crowd: Any, monkeypatch: pytest.MonkeyPatch, config: dic
     monkeypatch.setattr(prioritized._Turn, "_sided", spy)
     overrides = Overrides(
         time_limit=120, threads=1, first_plan=True,
-        config={"repair.crowd_agents": 2, **config},
+        config={"repair.crowd_agents": 2, "repair.crowd_team": None, **config},
     )  # fmt: skip
     _, result = plan(small_crowd, overrides)
     return result, sided
@@ -201,7 +204,10 @@ def test_the_solve_joining_the_turns_plans_may_use_all_the_repairs_time(
     monkeypatch.setattr(prioritized, "plan_in_order", orders)
     monkeypatch.setattr(prioritized, "_held_plan", joined)
     overrides = Overrides(
-        time_limit=120, threads=1, first_plan=True, config={"repair.crowd_agents": 2}
+        time_limit=120,
+        threads=1,
+        first_plan=True,
+        config={"repair.crowd_agents": 2, "repair.crowd_team": None},
     )
     _, result = plan(small_crowd, overrides)
     assert result.status.has_plan and result.report is not None and result.report.satisfied
@@ -218,7 +224,10 @@ def test_a_team_merged_into_one_part_needs_no_assembly(
     assembled: list[Any] = []
     monkeypatch.setattr(components, "_assembled", lambda *args: assembled.append(args))
     overrides = Overrides(
-        time_limit=120, threads=1, first_plan=True, config={"repair.crowd_agents": 2}
+        time_limit=120,
+        threads=1,
+        first_plan=True,
+        config={"repair.crowd_agents": 2, "repair.crowd_team": None},
     )
     _, result = plan(small_crowd, overrides)
     assert assembled == []

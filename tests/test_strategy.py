@@ -39,6 +39,9 @@ def test_the_repair_policy_decides_both_triggers() -> None:
     assert policy.after_round(8.0, 1) and policy.after_round(0.1, 7)
     assert not policy.after_round(7.9, 6)
     assert policy.on_merge(7) and not policy.on_merge(6)
+    teams = RepairPolicy(8.0, crowd_agents=7, crowd_team=10)
+    assert teams.on_merge(7, 10) and not teams.on_merge(7, 9) and not teams.on_merge(6, 64)
+    assert teams.after_round(0.1, 7)  # a round's crowd is one in any team
     never = RepairPolicy(None, None)
     assert not never.after_round(1e6, 100) and not never.on_merge(100) and never.describe() == ""
 

@@ -16,8 +16,9 @@ lazy loop. Parts are linked by
 
 A merged part's optimum is at most ``U_m``, the sum of its parts' bounds (merging only adds
 requirements). It is first *repaired*: solved with every agent but those of the colliding pairs
-held near the parts' plans, a small problem. When the collisions name ``in_turn_agents`` or
-more agents, that problem is not small: the parts' plans are then first repaired agent by agent
+held near the parts' plans, a small problem. When the collisions name ``repair.crowd_agents``
+or more agents of a team of ``repair.crowd_team`` or more, that problem is not small: the parts'
+plans are then first repaired agent by agent
 (:mod:`stlplan.planner.in_turn`), and the crossing requirements are left out of the merged model
 until a turn's plan violates them (a turn needs a model that the plan it starts from meets). A
 repaired plan within the gap of ``U_m`` is the merged part's optimum; otherwise it is the first
@@ -83,6 +84,7 @@ class Part:
     step1: Outcome | None = None
     merged_from: tuple[Part, ...] = ()
     free: frozenset[str] = frozenset()
+    team: int | None = None  # a merged part's: the whole team's agents
 
 
 _COUNTING = threading.Lock()
@@ -220,7 +222,7 @@ def _repair(part: Part, config: PlannerConfig, budget: Budget) -> Outcome | None
     tick = time.perf_counter()
     broken = _broken(part)
     largest = max(len(p.pm.problem.agents) for p in part.merged_from)
-    for repair, share in part.solver.policy.merge_repairs(len(part.free), largest):
+    for repair, share in part.solver.policy.merge_repairs(len(part.free), largest, part.team):
         plan = repair.repair(broken, config, budget.share(share))
         if plan is not None:
             repaired = part.solver.repaired(plan, time.perf_counter() - tick)
@@ -388,13 +390,13 @@ def _merged(
         free = frozenset(a for r in crossing for a in r.binding.values()) & agents
         seed = set().union(*(added_keys(p.pm) for p in group))
         # (a repair in turn adds them as its plans cross)
-        if not group[0].solver.policy.on_merge(len(free)):
+        if not group[0].solver.policy.on_merge(len(free), len(problem.agents)):
             seed |= {requirement_key(r) for r in crossing if set(r.binding.values()) <= agents}
         order = [a.name for a in problem.agents if a.name in agents]
         out = [p for p in out if p not in group]
         merged = _part(problem, order, config, clock, budget, seed, group[0].solver.policy)
         clock.reached.merges += 1
         merged.merged_from = tuple(group)
-        merged.free = free
+        merged.free, merged.team = free, len(problem.agents)
         out.append(merged)
     return _followed(out, clock)

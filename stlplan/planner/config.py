@@ -3,8 +3,7 @@
 The planner reads its strategy from this tree and nowhere else: which formulation it builds,
 how the lazy rounds, the parts and the repairs share the time, and when the continuous stage
 gives up. Each field has its type, default and docstring; a default chosen by measurement names
-where that measurement is written (``Measured:``). Numerical tolerances that decide what counts
-as met are not strategy and stay beside the code that applies them.
+where it is written (``Measured:``). Tolerances deciding what counts as met stay by their code.
 
 A run's configuration is the mission's settings (:meth:`PlannerConfig.from_mission`) with dotted
 overrides (:meth:`PlannerConfig.with_overrides`, e.g. ``{"repair.crowd_agents": 5}``); an unknown
@@ -117,6 +116,9 @@ class RepairConfig(_Section):
     """A lazy round, or a merge of parts, whose violated requirements name at least this many
     agents is repaired in turn (None: never by crowd). Measured:
     docs/measurements.md#the-16-agent-farm-with-doubled-counts."""
+    crowd_team: int | None = Field(default=10, ge=1)
+    """A merge is repaired in turn for its crowd only in a team of at least this many agents
+    (None: any). Measured: docs/performance.md#crowded-merges-in-cases-i-iii."""
     share: float = Field(default=0.25, gt=0, le=1)
     """Share of the lazy loop's time left that one repair between rounds may spend."""
     solves_per_turn: int = Field(default=10, ge=1)

@@ -5,7 +5,7 @@ While no plan meets every requirement, a repair (:mod:`stlplan.planner.repairs`)
 where the next solve would not. After a lazy round that was long (``repair.after_round_seconds``)
 or whose violations name a crowd (``repair.crowd_agents``), the round's plan is repaired in
 turn within ``repair.share`` of the loop's time left. A merge of parts whose collisions name a
-crowd is repaired part by part, each part in its own model around those before it (up to
+crowd in a team of ``repair.crowd_team`` agents or more is repaired part by part, each part in its own model around those before it (up to
 ``repair.orders`` orders; none when 0, or when a part has more than ``repair.part_agents``
 agents; its orders within ``parts.crowd_repair_share`` of the time left and the solve that
 joins their plans within all of it), then in turn, within ``parts.crowd_repair_share``
@@ -30,6 +30,7 @@ class RepairPolicy:
 
     after_round_seconds: float | None
     crowd_agents: int | None
+    crowd_team: int | None = None
     round_share: float = 0.25
     crowd_share: float = 0.75
     held_share: float = 0.25
@@ -41,7 +42,7 @@ class RepairPolicy:
         """The policy of ``config``'s ``repair`` and ``parts`` sections."""
         repair, parts = config.repair, config.parts
         return cls(
-            repair.after_round_seconds, repair.crowd_agents, repair.share,
+            repair.after_round_seconds, repair.crowd_agents, repair.crowd_team, repair.share,
             parts.crowd_repair_share, parts.held_repair_share, repair.orders, repair.part_agents,
         )  # fmt: skip
 
@@ -49,11 +50,11 @@ class RepairPolicy:
         """The repairs of a lazy round of ``seconds`` whose violations name ``agents``."""
         return ((InTurnRepair(), self.round_share),) if self.after_round(seconds, agents) else ()
 
-    def merge_repairs(self, agents: int, largest: int = 1) -> Planned:
-        """The repairs of a merged part whose collisions name ``agents`` agents, from parts of
-        at most ``largest`` agents."""
+    def merge_repairs(self, agents: int, largest: int = 1, team: int | None = None) -> Planned:
+        """The repairs of a merged part of a team of ``team`` agents (None: a team large enough)
+        whose collisions name ``agents`` agents, from parts of at most ``largest`` agents."""
         held: Planned = ((HeldRepair(), self.held_share),)
-        if not self.on_merge(agents):
+        if not self.on_merge(agents, team):
             return held
         ordered = self.orders and largest <= self.part_agents
         prioritized = PrioritizedRepair(self.crowd_share)  # its last solve: any time left
@@ -64,11 +65,17 @@ class RepairPolicy:
         """Whether a round of ``seconds`` whose violations name ``agents`` agents is repaired."""
         if self.after_round_seconds is not None and seconds >= self.after_round_seconds:
             return True
-        return self.on_merge(agents)
+        return self.crowd(agents)
 
-    def on_merge(self, agents: int) -> bool:
-        """Whether a merged part whose collisions name ``agents`` agents is repaired in turn."""
+    def crowd(self, agents: int) -> bool:
+        """Whether violations naming ``agents`` agents name a crowd."""
         return self.crowd_agents is not None and agents >= self.crowd_agents
+
+    def on_merge(self, agents: int, team: int | None = None) -> bool:
+        """Whether a merged part of a team of ``team`` agents (None: a team large enough)
+        whose collisions name ``agents`` agents is repaired in turn."""
+        large = self.crowd_team is None or team is None or team >= self.crowd_team
+        return large and self.crowd(agents)
 
     def describe(self) -> str:
         """The triggers in words (empty when there are none)."""

@@ -130,7 +130,8 @@ class Parts:
     def describe(self) -> str:
         policy = self.inner.policy
         crowd, first = policy.crowd_agents, "prioritized, " if policy.orders else ""
-        merge = f"{first}in turn if >= {crowd} agents, held" if crowd is not None else "held"
+        team = "" if policy.crowd_team is None else f" of a team >= {policy.crowd_team}"
+        merge = f"{first}in turn if >= {crowd} agents{team}, held" if crowd is not None else "held"
         early = "" if self.plan_first is None else f"; plan first if >= {self.plan_first} agents"
         return f"parts({self.inner.describe()}; merge: {merge}{early})"
 
