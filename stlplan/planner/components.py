@@ -3,9 +3,8 @@
 With obstacle and collision avoidance left out (lazy), problem (step1) often falls apart: in the
 farm cases the UV and IR agents serve crops A and B while the Vis agents serve crop C, and the
 objective ``t - beta * sum_p e_p`` is a sum of one term per part (``t`` belongs to the part with
-the synchronous tasks). HiGHS proves such a sum optimal far more slowly than each part alone (a
-node's bound closes only when every part's does), so each part is solved on its own, with its own
-lazy loop. Parts are linked by
+the synchronous tasks). HiGHS proves such a sum far more slowly than each part alone (a node's
+bound closes only when every part's does), so each part has its own lazy loop. Parts are linked by
 
 * a task: every agent that can serve one of its elements (the group choice couples them);
 * the synchronous tasks together (``t = min_l rho_s^l``);
@@ -16,9 +15,8 @@ lazy loop. Parts are linked by
 
 A merged part's optimum is at most ``U_m``, the sum of its parts' bounds (merging only adds
 requirements). It is first *repaired*: solved with every agent but those of the colliding pairs
-held near the parts' plans, a small problem. When the collisions name ``repair.crowd_agents``
-or more agents of a team of ``repair.crowd_team`` or more, that problem is not small: the parts'
-plans are then first repaired agent by agent
+held near the parts' plans, a small problem. When they name a crowd (``repair.crowd_agents``,
+in a team of ``repair.crowd_team``), it is not: the parts' plans are first repaired agent by agent
 (:mod:`stlplan.planner.in_turn`), and the crossing requirements are left out of the merged model
 until a turn's plan violates them (a turn needs a model that the plan it starts from meets). A
 repaired plan within the gap of ``U_m`` is the merged part's optimum; otherwise it is the first

@@ -1,9 +1,7 @@
 """Every knob of the planner, declared once: :class:`PlannerConfig`.
 
-The planner reads its strategy from this tree and nowhere else: which formulation it builds,
-how the lazy rounds, the parts and the repairs share the time, and when the continuous stage
-gives up. Each field has its type, default and docstring; a default chosen by measurement names
-where it is written (``Measured:``). Tolerances deciding what counts as met stay by their code.
+The planner reads its strategy (formulation, time shares, when to give up) from this tree only.
+Each field has a type, default and docstring; a measured default names where (``Measured:``).
 
 A run's configuration is the mission's settings (:meth:`PlannerConfig.from_mission`) with dotted
 overrides (:meth:`PlannerConfig.with_overrides`, e.g. ``{"repair.crowd_agents": 5}``); an unknown
@@ -117,8 +115,8 @@ class RepairConfig(_Section):
     agents is repaired in turn (None: never by crowd). Measured:
     docs/measurements.md#the-16-agent-farm-with-doubled-counts."""
     crowd_team: int | None = Field(default=10, ge=1)
-    """A merge is repaired in turn for its crowd only in a team of at least this many agents
-    (None: any). Measured: docs/performance.md#crowded-merges-in-cases-i-iii."""
+    """A merge's crowd is repaired in turn only in a team of this many agents or more (None: any).
+    Measured: docs/performance.md#crowded-merges-in-cases-i-iii."""
     share: float = Field(default=0.25, gt=0, le=1)
     """Share of the lazy loop's time left that one repair between rounds may spend."""
     solves_per_turn: int = Field(default=10, ge=1)
@@ -176,7 +174,7 @@ class PartsConfig(_Section):
     """Share of the time left that the parts' first solves leave for merging parts that
     collide. Measured: docs/dropped.md#parts-and-merges."""
     held_repair_share: float = Field(default=0.25, gt=0, le=1)
-    """Share of the time left that the held repair of a merged part may take."""
+    """Share of the time left the held repair of a merged part may take."""
     crowd_repair_share: float = Field(default=0.75, gt=0, le=1)
     """Share of the time left that each repair of a merged crowd (prioritized, then in turn) may
     take; the solve that joins the prioritized repair's plans may take all of it. Measured:
