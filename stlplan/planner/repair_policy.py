@@ -6,11 +6,11 @@ where the next solve would not. After a lazy round that was long (``repair.after
 or whose violations name a crowd (``repair.crowd_agents``), the round's plan is repaired in
 turn within ``repair.share`` of the loop's time left. A merge of parts whose collisions name a
 crowd in a team of ``repair.crowd_team`` agents or more is repaired part by part, each part in
-its own model around those before it (up to ``repair.orders`` orders; none when 0, or when a part has more than ``repair.part_agents``
-agents; its orders within ``parts.crowd_repair_share`` of the time left and the solve that
-joins their plans within all of it), then in turn, within ``parts.crowd_repair_share``
-of the time left; then, without a plan, with the other agents held (within
-``parts.held_repair_share``).
+its own model around those before it (up to ``repair.orders`` orders; none when 0, or when a
+part has more than ``repair.part_agents`` agents; its orders within ``parts.crowd_repair_share``
+of the time left and the solve that joins their plans within all of it), then in turn, within
+``parts.crowd_repair_share`` of the time left; then, without a plan, with the other agents held
+(within ``parts.held_repair_share``).
 """
 
 from __future__ import annotations
