@@ -53,7 +53,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -121,7 +121,7 @@ class FloorGraph:
             return self.floors[key]
         if key in self.disjunctions:
             parts = [self.floor(c) for c in self.disjunctions[key]]
-            agents = set(itertools.chain.from_iterable(parts))
+            agents = sorted(set(itertools.chain.from_iterable(parts)))
             out = {p: min(part.get(p, 0.0) for part in parts) for p in agents}
         elif key in self.conjunctions or key in self.predicates:
             sets, others = self.closure(z)
@@ -173,7 +173,7 @@ def add_effort_floors(
         for child, part in zip(children, parts, strict=True):
             if INF in part.values():
                 impossible[id(child)] = child
-        for p in set(itertools.chain.from_iterable(parts)):
+        for p in sorted(set(itertools.chain.from_iterable(parts))):
             terms = [(part.get(p, 0.0), w) for part, w in zip(parts, chosen, strict=True)]
             terms = [(e, w) for e, w in terms if FLOOR_TOL < e < INF]
             if terms:
@@ -206,11 +206,17 @@ def _joint_floor(
 ) -> float:
     """``J_p``: least effort of ``agent`` meeting an option of each of two element indicators
     (0 when there are too many options to try)."""
-    left = {o for h in first for o in _options(graph, agent, h)}
-    right = {o for h in second for o in _options(graph, agent, h)}
+    left = _distinct(o for h in first for o in _options(graph, agent, h))
+    right = _distinct(o for h in second for o in _options(graph, agent, h))
     if len(left) * len(right) > graph.max_options:
         return 0.0
     return min(graph.effort_floor(agent, a | b) for a, b in itertools.product(left, right))
+
+
+def _distinct(options: Iterable[frozenset[AgentPredicate]]) -> list[frozenset[AgentPredicate]]:
+    """Each option once, in a fixed order: the LPs are warm-started from the last one solved,
+    so their order must not follow the process's string hashing."""
+    return sorted(set(options), key=lambda o: sorted(map(repr, o)))
 
 
 def _service_floors(
