@@ -56,6 +56,7 @@ FORMULATIONS: dict[str, dict[str, Any]] = {
     "no-floors": {"model.floors": False},
     "symmetry": {"model.symmetry": True},
     "no-symmetry": {"model.symmetry": False},
+    "per-element": {"model.shared_subformulas": False},
     "no-in-turn": {"repair.after_round_seconds": None, "repair.crowd_agents": None},
     "in-turn-by-time": {"repair.crowd_agents": None},
     "in-turn-always": {"repair.after_round_seconds": 0.0},

@@ -5,6 +5,7 @@ from __future__ import annotations
 import itertools
 import random
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 import pytest
@@ -29,6 +30,7 @@ from stlplan.analysis.reach import reachable_boxes
 from stlplan.formula.parser import parse
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
+from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.encoding.sos1 import sos1_block
 from stlplan.planner.encoding.stl import (
@@ -234,36 +236,60 @@ def test_reachable_boxes_of_a_double_integrator() -> None:
     np.testing.assert_allclose(lo[2], [-1.5, -2, -2, -2])  # clipped by the state box
 
 
-def test_shared_elements_are_encoded_once() -> None:
-    problem = build_problem(
+def _team(agents: Sequence[tuple[str, str]], regions: dict, tasks: dict) -> Problem:
+    """Single integrators named and capable as ``agents``, started along a line, horizon 3."""
+    return build_problem(
         Mission.model_validate(
             {
-                "name": "share",
+                "name": "team",
                 "horizon": 3,
                 "dynamics": {"si": SINGLE_INTEGRATOR_U1},
                 "agents": [
-                    {
-                        "name": f"a{i}",
-                        "dynamics": "si",
-                        "capabilities": ["V"],
-                        "initial_state": [0, i],
-                    }
-                    for i in range(4)
+                    {"name": n, "dynamics": "si", "capabilities": [c], "initial_state": [0, i]}
+                    for i, (n, c) in enumerate(agents)
                 ],
-                "regions": {"G": {"box": [[1, 2], [-5, 5]]}},
-                "tasks": {"reach": {"formula": "F[1,3] in(p, G)", "count": 2, "roles": {"p": "V"}}},
+                "regions": {name: {"box": box} for name, box in regions.items()},
+                "tasks": tasks,
             }
         )
     )
+
+
+def _predicate_rows(pm: Any) -> int:
+    return sum(1 for r in pm.model.spec.rows.values() if "x[" in str(r.body))
+
+
+def test_shared_elements_are_encoded_once() -> None:
+    problem = _team(
+        [(f"a{i}", "V") for i in range(4)],
+        {"G": [[1, 2], [-5, 5]]},
+        {"reach": {"formula": "F[1,3] in(p, G)", "count": 2, "roles": {"p": "V"}}},
+    )
     task = problem.tasks[0]
     assert len(task.elements) == 4 and len(task.groups) == 6
-    pm = build_model(
-        problem,
-        paper_model(model__encoding="log"),
-    )
+    pm = build_model(problem, paper_model(model__encoding="log"))
     # F over 3 steps per element: 3 steps x 4 half-planes predicates, one per element and step
-    predicates = [r for r in pm.model.spec.rows.values() if "x[" in str(r.body)]
-    assert len(predicates) == 4 * 3 * 4
+    assert _predicate_rows(pm) == 4 * 3 * 4
+
+
+@pytest.mark.parametrize(("shared", "expected"), [(True, 2 * 2 * 3 * 4), (False, 4 * 2 * 3 * 4)])
+def test_elements_share_the_subformulas_of_their_common_agents(shared: bool, expected: int) -> None:
+    problem = _team(
+        [("v0", "V"), ("v1", "V"), ("w0", "W"), ("w1", "W")],
+        {"G": [[1, 2], [-5, 5]], "H": [[-2, -1], [-5, 5]]},
+        {
+            "meet": {
+                "formula": "F[1,3] in(p, G) & F[1,3] in(q, H)",
+                "roles": {"p": "V", "q": "W"},
+            }
+        },
+    )
+    assert len(problem.tasks[0].elements) == 4  # (p, q) in {v0, v1} x {w0, w1}
+    config = PlannerConfig().with_overrides(
+        {"lazy.enabled": False, "model.floors": False, "model.shared_subformulas": shared}
+    )
+    # F over 3 steps, 4 half-planes a region: once per agent of a role, or once per element
+    assert _predicate_rows(build_model(problem, config)) == expected
 
 
 @pytest.mark.parametrize("encoding", ENCODINGS)

@@ -119,6 +119,33 @@ def test_random_teams_get_the_same_optimum_from_both_encodings(
     assert_same_optimum(*both(problem))
 
 
+@settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    speeds=st.lists(st.sampled_from([0.5, 1.0, 1.5]), min_size=5, max_size=5),
+    caps=st.lists(st.sampled_from(["A", "B"]), min_size=3, max_size=3),
+    count=st.integers(1, 2),
+)
+def test_subformulas_shared_by_elements_keep_the_optimum(
+    speeds: list[float], caps: list[str], count: int
+) -> None:
+    # in(p, Goal) reads p only: the elements with the same p share it unless told apart
+    task = {
+        "formula": "F[0,5] (in(p, Goal) & dist(p, q) <= 0.8)",
+        "count": count,
+        "roles": {"p": "A", "q": "B"},
+    }
+    try:
+        problem = team_mission(speeds, ["A", "B", *caps], [2.5, 3.5, 0.0, 2.5], task)
+    except Exception as exc:  # no group of `count` disjoint elements
+        assert "count" in str(exc)
+        return
+    shared, apart = (
+        api.plan(problem, overrides=Overrides(config={"model.shared_subformulas": on}, **EXACT))[1]
+        for on in (True, False)
+    )
+    assert_same_optimum(shared, apart)
+
+
 @pytest.mark.parametrize("name", ["sync-pair", "reach-avoid"])
 def test_shipped_small_missions_agree(name: str) -> None:
     assert_same_optimum(*both(MISSIONS / f"{name}.yaml"))

@@ -89,6 +89,9 @@ class ModelConfig(_Section):
     symmetry: bool = True
     """With tasks by selection: order the task shares of interchangeable agents (valid rows
     that keep an optimal plan). Measured: docs/performance.md#where-the-speed-comes-from."""
+    shared_subformulas: bool = True
+    """Encode a subformula once for every element that gives the roles it reads the same
+    agents (False: once per element). Measured: docs/performance.md#shared-subformulas."""
 
 
 class LazyConfig(_Section):

@@ -304,6 +304,7 @@ def build_model(
         margin_ceiling=ceiling,
         encoding=encoding,
         tightening=problem.tightening,
+        by_roles_read=settings.shared_subformulas,
     )
     tasks, synchronous = encode_tasks(ctx, problem, settings.tasks, symmetry)
     deferral = None

@@ -118,6 +118,9 @@ class StlContext:
         Role to agent name for the formulas being encoded.
     memo
         ``(node, k, binding)`` to indicator, shared by every binding.
+    by_roles_read
+        Key the memo on the agents of the roles a subformula reads, not on the whole binding
+        (``model.shared_subformulas``).
     ledger
         Every predicate placed (shared by every binding).
     tightening
@@ -136,6 +139,7 @@ class StlContext:
     memo: dict[tuple[Any, ...], Any] = field(default_factory=dict)
     ledger: Ledger = field(default_factory=Ledger)
     tightening: Callable[[Predicate, int], float] = field(default=lambda node, k: 0.0)
+    by_roles_read: bool = True
 
     def bound(self, binding: Mapping[str, str]) -> StlContext:
         """The same context with roles bound to agents by ``binding`` (memo shared)."""
@@ -282,9 +286,9 @@ def encode(node: Formula, k: int, ctx: StlContext) -> Any:
     Memoized on ``(node, k)`` and the agents bound to the roles ``node`` reads, so a subformula
     shared by several parents, by several groups holding the same element, or by several
     elements that give its roles the same agents (``in(p, B)`` in every element with ``p = uv1``)
-    is encoded once.
+    is encoded once. Without ``ctx.by_roles_read``, on the whole binding: elements never share.
     """
-    used = _roles_read(node)
+    used = _roles_read(node) if ctx.by_roles_read else ctx.binding.keys()
     key = (node, k, tuple(sorted((r, a) for r, a in ctx.binding.items() if r in used)))
     found = ctx.memo.get(key)
     if found is not None:
