@@ -357,16 +357,9 @@ class Overrides:
 
     Attributes
     ----------
-    time_limit, gap, threads, seed, encoding, tasks, two_step
-        As the mission's ``solver`` and ``objective`` settings (:class:`PlannerConfig`'s
-        ``solver``, ``model`` and ``continuous`` knobs).
-    degrade
-        Plan as many tasks as possible when the mission is infeasible (``diagnosis.degrade``).
-    first_plan
-        Stop at the first plan that meets every requirement (``solver.first_plan``).
-    robust_to
-        Plan margins one step of a disturbance bounded by this cannot break
-        (``model.robust_to``).
+    time_limit, gap, threads, seed, encoding, tasks, two_step, degrade, first_plan, robust_to
+        The :class:`PlannerConfig` knobs ``_NAMED`` maps them to (``solver.time_limit``,
+        ``diagnosis.degrade``, ``model.robust_to``, ...).
     inter_sample
         Judge safety on the segments between steps (the mission's ``safety.inter_sample``).
     config
