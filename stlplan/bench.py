@@ -60,6 +60,7 @@ FORMULATIONS: dict[str, dict[str, Any]] = {
     "no-in-turn": {"repair.after_round_seconds": None, "repair.crowd_agents": None},
     "in-turn-by-time": {"repair.crowd_agents": None},
     "in-turn-always": {"repair.after_round_seconds": 0.0},
+    "freed-all-at-once": {"repair.free_one_more": False},
     "no-parts": {"parts.enabled": False},
     "lazy-only": {"parts.enabled": False, "model.floors": False},
     "pair-window": {"lazy.window": None},

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from functools import partial
 from typing import Any
 
@@ -14,7 +15,14 @@ from stlplan.planner.clock import Clock
 from stlplan.planner.components import solve_parts
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.in_turn import InTurn, agents_of, hold_agents, release, solve_free
+from stlplan.planner.in_turn import (
+    InTurn,
+    agents_of,
+    hold_agents,
+    in_the_way,
+    release,
+    solve_free,
+)
 from stlplan.planner.outcome import Plan
 from stlplan.planner.repairs import Broken, HeldRepair, InTurnRepair
 from stlplan.planner.session import HighsSession
@@ -46,7 +54,7 @@ def test_a_round_repaired_in_turn_meets_every_requirement() -> None:
     freed: list[set[str]] = []
     turn = partial(solve_free, pm, session, PlannerConfig().repair)
 
-    def spy(free: set[str], done: set[str], budget: Budget) -> set[str]:
+    def spy(free: set[str], done: set[str], budget: Budget) -> list[str]:
         freed.append(set(free))
         return turn(free, done, budget)
 
@@ -144,6 +152,50 @@ def test_a_turn_that_fails_frees_the_agents_it_could_not_avoid() -> None:
     assert calls == [({"a"}, {"c", "d"})]
 
 
+@pytest.mark.parametrize("one_more", [True, False])
+def test_the_agents_in_a_turns_way_are_freed_one_at_a_time(one_more: bool) -> None:
+    # b alone cannot avoid c and a (c named last); with c it still cannot avoid a; with both, a plan
+    pm, session = _first_round(crossing_problem())
+    calls: list[set[str]] = []
+
+    def stub(free: set[str], done: set[str], budget: Budget) -> list[str]:
+        calls.append(set(free))
+        return {"b": ["b", "c", "a"], "bc": ["b", "c", "a"]}.get("".join(sorted(free)), [])
+
+    options = PlannerConfig().with_overrides({"repair.free_one_more": one_more})
+    bad = between(pm, {"a", "b"}) + between(pm, {"b", "c"})
+    InTurn(pm, session, options, solve=stub).run(bad, Budget.of_seconds(60))
+    grown = [{"b"}, {"b", "c"}, {"a", "b", "c"}] if one_more else [{"b"}, {"a", "b", "c"}]
+    assert calls[: 1 + len(grown)] == [{"a"}, *grown]  # a's turn, then b's (c freed with it)
+    assert calls[1 + len(grown)] == {"a"}  # the second turns: the repair went on
+
+
+def test_a_turn_out_of_time_frees_no_more_agents() -> None:
+    # b's solve spends its share and still runs into c and a: more agents free would be slower
+    pm, session = _first_round(crossing_problem())
+    calls: list[set[str]] = []
+
+    def stub(free: set[str], done: set[str], budget: Budget) -> list[str]:
+        calls.append(set(free))
+        if free == {"a"}:
+            return []
+        time.sleep(max(0.0, budget.remaining()))
+        return ["b", "c", "a"]
+
+    bad = between(pm, {"a", "b"}) + between(pm, {"b", "c"})
+    assert InTurn(pm, session, PlannerConfig(), solve=stub).run(bad, Budget.of_seconds(6)) is None
+    assert calls == [{"a"}, {"b"}]
+
+
+def test_the_agents_named_by_a_later_solve_come_first() -> None:
+    pm, _ = _first_round(crossing_problem())
+    ab, bc, bd = (between(pm, {"b", x})[0] for x in "acd")
+    # a named twice, then c, then d and a once more: d and a last named, a more often
+    assert in_the_way(pm, {"b"}, [[ab], [ab, bc], [bd, ab]]) == ["b", "a", "d", "c"]
+    assert in_the_way(pm, {"b"}, [[bd], [bc]]) == ["b", "c", "d"]
+    assert in_the_way(pm, {"b", "c"}, [[bc]]) == ["b", "c"]
+
+
 def test_the_second_turns_never_make_the_repaired_plan_worse() -> None:
     problem = crossing_problem()
     pm, session = _first_round(problem)
@@ -153,7 +205,7 @@ def test_the_second_turns_never_make_the_repaired_plan_worse() -> None:
     first: list[float] = []  # the plan's objective once every first turn has found a plan
     second: list[set[str]] = []  # the agents of the turns after that
 
-    def spy(free: set[str], done: set[str], budget: Budget) -> set[str]:
+    def spy(free: set[str], done: set[str], budget: Budget) -> list[str]:
         if repaired >= involved:
             second.append(set(free))
         partners = turn(free, done, budget)

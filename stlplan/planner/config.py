@@ -124,6 +124,9 @@ class RepairConfig(_Section):
     """Share of the lazy loop's time left that one repair between rounds may spend."""
     solves_per_turn: int = Field(default=10, ge=1)
     """Solves of one agent's turn at most (each after adding what the last plan violated)."""
+    free_one_more: bool = True
+    """A turn without a plan is solved again with the agents in its way freed one at a time, the
+    most in the way first (False: all at once). Measured: docs/measurements.md#freed-one-at-a-time."""
     window: int | None = Field(default=None, ge=0)
     """Steps of a violated requirement's family (the same pair, or agent and constraint) a turn
     adds with it (None: all of them). Measured: docs/measurements.md#the-24-agent-farm."""

@@ -11,7 +11,11 @@ is small: one agent's trajectory and choices. The agent is then held at its new 
 requirement between two repaired agents is met by the later one, which avoided the earlier
 one's final plan, so when every turn succeeds the last plan meets every requirement. An agent
 that finds no plan around the agents already repaired is solved again together with the ones it
-could not avoid. The repaired agents then have one more turn each, alone, every other agent at
+could not avoid, added one at a time (``repair.free_one_more``): first the one its violations
+named last and most often, so that a pair's solve, small, comes before the joint solve of all
+of them, a MILP of several agents that may not finish. Agents are freed only while the turn
+fails within its time (an infeasible solve: the free agents cannot get past those held); a
+turn out of time fails, as more agents free would be slower still. The repaired agents then have one more turn each, alone, every other agent at
 its repaired plan: detours made around agents repaired later are undone where no longer needed.
 
 Nothing found here is trusted beyond what it is: the watch of the loop keeps a plan only when
@@ -29,7 +33,7 @@ solves one agent's plan around held ones (``repair.hold`` of room each), at most
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Sequence
 from functools import partial
 from typing import Any
 
@@ -47,10 +51,10 @@ _log = logging.getLogger(__name__)
 Held = list[tuple[Any, Any, Any]]
 """``(variable, lower, upper)`` to restore."""
 
-FreeSolve = Callable[[set[str], set[str], Budget], set[str]]
+FreeSolve = Callable[[set[str], set[str], Budget], Collection[str]]
 """One solve of a turn, ``(free, done, budget) -> agents``: the agents ``free`` solved again,
-every other agent held, around the agents ``done``; no agents when that found a plan
-(:func:`solve_free` and its return value)."""
+every other agent held, around the agents ``done``; no agents when that found a plan, otherwise
+``free`` and the agents in their way, in the order they are to be freed (:func:`solve_free`)."""
 
 
 def hold_near(var: Any, value: float, held: Held, width: float) -> None:
@@ -154,20 +158,32 @@ class InTurn:
                 return
 
     def _turn(self, free: set[str], done: set[str], budget: Budget, left: int) -> set[str] | None:
-        """Agents ``free`` solved again (every other agent held); when that fails, once more
-        together with the repaired agents they could not avoid. Returns the agents freed, or
-        None without a plan."""
-        for _ in range(2):
-            share = budget.share(1 / left)
+        """Agents ``free`` solved again (every other agent held); when that fails, again with
+        the repaired agents they could not avoid (:meth:`_in_the_way`). Returns the agents
+        freed, or None without a plan."""
+        waiting: list[str] | None = None  # the agents the first solve could not avoid
+        while True:
+            share = budget.share(1 / (left + bool(waiting)))  # as much for those waiting
             if share.expired():
                 return None
             partners = self.solve(free, done, share)
             if not partners:
                 return free
-            if partners <= free:
-                return None
-            free = free | partners
-        return None
+            if waiting is None:
+                waiting = [a for a in partners if a not in free]
+            if not waiting or (self.repair.free_one_more and share.expired()):
+                return None  # (out of time: more agents free would be slower still)
+            taken = self._in_the_way(waiting, partners)
+            free = free | taken
+            waiting = [a for a in waiting if a not in taken]
+
+    def _in_the_way(self, waiting: list[str], partners: Collection[str]) -> set[str]:
+        """The agents to free next of ``waiting``: all of them, or with ``repair.free_one_more``
+        the first the last solve named (``partners``, most in the way first), else the first."""
+        if not self.repair.free_one_more:
+            return set(waiting)
+        named = [a for a in partners if a in waiting]
+        return {(named or waiting)[0]}
 
 
 def solve_free(
@@ -177,7 +193,7 @@ def solve_free(
     free: set[str],
     done: set[str],
     budget: Budget,
-) -> set[str]:
+) -> list[str]:
     """One solve of a turn: the agents ``free`` solved again, every other agent held near its
     loaded plan, at most ``repair.solves_per_turn`` times, each time adding the requirements the
     plan violates among ``free`` and ``done`` (every step of their families, ``repair.window``).
@@ -194,27 +210,43 @@ def solve_free(
 
     Returns
     -------
-    set[str]
+    list[str]
         No agents when a solve ends with a plan that meets every requirement among ``free`` and
-        ``done``; otherwise ``free`` and the agents of the requirements added.
+        ``done``; otherwise ``free`` and then the agents of the requirements added, the most in
+        the way first (:func:`in_the_way`).
     """
     assert pm.deferral is not None
-    lazy, partners = pm.deferral.lazy, set(free)
+    lazy, named = pm.deferral.lazy, list[list[int]]()
     others = (a.name for a in pm.problem.agents if a.name not in free)
     held = hold_agents(pm, others, repair.hold)
     try:
         for _ in range(repair.solves_per_turn):
             solved = session.solve(budget)
             if solved.stopped or not has_solution(solved.results):
-                return partners
+                _log.debug("turn of %s: %.1f s, %s", sorted(free), solved.seconds, session.verdict)
+                break
             mine = [n for n in pending_violations(pm) if agents_of(pm, [n]) <= done | free]
             _log.debug("turn of %s: %.1f s, %d violated", sorted(free), solved.seconds, len(mine))
             if not mine:
-                return set()
-            partners |= agents_of(pm, mine)
+                return []
+            named.append(mine)
             if budget.expired():
-                return partners
+                break
             add_requirements(pm, neighbours(lazy, mine, repair.window))
-        return partners
+        return in_the_way(pm, free, named)
     finally:
         release(held)
+
+
+def in_the_way(pm: PlanModel, free: set[str], named: Sequence[Sequence[int]]) -> list[str]:
+    """``free``, then the other agents of the requirements ``named`` (those each solve of a
+    turn violated, in order): those a later solve named first, then those named more often."""
+    last: dict[str, int] = {}
+    count: dict[str, int] = {}
+    for solve, indices in enumerate(named):
+        for n in indices:
+            for agent in agents_of(pm, [n]) - free:
+                last[agent] = solve
+                count[agent] = count.get(agent, 0) + 1
+    ranked = sorted(last, key=lambda a: (-last[a], -count[a], a))
+    return sorted(free) + ranked
