@@ -15,8 +15,9 @@ could not avoid, added one at a time (``repair.free_one_more``): first the one i
 named last and most often, so that a pair's solve, small, comes before the joint solve of all
 of them, a MILP of several agents that may not finish. Agents are freed only while the turn
 fails within its time (an infeasible solve: the free agents cannot get past those held); a
-turn out of time fails, as more agents free would be slower still. The repaired agents then have one more turn each, alone, every other agent at
-its repaired plan: detours made around agents repaired later are undone where no longer needed.
+turn out of time fails, as more agents free would be slower still. The repaired agents then
+have one more turn each, alone, every other agent at its repaired plan: detours made around
+agents repaired later are undone where no longer needed.
 
 Nothing found here is trusted beyond what it is: the watch of the loop keeps a plan only when
 it violates no requirement left out of the model (a plan of the full problem, so its objective
