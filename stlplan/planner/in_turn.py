@@ -160,7 +160,7 @@ class InTurn:
 
     def _turn(self, free: set[str], done: set[str], budget: Budget, left: int) -> set[str] | None:
         """Agents ``free`` solved again (every other agent held); when that fails, again with
-        the repaired agents they could not avoid (:meth:`_in_the_way`). Returns the agents
+        the repaired agents they could not avoid (:meth:`_to_free`). Returns the agents
         freed, or None without a plan."""
         waiting: list[str] | None = None  # the agents the first solve could not avoid
         while True:
@@ -174,11 +174,11 @@ class InTurn:
                 waiting = [a for a in partners if a not in free]
             if not waiting or (self.repair.free_one_more and share.expired()):
                 return None  # (out of time: more agents free would be slower still)
-            taken = self._in_the_way(waiting, partners)
+            taken = self._to_free(waiting, partners)
             free = free | taken
             waiting = [a for a in waiting if a not in taken]
 
-    def _in_the_way(self, waiting: list[str], partners: Collection[str]) -> set[str]:
+    def _to_free(self, waiting: list[str], partners: Collection[str]) -> set[str]:
         """The agents to free next of ``waiting``: all of them, or with ``repair.free_one_more``
         the first the last solve named (``partners``, most in the way first), else the first."""
         if not self.repair.free_one_more:
