@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import time
 from functools import partial
 from typing import Any
@@ -9,16 +10,19 @@ from typing import Any
 import pytest
 from pyomo.environ import value
 
+from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.components import solve_parts
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import build_model
+from stlplan.planner.encoding.readout import assignments, partners
 from stlplan.planner.in_turn import (
     InTurn,
     agents_of,
     hold_agents,
+    in_formations,
     in_the_way,
     release,
     solve_free,
@@ -31,6 +35,7 @@ from stlplan.planner.watch import pending_violations
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model
 from tests.helpers.missions import crossing_problem, detour_for_free
+from tests.helpers.paths import FARM
 from tests.helpers.solving import accepted, solve, up_front_optimum
 
 
@@ -194,6 +199,30 @@ def test_the_agents_named_by_a_later_solve_come_first() -> None:
     assert in_the_way(pm, {"b"}, [[ab], [ab, bc], [bd, ab]]) == ["b", "a", "d", "c"]
     assert in_the_way(pm, {"b"}, [[bd], [bc]]) == ["b", "c", "d"]
     assert in_the_way(pm, {"b", "c"}, [[bc]]) == ["b", "c"]
+
+
+def test_a_formation_takes_its_turns_together() -> None:
+    # Case I: each UV agent's turn is followed by that of the IR agent its crop_B element pairs
+    # it with in the round's plan (the UV agents come first in the team's order)
+    problem = load_problem(FARM)
+    pm, _ = _first_round(problem)
+    names = [a.name for a in problem.agents]
+    (crop_b,) = (a for a in assignments(pm)[0] if a.task == "crop_B")
+    order = in_formations(pm, names)
+    assert sorted(order) == sorted(names) and order != names
+    for uv, ir in crop_b.group:
+        assert partners(pm, ir) == [uv] and partners(pm, uv) == [ir]
+        assert order.index(ir) == order.index(uv) + 1
+    assert in_formations(pm, ["vis1", "ir1", "vis2"]) == ["vis1", "ir1", "vis2"]
+
+
+def test_a_choice_without_values_names_no_partners(caplog: pytest.LogCaptureFixture) -> None:
+    # a merge's model before its first solve: the parts' plans give states, not choices
+    pm = build_model(load_problem(FARM), paper_model(lazy__enabled=True))
+    with caplog.at_level(logging.DEBUG):
+        assert partners(pm, "ir1") == []
+        assert in_formations(pm, ["uv1", "vis1", "ir1"]) == ["uv1", "vis1", "ir1"]
+    assert not [r for r in caplog.records if r.levelno >= logging.WARNING]
 
 
 def test_the_second_turns_never_make_the_repaired_plan_worse() -> None:

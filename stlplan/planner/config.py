@@ -127,6 +127,9 @@ class RepairConfig(_Section):
     free_one_more: bool = True
     """A turn without a plan is solved again with the agents in its way freed one at a time, the
     most in the way first (False: all at once). Measured: docs/measurements.md#freed-one-at-a-time."""
+    formations_together: bool = True
+    """Each agent's turn is followed by its formation partners' (the other roles of the elements
+    it fills) rather than in the team's order. Measured: docs/measurements.md#formations-in-turn."""
     window: int | None = Field(default=None, ge=0)
     """Steps of a violated requirement's family (the same pair, or agent and constraint) a turn
     adds with it (None: all of them). Measured: docs/measurements.md#the-24-agent-farm."""

@@ -2,22 +2,25 @@
 
 A lazy round (:mod:`stlplan.planner.lazy`) solves a relaxation: its plan may drive agents
 through each other or a segment through an obstacle. On a large team packed in a small start
-area, the next round (the whole search again, with the violated requirements added) may find
-no plan meeting them in the time left. Repairing in turn finds one the way prioritized
-planners do: the agents the violated requirements name are freed one at a time, every other
-agent held at its plan, and the free agent's plan is solved again with the requirements it
-violates together with the agents already repaired (or never involved). Each of those solves
-is small: one agent's trajectory and choices. The agent is then held at its new plan. A
-requirement between two repaired agents is met by the later one, which avoided the earlier
-one's final plan, so when every turn succeeds the last plan meets every requirement. An agent
-that finds no plan around the agents already repaired is solved again together with the ones it
-could not avoid, added one at a time (``repair.free_one_more``): first the one its violations
-named last and most often, so that a pair's solve, small, comes before the joint solve of all
-of them, a MILP of several agents that may not finish. Agents are freed only while the turn
-fails within its time (an infeasible solve: the free agents cannot get past those held); a
-turn out of time fails, as more agents free would be slower still. The repaired agents then
-have one more turn each, alone, every other agent at its repaired plan: detours made around
-agents repaired later are undone where no longer needed.
+area, the next round (the whole search again, with the violated requirements added) may find no
+plan meeting them in the time left. Repairing in turn finds one the way prioritized planners
+do: the agents the violated requirements name are freed one at a time, every other agent held
+at its plan, and the free agent's plan is solved again with the requirements it violates
+together with the agents already repaired (or never involved). Each of those solves is small:
+one agent's trajectory and choices. The agent is then held at its new plan. The turns go in the
+team's order, but an agent's formation partners (the other roles of the elements it fills) take
+theirs right after it, while few agents are yet held around the path it chose
+(``repair.formations_together``). A requirement between two repaired agents is met by the later
+one, which avoided the earlier one's final plan, so when every turn succeeds the last plan
+meets every requirement. An agent that finds no plan around the agents already repaired is
+solved again together with the ones it could not avoid, added one at a time
+(``repair.free_one_more``): first the one its violations named last and most often, so that a
+pair's solve, small, comes before the joint solve of all of them, a MILP of several agents that
+may not finish. Agents are freed only while the turn fails within its time (an infeasible
+solve: the free agents cannot get past those held); a turn out of time fails, as more agents
+free would be slower still. The repaired agents then have one more turn each, alone, every
+other agent at its repaired plan: detours made around agents repaired later are undone where no
+longer needed.
 
 Nothing found here is trusted beyond what it is: the watch of the loop keeps a plan only when
 it violates no requirement left out of the model (a plan of the full problem, so its objective
@@ -42,6 +45,7 @@ from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig, RepairConfig
 from stlplan.planner.encoding.deferred import neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements
+from stlplan.planner.encoding.readout import partners
 from stlplan.planner.outcome import Plan
 from stlplan.planner.session import HighsSession, has_solution
 from stlplan.planner.values import plan_of
@@ -98,6 +102,16 @@ def agents_of(pm: PlanModel, indices: Iterable[int]) -> set[str]:
     return {name for n in indices for name in pm.deferral.lazy[n].binding.values()}
 
 
+def in_formations(pm: PlanModel, turns: Sequence[str]) -> list[str]:
+    """``turns`` with each agent's partners among them (:func:`partners`) right after it."""
+    order: list[str] = []
+    for name in turns:
+        if name not in order:
+            order.append(name)
+            order += [a for a in partners(pm, name) if a in turns and a not in order]
+    return order
+
+
 class InTurn:
     """One repair of the loaded plan (module docstring).
 
@@ -126,6 +140,8 @@ class InTurn:
         names = [a.name for a in self.pm.problem.agents]
         involved = agents_of(self.pm, bad)
         turns = [n for n in names if n in involved]
+        if self.repair.formations_together:
+            turns = in_formations(self.pm, turns)
         done = set(names) - involved
         self.session.clock.reached.turns(0, len(turns))
         with self.session.looking_for_a_plan(self.repair.gap):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 import numpy as np
@@ -10,7 +10,7 @@ from pyomo.environ import value
 
 from stlplan.planner.encoding.model import PlanModel, SyncChoice, TaskChoice
 from stlplan.planner.encoding.selection import Selection, SyncSelection
-from stlplan.planner.encoding.tasks import best_run, chosen_group
+from stlplan.planner.encoding.tasks import SyncEncoding, best_run, chosen_group
 from stlplan.result import Assignment, ModelSize, PlanResult, PlanStatus, Trajectory
 
 
@@ -54,6 +54,32 @@ def chosen_run(enc: SyncChoice) -> tuple[tuple[int, ...], int, int]:
         return (enc.elements(), *enc.run())
     j, start, length = best_run(enc)
     return enc.task.groups[j], start, length
+
+
+def partners(pm: PlanModel, name: str) -> list[str]:
+    """The agents that fill the other roles of the elements agent ``name`` fills in the loaded
+    solution's choices (its formation), in the problem's order. A task whose choice has no
+    values loaded is left out."""
+    found: set[str] = set()
+    for enc in (*pm.tasks, *pm.synchronous):
+        indices = _loaded_choice(enc)
+        for i in indices or ():
+            if name in enc.task.elements[i]:
+                found.update(enc.task.elements[i])
+    return [a.name for a in pm.problem.agents if a.name in found - {name}]
+
+
+def _loaded_choice(enc: TaskChoice | SyncChoice) -> tuple[int, ...] | None:
+    """Element indices of a task's choice in the loaded solution; None without its values."""
+    if isinstance(enc, Selection):
+        read: Iterable[Any] = enc.chosen
+    elif isinstance(enc, SyncEncoding):
+        read = enc.counts.values()
+    else:
+        read = enc.groups
+    if any(value(v, exception=False) is None for v in read):
+        return None
+    return chosen_run(enc)[0] if isinstance(enc, SyncEncoding) else chosen(enc)
 
 
 def assignments(pm: PlanModel) -> tuple[tuple[Assignment, ...], dict[str, float]]:
