@@ -394,9 +394,7 @@ class Overrides:
     def dotted(self) -> dict[str, Any]:
         """The planner knobs set here, by dotted name (``inter_sample`` goes to the problem)."""
         named = {_NAMED[k]: getattr(self, k) for k in _NAMED if getattr(self, k) is not None}
-        if "solver.time_limit" in named:
-            named["solver.time_limit"] = float(named["solver.time_limit"])
-        for name in ("solver.gap", "model.robust_to"):
+        for name in ("solver.time_limit", "solver.gap", "model.robust_to"):
             if name in named:
                 named[name] = float(named[name])
         return named | dict(self.config)
