@@ -62,6 +62,7 @@ FORMULATIONS: dict[str, dict[str, Any]] = {
     "in-turn-always": {"repair.after_round_seconds": 0.0},
     "freed-all-at-once": {"repair.free_one_more": False},
     "turns-by-name": {"repair.formations_together": False},
+    "turns-all-solved": {"repair.keep_met": False},
     "no-parts": {"parts.enabled": False},
     "lazy-only": {"parts.enabled": False, "model.floors": False},
     "pair-window": {"lazy.window": None},

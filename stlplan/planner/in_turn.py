@@ -3,24 +3,24 @@
 A lazy round (:mod:`stlplan.planner.lazy`) solves a relaxation: its plan may drive agents
 through each other or a segment through an obstacle. On a large team packed in a small start
 area, the next round (the whole search again, with the violated requirements added) may find no
-plan meeting them in the time left. Repairing in turn finds one the way prioritized planners
-do: the agents the violated requirements name are freed one at a time, every other agent held
-at its plan, and the free agent's plan is solved again with the requirements it violates
-together with the agents already repaired (or never involved). Each of those solves is small:
-one agent's trajectory and choices. The agent is then held at its new plan. The turns go in the
-team's order, but an agent's formation partners (the other roles of the elements it fills) take
-theirs right after it, while few agents are yet held around the path it chose
+plan meeting them in the time left. Repairing in turn finds one the way prioritized planners do:
+the agents the violated requirements name are freed one at a time, every other agent held at its
+plan, and the free agent's plan is solved again with the requirements it violates together with
+the agents already repaired (or never involved). Each of those solves is small: one agent's
+trajectory and choices. The agent is then held at its new plan. An agent whose plan already
+meets what its solve would have to meet keeps it without one (``repair.keep_met``). The turns go
+in the team's order, but an agent's formation partners (the other roles of the elements it
+fills) take theirs right after it, while few agents are yet held around the path it chose
 (``repair.formations_together``). A requirement between two repaired agents is met by the later
-one, which avoided the earlier one's final plan, so when every turn succeeds the last plan
-meets every requirement. An agent that finds no plan around the agents already repaired is
-solved again together with the ones it could not avoid, added one at a time
-(``repair.free_one_more``): first the one its violations named last and most often, so that a
-pair's solve, small, comes before the joint solve of all of them, a MILP of several agents that
-may not finish. Agents are freed only while the turn fails within its time (an infeasible
-solve: the free agents cannot get past those held); a turn out of time fails, as more agents
-free would be slower still. The repaired agents then have one more turn each, alone, every
-other agent at its repaired plan: detours made around agents repaired later are undone where no
-longer needed.
+one, which avoided the earlier one's final plan, so when every turn succeeds the last plan meets
+every requirement. An agent that finds no plan around the agents already repaired is solved
+again together with the ones it could not avoid, added one at a time (``repair.free_one_more``):
+first the one its violations named last and most often, so that a pair's solve, small, comes
+before the joint solve of all of them, a MILP of several agents that may not finish. Agents are
+freed only while the turn fails within its time (an infeasible solve: the free agents cannot get
+past those held); a turn out of time fails, as more agents free would be slower still. The
+repaired agents then have one more turn each, alone, every other agent at its repaired plan:
+detours made around agents repaired later are undone where no longer needed.
 
 Nothing found here is trusted beyond what it is: the watch of the loop keeps a plan only when
 it violates no requirement left out of the model (a plan of the full problem, so its objective
@@ -41,15 +41,23 @@ from collections.abc import Callable, Collection, Iterable, Sequence
 from functools import partial
 from typing import Any
 
+from pyomo.environ import value
+
 from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig, RepairConfig
+from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.deferred import neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.encoding.readout import partners
 from stlplan.planner.outcome import Plan
 from stlplan.planner.session import HighsSession, has_solution
 from stlplan.planner.values import plan_of
-from stlplan.planner.watch import loaded_plan, pending_violations
+from stlplan.planner.watch import (
+    VIOLATION_TOL,
+    loaded_plan,
+    pending_violations,
+    trajectory_states,
+)
 
 _log = logging.getLogger(__name__)
 
@@ -102,6 +110,18 @@ def agents_of(pm: PlanModel, indices: Iterable[int]) -> set[str]:
     return {name for n in indices for name in pm.deferral.lazy[n].binding.values()}
 
 
+def meets_its_own(pm: PlanModel, name: str, done: Collection[str]) -> bool:
+    """Whether the loaded plan of the agent ``name`` meets every lazy requirement that names it
+    and is in the model or names only agents ``done`` besides it: what its turn's solve would
+    have to meet (the model's other rows the loaded plan meets, found by a solve)."""
+    assert pm.deferral is not None
+    lazy, around = pm.deferral.lazy, {name, *done}
+    found = violated(lazy, trajectory_states(pm), float(value(pm.margin)), VIOLATION_TOL)
+    named = (set(lazy[n].binding.values()) for n in found)
+    return not any(name in agents and (n in pm.added or agents <= around)
+                   for n, agents in zip(found, named, strict=True))  # fmt: skip
+
+
 def in_formations(pm: PlanModel, turns: Sequence[str]) -> list[str]:
     """``turns`` with each agent's partners among them (:func:`partners`) right after it."""
     order: list[str] = []
@@ -151,17 +171,22 @@ class InTurn:
             return loaded_plan(self.pm)
 
     def _repair(self, turns: list[str], done: set[str], budget: Budget) -> bool:
-        """The turns of the agents ``turns``, in order; whether each found a plan."""
+        """The turns of the agents ``turns``, in order; whether each found a plan. A turn kept
+        without a solve (``repair.keep_met``) is followed by a solve that holds every agent,
+        when no other turn's solve follows it: it sets the indicators of the plan."""
+        unsettled = False
         for name in turns:
             if name in done:  # freed together with an earlier agent
                 continue
             left = [n for n in turns if n not in done]
-            free = self._turn({name}, done, budget, len(left))
+            kept = self.repair.keep_met and meets_its_own(self.pm, name, done)
+            free = {name} if kept else self._turn({name}, done, budget, len(left))
             if free is None:
                 return False
+            unsettled = kept
             done |= free
             self.session.clock.reached.turns(len(done & set(turns)), len(turns))
-        return True
+        return not unsettled or not self.solve(set(), done, budget.share(1.0))
 
     def _improve(self, turns: list[str], everyone: set[str], budget: Budget) -> None:
         """Each repaired agent once more, alone, every other agent at its repaired plan: the
