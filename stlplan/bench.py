@@ -63,6 +63,7 @@ FORMULATIONS: dict[str, dict[str, Any]] = {
     "freed-all-at-once": {"repair.free_one_more": False},
     "turns-by-name": {"repair.formations_together": False},
     "turns-all-solved": {"repair.keep_met": False},
+    "first-plan-rounds-as-others": {"repair.first_plan_rounds": False},
     "no-parts": {"parts.enabled": False},
     "lazy-only": {"parts.enabled": False, "model.floors": False},
     "pair-window": {"lazy.window": None},

@@ -125,6 +125,32 @@ def test_a_crowded_round_is_repaired_however_short(
     assert all(len(agents) >= crowd for agents in runs)
 
 
+@pytest.mark.parametrize("first_plan_rounds", [True, False])
+def test_a_loop_looking_for_its_first_plan_repairs_every_round(
+    first_plan_rounds: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a short round whose violations name no crowd: repaired only on the way to a first plan
+    problem = crossing_problem()
+    runs: list[set[str]] = []
+    run = InTurn.run
+
+    def spy(self: InTurn, bad: Any, budget: Budget) -> Plan | None:
+        runs.append(agents_of(self.pm, bad))
+        return run(self, bad, budget)
+
+    monkeypatch.setattr(InTurn, "run", spy)
+    config = {
+        "solver.first_plan": True,
+        "repair.first_plan_rounds": first_plan_rounds,
+        "repair.after_round_seconds": 1e6,
+        "repair.crowd_agents": None,
+        "repair.orders": 0,
+    }
+    result, _ = solve(problem, config)
+    assert result.objective is not None and accepted(problem, result)
+    assert bool(runs) is first_plan_rounds
+
+
 def between(pm: Any, agents: set[str]) -> list[int]:
     """The lazy requirements that name exactly ``agents``."""
     return [n for n, r in enumerate(pm.deferral.lazy) if set(r.binding.values()) == agents]

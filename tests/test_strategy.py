@@ -117,6 +117,11 @@ def test_the_policy_names_the_repairs_and_their_shares() -> None:
     policy = RepairPolicy.of(EXACT)
     assert policy.round_repairs(10.0, 1) == ((InTurnRepair(), EXACT.repair.share),)
     assert policy.round_repairs(1.0, 1) == ()
+    # a loop that looks for its first plan only repairs every round naming two agents or more
+    assert policy.round_repairs(1.0, 2, first=True) == ((InTurnRepair(), EXACT.repair.share),)
+    assert policy.round_repairs(1.0, 1, first=True) == ()  # (one agent: the next round)
+    as_others = RepairPolicy.of(EXACT.with_overrides({"repair.first_plan_rounds": False}))
+    assert as_others.round_repairs(1.0, 2, first=True) == ()
     crowd = EXACT.repair.crowd_agents
     assert crowd is not None
     assert [r.describe() for r, _ in policy.merge_repairs(crowd)] == [

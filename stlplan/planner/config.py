@@ -120,6 +120,10 @@ class RepairConfig(_Section):
     crowd_team: int | None = Field(default=10, ge=1)
     """A merge's crowd is repaired in turn only in a team of this many agents or more (None: any).
     Measured: docs/performance.md#crowded-merges-in-cases-i-iii."""
+    first_plan_rounds: bool = True
+    """Every round naming two agents or more of a lazy loop that looks for its first plan only
+    (``--first-plan``, a large team's parts) is repaired in turn.
+    Measured: docs/measurements.md#first-plans-repaired-at-once."""
     share: float = Field(default=0.25, gt=0, le=1)
     """Share of the lazy loop's time left that one repair between rounds may spend."""
     solves_per_turn: int = Field(default=10, ge=1)

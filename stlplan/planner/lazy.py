@@ -208,7 +208,7 @@ class LazySolver:
         next round (none when no round follows)."""
         pm, watch = self.pm, self.watch
         assert watch is not None
-        repairs = self.policy.round_repairs(seconds, len(agents_of(pm, bad)))
+        repairs = self.policy.round_repairs(seconds, len(agents_of(pm, bad)), watch.first)
         for repair, share in repairs if watch.best is None else ():
             plan = repair.repair(Broken(self, bad), self.config, budget.share(share))
             if plan is not None:

@@ -2,13 +2,15 @@
 and the merged parts.
 
 While no plan meets every requirement, a repair (:mod:`stlplan.planner.repairs`) may find one
-where the next solve would not. After a lazy round that was long (``repair.after_round_seconds``)
-or whose violations name a crowd (``repair.crowd_agents``), the round's plan is repaired in
-turn within ``repair.share`` of the loop's time left. A merge of parts whose collisions name a
-crowd in a team of ``repair.crowd_team`` agents or more is repaired part by part, each part in
-its own model around those before it (up to ``repair.orders`` orders; none when 0, or when a
-part has more than ``repair.part_agents`` agents; its orders within ``parts.crowd_repair_share``
-of the time left and the solve that joins their plans within all of it), then in turn, within
+where the next solve would not. After a lazy round that was long
+(``repair.after_round_seconds``) or whose violations name a crowd (``repair.crowd_agents``), or
+after any round naming two agents or more of a loop that looks for its first plan only
+(``repair.first_plan_rounds``), the round's plan is repaired in turn within ``repair.share`` of
+the loop's time left. A merge of parts whose collisions name a crowd in a team of
+``repair.crowd_team`` agents or more is repaired part by part, each part in its own model around
+those before it (up to ``repair.orders`` orders; none when 0, or when a part has more than
+``repair.part_agents`` agents; its orders within ``parts.crowd_repair_share`` of the time left
+and the solve that joins their plans within all of it), then in turn, within
 ``parts.crowd_repair_share`` of the time left; then, without a plan, with the other agents held
 (within ``parts.held_repair_share``).
 """
@@ -31,6 +33,7 @@ class RepairPolicy:
     after_round_seconds: float | None
     crowd_agents: int | None
     crowd_team: int | None = None
+    first_plan_rounds: bool = False
     round_share: float = 0.25
     crowd_share: float = 0.75
     held_share: float = 0.25
@@ -42,13 +45,18 @@ class RepairPolicy:
         """The policy of ``config``'s ``repair`` and ``parts`` sections."""
         repair, parts = config.repair, config.parts
         return cls(
-            repair.after_round_seconds, repair.crowd_agents, repair.crowd_team, repair.share,
-            parts.crowd_repair_share, parts.held_repair_share, repair.orders, repair.part_agents,
+            repair.after_round_seconds, repair.crowd_agents, repair.crowd_team,
+            repair.first_plan_rounds, repair.share, parts.crowd_repair_share,
+            parts.held_repair_share, repair.orders, repair.part_agents,
         )  # fmt: skip
 
-    def round_repairs(self, seconds: float, agents: int) -> Planned:
-        """The repairs of a lazy round of ``seconds`` whose violations name ``agents``."""
-        return ((InTurnRepair(), self.round_share),) if self.after_round(seconds, agents) else ()
+    def round_repairs(self, seconds: float, agents: int, first: bool = False) -> Planned:
+        """The repairs of a lazy round of ``seconds`` whose violations name ``agents``, in a
+        loop that looks for its first plan only when ``first`` (then any round that names two
+        agents or more, with ``first_plan_rounds``)."""
+        before_plan = first and self.first_plan_rounds and agents >= 2
+        repaired = self.after_round(seconds, agents) or before_plan
+        return ((InTurnRepair(), self.round_share),) if repaired else ()
 
     def merge_repairs(self, agents: int, largest: int = 1, team: int | None = None) -> Planned:
         """The repairs of a merged part of a team of ``team`` agents (None: a team large enough)
@@ -84,4 +92,6 @@ class RepairPolicy:
             triggers.append(f"round >= {self.after_round_seconds:g} s")
         if self.crowd_agents is not None:
             triggers.append(f">= {self.crowd_agents} agents")
+        if self.first_plan_rounds:
+            triggers.append("before a first plan")
         return " or ".join(triggers)
