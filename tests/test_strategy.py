@@ -42,6 +42,10 @@ def test_the_repair_policy_decides_both_triggers() -> None:
     teams = RepairPolicy(8.0, crowd_agents=7, crowd_team=10)
     assert teams.on_merge(7, 10) and not teams.on_merge(7, 9) and not teams.on_merge(6, 64)
     assert teams.after_round(0.1, 7)  # a round's crowd is one in any team
+    # before a first plan a merge of a large team is repaired in turn from two agents named
+    first = RepairPolicy(8.0, crowd_agents=7, crowd_team=10, first_plan_rounds=True)
+    assert first.on_merge(2, 24, first=True) and not first.on_merge(2, 24)
+    assert not first.on_merge(1, 24, first=True) and not first.on_merge(2, 9, first=True)
     never = RepairPolicy(None, None)
     assert not never.after_round(1e6, 100) and not never.on_merge(100) and never.describe() == ""
 

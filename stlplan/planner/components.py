@@ -220,7 +220,9 @@ def _repair(part: Part, config: PlannerConfig, budget: Budget) -> Outcome | None
     tick = time.perf_counter()
     broken = _broken(part)
     largest = max(len(p.pm.problem.agents) for p in part.merged_from)
-    for repair, share in part.solver.policy.merge_repairs(len(part.free), largest, part.team):
+    first = config.solver.first_plan
+    repairs = part.solver.policy.merge_repairs(len(part.free), largest, part.team, first)
+    for repair, share in repairs:
         plan = repair.repair(broken, config, budget.share(share))
         if plan is not None:
             repaired = part.solver.repaired(plan, time.perf_counter() - tick)
@@ -382,13 +384,13 @@ def _merged(
 ) -> list[Part]:
     """``parts`` with those linked by ``crossing`` merged (seeded with what they had added),
     each recording the whole's bound (:func:`_followed`)."""
-    out = list(parts)
+    out, first = list(parts), config.solver.first_plan
     for group in merge_groups(parts, [set(r.binding.values()) for r in crossing]):
         agents = {a for p in group for a in p.agents}
         free = frozenset(a for r in crossing for a in r.binding.values()) & agents
         seed = set().union(*(added_keys(p.pm) for p in group))
         # (a repair in turn adds them as its plans cross)
-        if not group[0].solver.policy.on_merge(len(free), len(problem.agents)):
+        if not group[0].solver.policy.on_merge(len(free), len(problem.agents), first):
             seed |= {requirement_key(r) for r in crossing if set(r.binding.values()) <= agents}
         order = [a.name for a in problem.agents if a.name in agents]
         out = [p for p in out if p not in group]

@@ -122,7 +122,8 @@ class RepairConfig(_Section):
     Measured: docs/performance.md#crowded-merges-in-cases-i-iii."""
     first_plan_rounds: bool = True
     """Every round naming two agents or more of a lazy loop that looks for its first plan only
-    (``--first-plan``, a large team's parts) is repaired in turn.
+    (``--first-plan``, a large team's parts), and every merge of a team of ``crowd_team`` agents
+    or more whose collisions name two agents or more, meanwhile, is repaired in turn.
     Measured: docs/measurements.md#first-plans-repaired-at-once."""
     share: float = Field(default=0.25, gt=0, le=1)
     """Share of the lazy loop's time left that one repair between rounds may spend."""

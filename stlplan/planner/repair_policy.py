@@ -6,8 +6,9 @@ where the next solve would not. After a lazy round that was long
 (``repair.after_round_seconds``) or whose violations name a crowd (``repair.crowd_agents``), or
 after any round naming two agents or more of a loop that looks for its first plan only
 (``repair.first_plan_rounds``), the round's plan is repaired in turn within ``repair.share`` of
-the loop's time left. A merge of parts whose collisions name a crowd in a team of
-``repair.crowd_team`` agents or more is repaired part by part, each part in its own model around
+the loop's time left. A merge of parts whose collisions name a crowd (or two agents, while
+looking for a first plan) in a team of ``repair.crowd_team`` agents or more is repaired part by
+part, each part in its own model around
 those before it (up to ``repair.orders`` orders; none when 0, or when a part has more than
 ``repair.part_agents`` agents; its orders within ``parts.crowd_repair_share`` of the time left
 and the solve that joins their plans within all of it), then in turn, within
@@ -58,16 +59,19 @@ class RepairPolicy:
         repaired = self.after_round(seconds, agents) or before_plan
         return ((InTurnRepair(), self.round_share),) if repaired else ()
 
-    def merge_repairs(self, agents: int, largest: int = 1, team: int | None = None) -> Planned:
+    def merge_repairs(
+        self, agents: int, largest: int = 1, team: int | None = None, first: bool = False
+    ) -> Planned:
         """The repairs of a merged part of a team of ``team`` agents (None: a team large enough)
-        whose collisions name ``agents`` agents, from parts of at most ``largest`` agents."""
+        whose collisions name ``agents`` agents, from parts of at most ``largest`` agents, while
+        looking for a first plan only when ``first``."""
         held: Planned = ((HeldRepair(), self.held_share),)
-        if not self.on_merge(agents, team):
+        if not self.on_merge(agents, team, first):
             return held
         ordered = self.orders and largest <= self.part_agents
         prioritized = PrioritizedRepair(self.crowd_share)  # its last solve: any time left
-        first: Planned = ((prioritized, 1.0),) if ordered else ()
-        return (*first, (InTurnRepair(), self.crowd_share), *held)
+        ahead: Planned = ((prioritized, 1.0),) if ordered else ()
+        return (*ahead, (InTurnRepair(), self.crowd_share), *held)
 
     def after_round(self, seconds: float, agents: int) -> bool:
         """Whether a round of ``seconds`` whose violations name ``agents`` agents is repaired."""
@@ -79,11 +83,12 @@ class RepairPolicy:
         """Whether violations naming ``agents`` agents name a crowd."""
         return self.crowd_agents is not None and agents >= self.crowd_agents
 
-    def on_merge(self, agents: int, team: int | None = None) -> bool:
+    def on_merge(self, agents: int, team: int | None = None, first: bool = False) -> bool:
         """Whether a merged part of a team of ``team`` agents (None: a team large enough)
         whose collisions name ``agents`` agents is repaired in turn."""
         large = self.crowd_team is None or team is None or team >= self.crowd_team
-        return large and self.crowd(agents)
+        before_plan = first and self.first_plan_rounds and agents >= 2
+        return large and (self.crowd(agents) or before_plan)
 
     def describe(self) -> str:
         """The triggers in words (empty when there are none)."""
