@@ -22,7 +22,8 @@ from stlplan.outputs.summary import summary_dict
 from stlplan.outputs.trajio import write_trajectory_csv
 from stlplan.outputs.trajread import read_trajectory_csv
 from stlplan.pipeline import plan
-from stlplan.planner.config import Overrides, PlannerConfig
+from stlplan.planner.config import PlannerConfig
+from stlplan.planner.overrides import Overrides
 from stlplan.result import MonitorReport, PlanResult, PlanStatus
 from stlplan.runtime import signals
 from stlplan.simulation.batch import Simulation, robustness, simulate

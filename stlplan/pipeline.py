@@ -21,8 +21,9 @@ from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
 from stlplan.native_output import discard_highs_banner
 from stlplan.planner.budget import Budget
-from stlplan.planner.config import Overrides, PlannerConfig
+from stlplan.planner.config import PlannerConfig
 from stlplan.planner.outcome import Plan
+from stlplan.planner.overrides import Overrides
 from stlplan.result import Confirmation, PlanResult, PlanStatus
 from stlplan.runtime import signals
 from stlplan.verify import verified

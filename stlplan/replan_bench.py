@@ -27,7 +27,7 @@ import numpy as np
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from stlplan.pipeline import plan
-from stlplan.planner.config import Overrides
+from stlplan.planner.overrides import Overrides
 from stlplan.replanning import replan
 from stlplan.result import PlanResult, Trajectory
 

@@ -37,7 +37,7 @@ from typing import Any
 from stlplan.mission.loader import load_problem
 from stlplan.online import Policy
 from stlplan.pipeline import plan
-from stlplan.planner.config import Overrides
+from stlplan.planner.overrides import Overrides
 from stlplan.simulation.batch import robustness, simulate
 from stlplan.simulation.settings import Simulated, events
 

@@ -12,10 +12,11 @@ import pytest
 
 from stlplan import api
 from stlplan.mission.loader import load_problem
-from stlplan.planner.config import ConfigError, Overrides, PlannerConfig, knob_docs
+from stlplan.planner.config import ConfigError, PlannerConfig, knob_docs
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.encoding.sos1 import sos1
 from stlplan.planner.encoding.stl import StlContext
+from stlplan.planner.overrides import Overrides
 from stlplan.planner.solve import model_size
 from stlplan.planner.strategy import describe
 from tests.helpers.paths import MISSIONS, ROOT

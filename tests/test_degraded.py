@@ -9,7 +9,7 @@ import pytest
 
 from stlplan.degraded import Conflict, cheapest_hitting_set, drop_costs
 from stlplan.pipeline import plan
-from stlplan.planner.config import Overrides
+from stlplan.planner.overrides import Overrides
 from stlplan.result import PlanStatus
 from tests.helpers.missions import mission
 from tests.helpers.paths import MISSIONS

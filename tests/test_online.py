@@ -12,7 +12,7 @@ import pytest
 from stlplan.mission.loader import load_problem
 from stlplan.monitor.verdicts import check
 from stlplan.online import OnlinePlanner
-from stlplan.planner.config import Overrides
+from stlplan.planner.overrides import Overrides
 from stlplan.result import Trajectory
 from tests.helpers.paths import PAIR, ROOT
 

@@ -165,7 +165,7 @@ def test_the_16_agent_farm_with_doubled_counts_has_a_plan_within_two_minutes() -
     # before they were merged
     from stlplan.bench import initial_problem
     from stlplan.pipeline import plan as plan_mission
-    from stlplan.planner.config import Overrides
+    from stlplan.planner.overrides import Overrides
 
     problem = initial_problem("scale/farm-x2", 0, 0)
     _, result = plan_mission(problem, Overrides(time_limit=120, threads=2))

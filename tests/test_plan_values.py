@@ -66,7 +66,7 @@ def test_a_start_of_a_plan_for_the_whole_team_starts_each_part() -> None:
 
 def test_first_plan_stops_at_a_plan_meeting_every_requirement() -> None:
     from stlplan.pipeline import plan as verified_plan
-    from stlplan.planner.config import Overrides
+    from stlplan.planner.overrides import Overrides
 
     problem = swap_problem(0.5, horizon=3, inter_sample=True)
     _, full = verified_plan(problem, Overrides(time_limit=60))

@@ -12,7 +12,8 @@ from stlplan.mission.loader import load_problem, problem_from_text
 from stlplan.pipeline import plan
 from stlplan.planner import prioritized, repairs
 from stlplan.planner.budget import Budget
-from stlplan.planner.config import Overrides, PlannerConfig
+from stlplan.planner.config import PlannerConfig
+from stlplan.planner.overrides import Overrides
 from stlplan.planner.prioritized import plan_in_order, raised
 from stlplan.planner.repair_policy import RepairPolicy
 from tests.helpers.paths import MISSIONS

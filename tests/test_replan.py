@@ -9,7 +9,7 @@ from stlplan.errors import EventError, TrajectoryError
 from stlplan.mission.past import replanned
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check
-from stlplan.planner.config import Overrides
+from stlplan.planner.overrides import Overrides
 from stlplan.replanning import replan
 from stlplan.result import PlanStatus, Trajectory
 from tests.helpers.missions import detour_for_free, mission

@@ -11,7 +11,8 @@ from stlplan.monitor.verdicts import check
 from stlplan.online import OnlinePlanner
 from stlplan.outputs.summary import summary_dict
 from stlplan.pipeline import plan
-from stlplan.planner.config import ConfigError, Overrides, PlannerConfig
+from stlplan.planner.config import ConfigError, PlannerConfig
+from stlplan.planner.overrides import Overrides
 from stlplan.result import PlanStatus, Trajectory
 from stlplan.simulation import report
 from stlplan.simulation.run import disturbances, execute, judge

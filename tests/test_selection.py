@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from stlplan import api
 from stlplan.mission.problem import Problem, build_problem
 from stlplan.mission.schema import Mission
-from stlplan.planner.config import Overrides
+from stlplan.planner.overrides import Overrides
 from stlplan.result import PlanResult, PlanStatus
 from tests.helpers.dynamics import single_integrator
 from tests.helpers.paths import MISSIONS

@@ -7,7 +7,7 @@ import pytest
 
 from stlplan.mission.loader import load_problem
 from stlplan.pipeline import plan
-from stlplan.planner.config import Overrides
+from stlplan.planner.overrides import Overrides
 from stlplan.result import PlanResult
 from stlplan.simulation.run import disturbances, execute, judge
 from stlplan.simulation.settings import Event, Simulated

@@ -14,7 +14,8 @@ from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Progress
-from stlplan.planner.config import ConfigError, Overrides, PlannerConfig
+from stlplan.planner.config import ConfigError, PlannerConfig
+from stlplan.planner.overrides import Overrides
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model

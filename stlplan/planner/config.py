@@ -4,7 +4,8 @@ The planner reads its strategy (formulation, time shares, when to give up) from 
 Each field has a type, default and docstring; a measured default names where (``Measured:``).
 
 A run's configuration is the mission's settings (:meth:`PlannerConfig.from_mission`) with dotted
-overrides (:meth:`PlannerConfig.with_overrides`, e.g. ``{"repair.crowd_agents": 5}``); an unknown
+overrides (:meth:`PlannerConfig.with_overrides`, e.g. ``{"repair.crowd_agents": 5}``; a run's
+options are :class:`stlplan.planner.overrides.Overrides`); an unknown
 key or a wrong type is a :class:`ConfigError` naming it. ``summary.json`` records the tree and
 the strategy's line (:func:`stlplan.planner.strategy.describe`). No Pyomo, no HiGHS here.
 """
@@ -14,7 +15,6 @@ from __future__ import annotations
 import difflib
 import itertools
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
@@ -347,62 +347,3 @@ def knob_docs() -> list[tuple[str, str, Any, str]]:
                 (f"{section}.{knob}", str(info.annotation), default, info.description or "")
             )
     return rows
-
-
-_NAMED = {
-    "time_limit": "solver.time_limit",
-    "gap": "solver.gap",
-    "threads": "solver.threads",
-    "seed": "solver.seed",
-    "encoding": "model.encoding",
-    "tasks": "model.tasks",
-    "two_step": "continuous.two_step",
-    "degrade": "diagnosis.degrade",
-    "first_plan": "solver.first_plan",
-    "robust_to": "model.robust_to",
-}
-"""The planner settings a run may change by their command-line names."""
-
-
-@dataclass(frozen=True)
-class Overrides:
-    """What one run changes of a mission's settings (the command line's options); None keeps
-    the mission's value.
-
-    Attributes
-    ----------
-    time_limit, gap, threads, seed, encoding, tasks, two_step, degrade, first_plan, robust_to
-        The :class:`PlannerConfig` knobs ``_NAMED`` maps them to (``solver.time_limit``,
-        ``diagnosis.degrade``, ``model.robust_to``, ...).
-    inter_sample
-        Judge safety on the segments between steps (the mission's ``safety.inter_sample``).
-    config
-        Any other planner knob by its dotted name, e.g. ``{"repair.crowd_agents": 5}``
-        (benchmarks compare formulations with them); checked by :meth:`PlannerConfig.with_overrides`.
-    """
-
-    time_limit: float | None = None
-    gap: float | None = None
-    threads: int | None = None
-    seed: int | None = None
-    encoding: Encoding | None = None
-    tasks: TaskForm | None = None
-    two_step: bool | None = None
-    degrade: bool | None = None
-    first_plan: bool | None = None
-    robust_to: float | None = None
-    inter_sample: bool | None = None
-    config: Mapping[str, Any] = field(default_factory=dict)
-
-    def given(self) -> dict[str, Any]:
-        """The values set (not None), by name, as the summary records them."""
-        named = {name: getattr(self, name) for name in (*_NAMED, "inter_sample")}
-        return {k: v for k, v in named.items() if v is not None} | dict(self.config)
-
-    def dotted(self) -> dict[str, Any]:
-        """The planner knobs set here, by dotted name (``inter_sample`` goes to the problem)."""
-        named = {_NAMED[k]: getattr(self, k) for k in _NAMED if getattr(self, k) is not None}
-        for name in ("solver.time_limit", "solver.gap", "model.robust_to"):
-            if name in named:
-                named[name] = float(named[name])
-        return named | dict(self.config)

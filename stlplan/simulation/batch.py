@@ -26,7 +26,8 @@ from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from stlplan.outputs.directory import prepare_directory, write_all, write_text
 from stlplan.pipeline import plan
-from stlplan.planner.config import Overrides, PlannerConfig
+from stlplan.planner.config import PlannerConfig
+from stlplan.planner.overrides import Overrides
 from stlplan.result import PlanResult
 from stlplan.runtime import signals
 from stlplan.simulation import report

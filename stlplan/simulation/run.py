@@ -41,7 +41,7 @@ from stlplan.mission.problem import Problem
 from stlplan.monitor.dynamics import disturbed_verdict
 from stlplan.monitor.verdicts import check
 from stlplan.online import OnlinePlanner
-from stlplan.planner.config import Overrides
+from stlplan.planner.overrides import Overrides
 from stlplan.result import Dropped, MonitorReport, PlanResult, Trajectory
 from stlplan.runtime import signals
 from stlplan.simulation.settings import Simulated

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any, Protocol, TypeVar
 
 from stlplan.errors import SolverError, StlplanError, UsageError
-from stlplan.planner.config import Overrides
+from stlplan.planner.overrides import Overrides
 from stlplan.result import PlanResult
 from stlplan.runtime import signals
 from stlplan.words import counted
