@@ -64,6 +64,7 @@ FORMULATIONS: dict[str, dict[str, Any]] = {
     "turns-by-name": {"repair.formations_together": False},
     "turns-all-solved": {"repair.keep_met": False},
     "first-plan-rounds-as-others": {"repair.first_plan_rounds": False},
+    "published-plans-ignored": {"parts.plan_around_published": False},
     "no-parts": {"parts.enabled": False},
     "lazy-only": {"parts.enabled": False, "model.floors": False},
     "pair-window": {"lazy.window": None},

@@ -384,3 +384,21 @@ def test_a_merged_part_colliding_in_a_crowd_is_repaired_in_turn(
     whole = up_front_optimum(problem)
     assert found[1].objective == pytest.approx(whole.objective, abs=1e-5)
     assert accepted(problem, plan(problem, options))
+
+
+def test_a_repair_stops_once_the_loop_has_the_plan_it_asked_for() -> None:
+    # the loop's watch took a plan during a's turn (a first plan): no turn or solve after it
+    pm, session = _first_round(crossing_problem())
+    calls: list[set[str]] = []
+
+    def stub(free: set[str], done: set[str], budget: Budget) -> list[str]:
+        calls.append(set(free))
+        return []
+
+    bad = between(pm, {"a", "b"})
+    repair = InTurn(pm, session, PlannerConfig(), solve=stub, stop=lambda: bool(calls))
+    assert repair.run(bad, Budget.of_seconds(60)) is None
+    assert calls == [{"a"}]
+    calls.clear()
+    InTurn(pm, session, PlannerConfig(), solve=stub).run(bad, Budget.of_seconds(60))
+    assert len(calls) > 2  # without a stop: b's turn, and the second turns

@@ -38,7 +38,8 @@ a part's own figures are not the whole's, unless it is a merge of every part.
 
 When the largest part has ``parts.plan_first_agents`` agents or more, all of the above is first
 done for a first plan only, in a model of the whole team of its own, before the parts go on
-towards their proofs (:mod:`stlplan.planner.plan_first`).
+towards their proofs (:mod:`stlplan.planner.plan_first`). While looking for a first plan, a
+part's repairs plan around the plans of the parts done (:mod:`stlplan.planner.published`).
 """
 
 from __future__ import annotations
@@ -64,6 +65,7 @@ from stlplan.planner.lazy import LazySolver
 from stlplan.planner.outcome import Outcome, Plan
 from stlplan.planner.parts import agent_parts, sub_problem
 from stlplan.planner.plan_first import Solved, better, plans_first
+from stlplan.planner.published import published_for, publishing
 from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.repairs import Broken
 from stlplan.planner.side_by_side import in_shares, part_workers
@@ -298,8 +300,9 @@ def _apart(
 ) -> tuple[list[Part], Outcome]:
     """Solve the parts in shares, merging those whose plans collide, until none do (or one
     has no plan); the parts and their combined outcome."""
+    solve = publishing(published_for(full, config), _solve_part)
     while True:
-        solve_in_shares(parts, config, budget)
+        solve_in_shares(parts, config, budget, solve)
         done = _combined(parts, config, clock, tick)
         if not done.status.has_plan:  # the message names a part without a plan
             failed = [p.agents for p in parts if p.step1 is None or not p.step1.status.has_plan]

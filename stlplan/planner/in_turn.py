@@ -50,6 +50,7 @@ from stlplan.planner.encoding.deferred import neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.encoding.readout import partners
 from stlplan.planner.outcome import Plan
+from stlplan.planner.published import Outside
 from stlplan.planner.session import HighsSession, has_solution
 from stlplan.planner.values import plan_of
 from stlplan.planner.watch import (
@@ -141,7 +142,12 @@ class InTurn:
         The lazy model, its HiGHS session and the run's configuration.
     solve
         One solve of a turn (default: :func:`solve_free` on ``pm`` and ``session`` with the
-        ``repair`` section of ``config``).
+        ``repair`` section of ``config`` and ``outside``).
+    outside
+        Agents of other parts held at their published plans, whose requirements with the agents
+        of ``pm`` the turns meet too (:mod:`stlplan.planner.published`; None: no such agents).
+    stop
+        Whether to stop at once (the loop's watch has the plan it asked for).
     """
 
     def __init__(
@@ -150,16 +156,22 @@ class InTurn:
         session: HighsSession,
         config: PlannerConfig,
         solve: FreeSolve | None = None,
+        outside: Outside | None = None,
+        stop: Callable[[], bool] = lambda: False,
     ) -> None:
-        self.pm, self.session, self.repair = pm, session, config.repair
-        self.solve = solve or partial(solve_free, pm, session, config.repair)
+        self.pm, self.session, self.repair, self.outside = pm, session, config.repair, outside
+        self.stop = stop
+        self.solve = solve or partial(solve_free, pm, session, config.repair, outside=outside)
 
     def run(self, bad: Sequence[int], budget: Budget) -> Plan | None:
         """Repair the agents ``bad`` names within ``budget``; the repaired plan, when every turn
         found one and it meets every requirement (None otherwise)."""
         names = [a.name for a in self.pm.problem.agents]
         involved = agents_of(self.pm, bad)
-        turns = [n for n in names if n in involved]
+        around = self.outside.named(trajectory_states(self.pm)) if self.outside else []
+        turns = [n for n in names if n in around and n not in involved]  # their turns first
+        involved |= set(around)
+        turns += [n for n in names if n in involved and n not in turns]
         if self.repair.formations_together:
             turns = in_formations(self.pm, turns)
         done = set(names) - involved
@@ -178,8 +190,10 @@ class InTurn:
         for name in turns:
             if name in done:  # freed together with an earlier agent
                 continue
+            if self.stop():
+                return False
             left = [n for n in turns if n not in done]
-            kept = self.repair.keep_met and meets_its_own(self.pm, name, done)
+            kept = self.repair.keep_met and self._meets(name, done)
             free = {name} if kept else self._turn({name}, done, budget, len(left))
             if free is None:
                 return False
@@ -188,12 +202,19 @@ class InTurn:
             self.session.clock.reached.turns(len(done & set(turns)), len(turns))
         return not unsettled or not self.solve(set(), done, budget.share(1.0))
 
+    def _meets(self, name: str, done: set[str]) -> bool:
+        """Whether the agent ``name`` may keep its plan (:func:`meets_its_own`, and against the
+        agents outside)."""
+        if not meets_its_own(self.pm, name, done):
+            return False
+        return self.outside is None or not self.outside.broken(trajectory_states(self.pm), [name])
+
     def _improve(self, turns: list[str], everyone: set[str], budget: Budget) -> None:
         """Each repaired agent once more, alone, every other agent at its repaired plan: the
         detours it made around agents repaired after it are undone where no longer needed.
         Stops at the first solve without a plan (the watch keeps the best plan so far)."""
         for name, share in zip(turns, budget.split(len(turns)), strict=True):
-            if share.expired():
+            if share.expired() or self.stop():
                 return
             self.session.start_from(plan_of(self.pm.model, self.pm.model.step1))  # no worse
             if self.solve({name}, everyone - {name}, share):
@@ -206,7 +227,7 @@ class InTurn:
         waiting: list[str] | None = None  # the agents the first solve could not avoid
         while True:
             share = budget.share(1 / (left + bool(waiting)))  # as much for those waiting
-            if share.expired():
+            if share.expired() or self.stop():
                 return None
             partners = self.solve(free, done, share)
             if not partners:
@@ -235,10 +256,12 @@ def solve_free(
     free: set[str],
     done: set[str],
     budget: Budget,
+    outside: Outside | None = None,
 ) -> list[str]:
     """One solve of a turn: the agents ``free`` solved again, every other agent held near its
     loaded plan, at most ``repair.solves_per_turn`` times, each time adding the requirements the
-    plan violates among ``free`` and ``done`` (every step of their families, ``repair.window``).
+    plan violates among ``free`` and ``done`` (every step of their families, ``repair.window``),
+    and those it violates with the agents ``outside``.
 
     Parameters
     ----------
@@ -249,6 +272,8 @@ def solve_free(
         The agents solved again, and the agents already repaired (or never involved).
     budget
         The turn's time.
+    outside
+        Agents held at plans of their own outside ``pm`` (None: none).
 
     Returns
     -------
@@ -266,18 +291,32 @@ def solve_free(
             solved = session.solve(budget)
             if solved.stopped or not has_solution(solved.results):
                 _log.debug("turn of %s: %.1f s, %s", sorted(free), solved.seconds, session.verdict)
+                if _excused(outside, free, solved, budget):
+                    continue  # again, its requirements with the agents outside left to a merge
                 break
             mine = [n for n in pending_violations(pm) if agents_of(pm, [n]) <= done | free]
-            _log.debug("turn of %s: %.1f s, %d violated", sorted(free), solved.seconds, len(mine))
-            if not mine:
+            theirs = outside.broken(trajectory_states(pm), free) if outside else []
+            _log.debug("turn of %s: %.1f s, %d violated, %d outside", sorted(free),
+                       solved.seconds, len(mine), len(theirs))  # fmt: skip
+            if not mine and not theirs:
                 return []
             named.append(mine)
             if budget.expired():
                 break
             add_requirements(pm, neighbours(lazy, mine, repair.window))
+            if outside is not None:
+                outside.add(theirs, repair.window)
         return in_the_way(pm, free, named)
     finally:
         release(held)
+
+
+def _excused(outside: Outside | None, free: set[str], solved: Any, budget: Budget) -> bool:
+    """Whether a turn without a plan had rows against the agents ``outside`` (now removed) and
+    time left to solve again without them."""
+    if outside is None or solved.stopped or budget.expired():
+        return False
+    return outside.excuse(free)
 
 
 def in_the_way(pm: PlanModel, free: set[str], named: Sequence[Sequence[int]]) -> list[str]:

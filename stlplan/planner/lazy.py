@@ -43,6 +43,7 @@ from stlplan.planner.encoding.deferred import best_side, kind, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
 from stlplan.planner.in_turn import Held, agents_of, hold_near, release
 from stlplan.planner.outcome import Outcome, Plan, VarKey, lowest, relative_gap
+from stlplan.planner.published import Published
 from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.repairs import Broken
 from stlplan.planner.session import HighsSession, Solved, has_solution, plan_status
@@ -94,6 +95,9 @@ class LazySolver:
         self.trial = False
         self.rounded: Callable[[], None] | None = None
         """Called at the end of every round but a trial's (the parts record the whole's bound)."""
+        self.published: Published | None = None
+        """Other parts' first plans, for the repairs in turn to plan around
+        (:mod:`stlplan.planner.published`)."""
         if whole:
             follow(self.session.highs, lambda: self.session.trial, clock, pm.deferral is None)
             if self.watch is not None:

@@ -25,15 +25,12 @@ after the turn's order, and the turns solve in sessions of their own.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any
 
-import numpy as np
 from pyomo.contrib.solver.common.results import TerminationCondition
-from pyomo.environ import Block, ConstraintList, VarList
 
 from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig
@@ -44,11 +41,10 @@ from stlplan.planner.encoding.deferred import (
     neighbours,
 )
 from stlplan.planner.encoding.model import PlanModel, add_requirements
-from stlplan.planner.encoding.sos1 import sos1_block
-from stlplan.planner.encoding.stl import Ledger
 from stlplan.planner.guide import guide_path, single_integrator, task_planes
 from stlplan.planner.in_turn import hold_agents, release
 from stlplan.planner.outcome import Plan
+from stlplan.planner.overlay import States, overlay_context
 from stlplan.planner.session import HighsSession, has_solution
 from stlplan.planner.values import load_values, model_values
 from stlplan.planner.watch import (
@@ -63,21 +59,6 @@ _log = logging.getLogger(__name__)
 
 HELD_ROOM = 10.0
 """A requirement the turns' plans meet by less than this many holds goes into the held solve."""
-
-States = dict[str, np.ndarray]
-"""Agent name to its states ``x(0..H)``, an (H+1, n) array."""
-
-
-class _Overlay:
-    """``x[agent, k, i]``: the part's variable, or an earlier agent's planned state."""
-
-    def __init__(self, states: Any, fixed: Mapping[str, np.ndarray]) -> None:
-        self.states, self.fixed = states, fixed
-
-    def __getitem__(self, key: tuple[str, int, int]) -> Any:
-        agent, k, i = key
-        planned = self.fixed.get(agent)
-        return self.states[key] if planned is None else float(planned[k, i])
 
 
 class _Turn:
@@ -222,19 +203,8 @@ class _Turn:
     def _context(self, fixed: States) -> Any:
         """The part's encoding context, its rows in a fresh block, earlier agents as numbers."""
         self.clear()
-        ctx = self.pm.context
-        assert ctx is not None
-        block = Block(concrete=True)
-        block.indicators = VarList(bounds=(0, 1))
-        block.rows = ConstraintList()
-        block.sos = sos1_block()
-        self.pm.model.add_component("around_earlier_parts", block)  # (clear removed the last)
-        self.block = block
-        points = {a: (s, s) for a, s in fixed.items()}
-        return dataclasses.replace(
-            ctx, block=block, sos=block.sos, states=_Overlay(ctx.states, fixed),
-            boxes={**ctx.boxes, **points}, memo={}, ledger=Ledger(),
-        )  # fmt: skip
+        ctx, self.block = overlay_context(self.pm, fixed, "around_earlier_parts")
+        return ctx
 
     def clear(self) -> None:
         """Remove the rows of the last turn."""

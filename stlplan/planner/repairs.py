@@ -17,7 +17,7 @@ requirement, or None). Three repairs:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -73,14 +73,37 @@ class InTurnRepair:
     def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
         solver = broken.solver
         reached = solver.clock.reached
+        stop = solver.watch.done if solver.watch is not None else lambda: False
         with reached.within("repair in turn"):
-            plan = InTurn(solver.pm, solver.session, config).run(broken.bad, budget)
-            if plan is None:
+            plan = _around_published(broken, config, budget, stop)
+            if plan is None and not (budget.expired() or stop()):
+                plan = InTurn(solver.pm, solver.session, config, stop=stop).run(broken.bad, budget)
+            if plan is None and not stop():  # (else the watch has the plan)
                 reached.failed("repair in turn")
         return plan
 
     def describe(self) -> str:
         return "in turn"
+
+
+def _around_published(
+    broken: Broken, config: PlannerConfig, budget: Budget, stop: Callable[[], bool]
+) -> Plan | None:
+    """The repair in turn around the first plans other parts published (its agents that break
+    requirements with them take turns too); None without such plans or without a plan."""
+    solver = broken.solver
+    if solver.published is None:
+        return None
+    with solver.published.around(solver.pm) as outside:
+        if outside is None:
+            return None
+        watch = solver.watch  # its first plan meets them too
+        watch.also = lambda states: not outside.broken(states, states)
+        try:
+            repair = InTurn(solver.pm, solver.session, config, outside=outside, stop=stop)
+            return repair.run(broken.bad, budget)
+        finally:
+            watch.also = None
 
 
 @dataclass(frozen=True)

@@ -85,6 +85,9 @@ class Watch:
     first: bool = False
     found: Callable[[float], None] | None = None
     """Called with a kept plan's objective (a plan of the whole problem: the clock records it)."""
+    also: Callable[[dict[str, np.ndarray]], bool] | None = None
+    """A further check of a plan's states before it is kept (a repair around other parts'
+    published plans: the requirements with them, :mod:`stlplan.planner.published`)."""
 
     def states(self, x: np.ndarray) -> dict[str, np.ndarray]:
         """Agent states of HiGHS's column vector ``x`` (fixed states keep their value)."""
@@ -104,8 +107,9 @@ class Watch:
             margin = self.pm.margin
             by_id = self.columns.columns()
             r = margin if isinstance(margin, float) else _value(margin, x, by_id)
-            bad = violated(self.pm.deferral.lazy, self.states(x), r, VIOLATION_TOL)
-            if all(n in self.pm.added for n in bad):
+            states = self.states(x)
+            bad = violated(self.pm.deferral.lazy, states, r, VIOLATION_TOL)
+            if all(n in self.pm.added for n in bad) and (self.also is None or self.also(states)):
                 values = self.columns.values(x)
                 self.offer(Plan(objective, values, frozenset(self.pm.added)))
         self.maybe_stop(event)

@@ -73,9 +73,10 @@ def detour_for_free() -> Problem:
     )
 
 
-def crossing_problem(inter_sample: bool = True) -> Problem:
+def crossing_problem(inter_sample: bool = True, paired: bool = False) -> Problem:
     """Four agents trade places across the middle of a square: their straight plans all meet
-    near (1, 1) at step 2; each must reach its goal at step 4 (each agent its own part)."""
+    near (1, 1) at step 2; each must reach its goal at step 4 (each agent its own part; with
+    ``paired``, a and b in one task and c and d in another: two parts of two agents)."""
     corners = {
         "a": ((0, 0), (2, 2)),
         "b": ((2, 2), (0, 0)),
@@ -92,6 +93,14 @@ def crossing_problem(inter_sample: bool = True) -> Problem:
     tasks = {
         f"to_{n}": {"formula": f"F[4,4] in(p, G{n})", "roles": {"p": {"agent": n}}} for n in corners
     }
+    if paired:
+        tasks = {
+            f"{p}{q}": {
+                "formula": f"F[4,4] in(p, G{p}) & F[4,4] in(q, G{q})",
+                "roles": {"p": {"agent": p}, "q": {"agent": q}},
+            }
+            for p, q in ("ab", "cd")
+        }
     return mission(
         safety={"inter_sample": inter_sample},
         horizon=4,
