@@ -67,6 +67,7 @@ def test_only_requirements_with_published_agents_are_outside() -> None:
         assert len(set(pm.model.component_map()) - components) == 1
         assert outside.excuse(["c"]) and not outside.excuse(["c"])  # removed, once
         assert outside.naming(["c"]) == [] and outside.naming(["d"])
+        assert not outside.excuse(["d"]) and outside.naming(["d"])  # no rows: not excused
         outside.add(outside.naming(["d"]), 0)
     assert set(pm.model.component_map()) == components  # every block removed
 

@@ -91,12 +91,12 @@ class Outside:
                 self.encoded.add(n)
 
     def excuse(self, agents: Collection[str]) -> bool:
-        """Remove the rows of ``agents`` and leave their requirements to a merge; whether any
-        were there."""
+        """Remove the rows of those of ``agents`` that have some and leave their requirements to
+        a merge (an agent without rows is not kept from a plan by them); whether any had."""
         removed = [a for a in agents if a in self.blocks]
         for agent in removed:
             self.pm.model.del_component(self.blocks.pop(agent)[1])
-        self.excused |= set(agents)
+        self.excused |= set(removed)
         self.encoded = {n for n in self.encoded if self._owner(n) not in self.excused}
         return bool(removed)
 
