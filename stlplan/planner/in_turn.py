@@ -294,8 +294,7 @@ def solve_free(
                 if _excused(outside, free, solved, budget):
                     continue  # again, its requirements with the agents outside left to a merge
                 break
-            mine = [n for n in pending_violations(pm) if agents_of(pm, [n]) <= done | free]
-            theirs = outside.broken(trajectory_states(pm), free) if outside else []
+            mine, theirs = _broken(pm, outside, free, done)
             _log.debug("turn of %s: %.1f s, %d violated, %d outside", sorted(free),
                        solved.seconds, len(mine), len(theirs))  # fmt: skip
             if not mine and not theirs:
@@ -309,6 +308,16 @@ def solve_free(
         return in_the_way(pm, free, named)
     finally:
         release(held)
+
+
+def _broken(
+    pm: PlanModel, outside: Outside | None, free: set[str], done: set[str]
+) -> tuple[list[int], list[int]]:
+    """The requirements the loaded plan breaks among the agents ``free`` and ``done`` (lazy
+    indices of ``pm``), and with the agents ``outside`` (its indices)."""
+    mine = [n for n in pending_violations(pm) if agents_of(pm, [n]) <= done | free]
+    theirs = outside.broken(trajectory_states(pm), free) if outside else []
+    return mine, theirs
 
 
 def _excused(outside: Outside | None, free: set[str], solved: Any, budget: Budget) -> bool:
