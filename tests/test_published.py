@@ -4,7 +4,9 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import pytest
+from pyomo.environ import Block, ConstraintList, VarList
 
 from stlplan.mission.problem import Problem
 from stlplan.planner.budget import Budget
@@ -18,6 +20,7 @@ from stlplan.planner.parts import sub_problem
 from stlplan.planner.published import Published
 from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
+from stlplan.planner.values import ColumnKeys
 from stlplan.planner.watch import pending_violations, trajectory_states
 from tests.helpers.configs import paper_model
 from tests.helpers.missions import crossing_problem
@@ -122,3 +125,35 @@ def test_while_looking_for_a_first_plan_a_part_plans_around_those_done(around: b
     assert (clock.reached.merges == 0) is around  # the second part's plan meets the first's
     result = plan(problem, options)
     assert result.objective is not None and accepted(problem, result)
+
+
+def test_blocks_keep_their_names_apart_when_an_earlier_one_is_removed() -> None:
+    # a part of three agents around a published plan: b's rows, c's, b excused, then d's
+    problem = crossing_problem()
+    pm, _ = _relaxed(sub_problem(problem, ["b", "c", "d"]))
+    published = Published(build_model(problem, paper_model(lazy__enabled=True)))
+    published.publish({"a": np.ones((5, 2))})  # in the middle of the square
+    with published.around(pm) as outside:
+        assert outside is not None
+        for agent in "bc":
+            outside.add(outside.naming([agent]), 0)
+        assert outside.excuse(["b"])
+        outside.add(outside.naming(["d"]), 0)  # a name of its own, not c's
+        assert sorted(outside.blocks) == ["c", "d"]
+
+
+def test_column_keys_follow_a_block_removed_and_another_of_its_size_added() -> None:
+    pm, session = _relaxed(crossing_problem())
+    columns = ColumnKeys(pm.model, session.columns)
+    for name in ("first", "second"):  # the second block's columns take the first's places
+        block = Block(concrete=True)
+        block.v = VarList(bounds=(0, 1))
+        block.rows = ConstraintList()
+        for _ in range(3):
+            block.rows.add(block.v.add() <= 1)
+        pm.model.add_component(name, block)
+        assert session.solve(Budget.of_seconds(30)).results.incumbent_objective is not None
+        keys = columns.keys()
+        blocks = {key[0] for key in keys if key is not None and key[0].endswith(".v")}
+        assert blocks == {f"{name}.v"}
+        pm.model.del_component(block)

@@ -25,6 +25,7 @@ from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
+from pyomo.common.modeling import unique_component_name
 
 from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig
@@ -62,9 +63,11 @@ class Outside:
         are left to a merge."""
 
     def naming(self, agents: Collection[str]) -> list[int]:
-        """The requirements naming one of ``agents`` (none of them excused), by index."""
-        wanted = set(agents) - self.excused
-        return [n for n, r in enumerate(self.requirements) if set(r.binding.values()) & wanted]
+        """The requirements naming one of ``agents`` and no excused agent, by index."""
+        named = (set(r.binding.values()) for r in self.requirements)
+        return [
+            n for n, names in enumerate(named) if names & set(agents) and not names & self.excused
+        ]
 
     def broken(self, states: Mapping[str, np.ndarray], agents: Collection[str]) -> list[int]:
         """The requirements naming one of ``agents`` that the plan ``states`` (of the model's
@@ -110,7 +113,7 @@ class Outside:
 
     def _context(self, agent: str) -> Any:
         if agent not in self.blocks:
-            name = f"around_published_plans_{len(self.pm.model.component_map())}"
+            name = unique_component_name(self.pm.model, "around_published_plans")
             self.blocks[agent] = overlay_context(self.pm, self.fixed, name)
         return self.blocks[agent][0]
 

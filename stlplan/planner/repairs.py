@@ -28,6 +28,7 @@ from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.in_turn import InTurn, release
 from stlplan.planner.outcome import Plan
 from stlplan.planner.prioritized import prioritized
+from stlplan.planner.values import load_values, model_values
 from stlplan.planner.watch import loaded_plan
 
 
@@ -74,11 +75,15 @@ class InTurnRepair:
         solver = broken.solver
         reached = solver.clock.reached
         stop = solver.watch.done if solver.watch is not None else lambda: False
+        saved = model_values(solver.pm.model)
         with reached.within("repair in turn"):
             plan = _around_published(broken, config, budget, stop)
             if plan is None and not (budget.expired() or stop()):
+                load_values(solver.pm.model, saved)  # (from the broken plan, not a half repair)
                 plan = InTurn(solver.pm, solver.session, config, stop=stop).run(broken.bad, budget)
-            if plan is None and not stop():  # (else the watch has the plan)
+            if plan is None and stop():  # the loop's watch took a plan on the way
+                return solver.watch.best
+            if plan is None:
                 reached.failed("repair in turn")
         return plan
 
@@ -92,7 +97,7 @@ def _around_published(
     """The repair in turn around the first plans other parts published (its agents that break
     requirements with them take turns too); None without such plans or without a plan."""
     solver = broken.solver
-    if solver.published is None:
+    if solver.published is None or solver.watch is None:
         return None
     with solver.published.around(solver.pm) as outside:
         if outside is None:

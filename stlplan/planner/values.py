@@ -53,11 +53,14 @@ class ColumnKeys:
     def __init__(self, model: ConcreteModel, columns: Any) -> None:
         self.model, self.columns = model, columns
         self._keys: list[VarKey | None] = []
+        self._by_id: dict[int, int] = {}
 
     def keys(self) -> list[VarKey | None]:
-        """Keys by column (refreshed when the model has more columns than last time)."""
+        """Keys by column (refreshed when the model's columns changed since last time: added,
+        or removed with a block and the columns after them renumbered)."""
         by_id = self.columns()
-        if len(by_id) != len(self._keys):
+        if by_id != self._by_id:
+            self._by_id = dict(by_id)
             keys: list[VarKey | None] = [None] * (max(by_id.values(), default=-1) + 1)
             for v in self.model.component_data_objects(Var):
                 column = by_id.get(id(v))
