@@ -96,8 +96,7 @@ class LazySolver:
         self.rounded: Callable[[], None] | None = None
         """Called at the end of every round but a trial's (the parts record the whole's bound)."""
         self.published: Published | None = None
-        """Other parts' first plans, for the repairs in turn to plan around
-        (:mod:`stlplan.planner.published`)."""
+        """Other parts' first plans for the repairs to plan around (:mod:`.published`)."""
         if whole:
             follow(self.session.highs, lambda: self.session.trial, clock, pm.deferral is None)
             if self.watch is not None:

@@ -75,11 +75,9 @@ class InTurnRepair:
         solver = broken.solver
         reached = solver.clock.reached
         stop = solver.watch.done if solver.watch is not None else lambda: False
-        saved = model_values(solver.pm.model)
         with reached.within("repair in turn"):
             plan = _around_published(broken, config, budget, stop)
             if plan is None and not (budget.expired() or stop()):
-                load_values(solver.pm.model, saved)  # (from the broken plan, not a half repair)
                 plan = InTurn(solver.pm, solver.session, config, stop=stop).run(broken.bad, budget)
             if plan is None and stop():  # the loop's watch took a plan on the way
                 return solver.watch.best
@@ -95,20 +93,24 @@ def _around_published(
     broken: Broken, config: PlannerConfig, budget: Budget, stop: Callable[[], bool]
 ) -> Plan | None:
     """The repair in turn around the first plans other parts published (its agents that break
-    requirements with them take turns too); None without such plans or without a plan."""
+    requirements with them take turns too); None without such plans or without a plan (the
+    broken plan then loaded again, for the repair that follows)."""
     solver = broken.solver
     if solver.published is None or solver.watch is None:
         return None
     with solver.published.around(solver.pm) as outside:
         if outside is None:
             return None
-        watch = solver.watch  # its first plan meets them too
-        watch.also = lambda states: not outside.broken(states, states)
+        watch, saved = solver.watch, model_values(solver.pm.model)
+        watch.also = lambda states: not outside.broken(states, states)  # its plans meet them
         try:
             repair = InTurn(solver.pm, solver.session, config, outside=outside, stop=stop)
-            return repair.run(broken.bad, budget)
+            plan = repair.run(broken.bad, budget)
         finally:
             watch.also = None
+        if plan is None:
+            load_values(solver.pm.model, saved)
+        return plan
 
 
 @dataclass(frozen=True)
