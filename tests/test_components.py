@@ -11,12 +11,12 @@ import pytest
 from stlplan.formula.boundary import EPSILON
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
-from stlplan.planner.components import Part, crossing_requirements, solve_in_shares, solve_parts
+from stlplan.planner.components import crossing_requirements, solve_in_shares, solve_parts
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.lazy import LazySolver
 from stlplan.planner.outcome import Outcome, Plan
-from stlplan.planner.parts import agent_parts, sub_problem
+from stlplan.planner.parts import Part, agent_parts, sub_problem
 from stlplan.planner.repairs import Broken, HeldRepair
 from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan

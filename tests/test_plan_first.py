@@ -114,6 +114,7 @@ def test_planning_first_reaches_the_optimum_accepted_by_the_monitor(problem: Any
 def test_the_parts_not_proven_go_on_from_their_first_plans(monkeypatch: pytest.MonkeyPatch) -> None:
     # the first plans of the parts (a, b) and (e): (a, b)'s not proven, (e)'s proven
     import stlplan.planner.components as components
+    from stlplan.planner.parts import build_part
 
     seen: list[list[bool]] = []
 
@@ -126,9 +127,7 @@ def test_the_parts_not_proven_go_on_from_their_first_plans(monkeypatch: pytest.M
 
     monkeypatch.setattr(components, "_apart", first_plans)
     problem, clock, budget = detour_for_free(), Clock(0.0, None), Budget.of_seconds(60)
-    parts = [
-        components._part(problem, names, EXACT, clock, budget) for names in (("a", "b"), ("e",))
-    ]
+    parts = [build_part(problem, names, EXACT, clock, budget) for names in (("a", "b"), ("e",))]
     assert components._first_plan(problem, parts, EXACT, clock, budget) is None
     assert seen == [[True, True, True]]  # every loop stopped at its first plan
     assert [p.solver.watch.first for p in parts] == [False, False]
@@ -137,10 +136,10 @@ def test_the_parts_not_proven_go_on_from_their_first_plans(monkeypatch: pytest.M
 
 
 def test_a_loop_looking_for_its_first_plan_solves_its_rounds_to_the_repair_gap() -> None:
-    import stlplan.planner.components as components
+    from stlplan.planner.parts import build_part
 
     problem, clock, budget = detour_for_free(), Clock(0.0, None), Budget.of_seconds(60)
-    solver = components._part(problem, ("a", "b"), EXACT, clock, budget).solver
+    solver = build_part(problem, ("a", "b"), EXACT, clock, budget).solver
     settings = solver.session.solver.config
     solver.stop_at_first_plan(True)
     assert solver.watch is not None and solver.watch.first

@@ -48,109 +48,30 @@ import dataclasses
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from typing import Any
 
 from stlplan.mission.problem import Problem
 from stlplan.planner import outcome
-from stlplan.planner.assembly import added_keys, assemble, plan_values
+from stlplan.planner.assembly import assemble
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
-from stlplan.planner.collisions import crossing_requirements, merge_groups
+from stlplan.planner.collisions import crossing_requirements
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.encoding.alphas import violated
-from stlplan.planner.encoding.deferred import Requirement, requirement_key
-from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
-from stlplan.planner.lazy import LazySolver
+from stlplan.planner.encoding.model import PlanModel, build_model
+from stlplan.planner.merges import merged_parts, repair_merge
 from stlplan.planner.outcome import Outcome, Plan
-from stlplan.planner.parts import agent_parts, sub_problem
+from stlplan.planner.parts import Part, agent_parts, build_part, followed, tighten, totals
 from stlplan.planner.plan_first import Solved, better, plans_first
 from stlplan.planner.published import published_for, publishing
 from stlplan.planner.repair_policy import RepairPolicy
-from stlplan.planner.repairs import Broken
 from stlplan.planner.side_by_side import in_shares, part_workers
-from stlplan.planner.watch import VIOLATION_TOL, least_margin, trajectory_states
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
-
-
-@dataclass(eq=False)
-class Part:
-    """One part: its agents, model, lazy solver and last result."""
-
-    agents: tuple[str, ...]
-    pm: PlanModel
-    solver: LazySolver
-    step1: Outcome | None = None
-    merged_from: tuple[Part, ...] = ()
-    free: frozenset[str] = frozenset()
-    team: int | None = None  # a merged part's: the whole team's agents
-
 
 _COUNTING = threading.Lock()
 """Parts solved side by side count the planned ones one at a time."""
 
 PartSolve = Callable[[Part, PlannerConfig, Budget], Outcome]
 """One part's solve within its share of the time, ``(part, config, budget) -> result``."""
-
-
-def _part(
-    problem: Problem,
-    agents: Sequence[str],
-    config: PlannerConfig,
-    clock: Clock,
-    budget: Budget,
-    seed: set[tuple[Any, ...]] = frozenset(),  # type: ignore[assignment]
-    policy: RepairPolicy | None = None,
-) -> Part:
-    """Build (and seed with known requirements) the lazy model of one part."""
-    sub = sub_problem(problem, agents)
-    with clock.building():
-        pm = build_model(sub, config, budget.share(config.model.floors_share).deadline)
-    assert pm.deferral is not None
-    add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
-    whole = len(sub.agents) == len(problem.agents)  # a merge of every part: the whole problem
-    return Part(tuple(agents), pm, LazySolver(pm, config, clock, policy, whole))
-
-
-def _totals(parts: Sequence[Part]) -> tuple[float | None, float | None]:
-    return outcome.totals([p.step1 for p in parts])
-
-
-def _tighten(
-    parts: Sequence[Part], config: PlannerConfig, budget: Budget, plan: float | None = None
-) -> None:
-    """Solve parts again with absolute gaps until their sum (or ``plan``, a plan of the parts
-    together) meets the gap (:func:`stlplan.planner.outcome.tightening`), while at least one
-    least solve of ``budget`` is left."""
-    for _ in range(len(parts)):
-        if budget.expired():
-            return
-        chosen = outcome.tightening([p.step1 for p in parts], config.solver.gap, plan)
-        if chosen is None:
-            return
-        worst, abs_gap = chosen
-        part = parts[worst]
-        reached = part.solver.clock.reached
-        reached.solving(part.agents, len(part.merged_from))
-        with reached.within("tightening"):
-            part.step1 = part.solver.run(budget, abs_gap=abs_gap)
-
-
-def _followed(parts: list[Part], clock: Clock) -> list[Part]:
-    """``parts``, each recording on ``clock`` at the end of its every round the sum of the
-    parts' least bounds so far (each part's lazy rounds: relaxations of it), once every part
-    has one: a bound of the whole problem."""
-
-    def record() -> None:
-        ceilings = [p.solver.watch.ceiling for p in parts if p.solver.watch is not None]
-        bounds = [c for c in ceilings if c is not None]
-        if len(bounds) == len(parts):
-            clock.bound_found(sum(bounds))
-
-    for part in parts:
-        part.solver.rounded = record
-    return parts
 
 
 def _combined(parts: Sequence[Part], config: PlannerConfig, clock: Clock, tick: float) -> Outcome:
@@ -168,7 +89,7 @@ def solve_in_shares(
 ) -> None:
     """Solve the parts not solved yet, the smallest first, each within an equal share of the
     time left but ``parts.merge_reserve`` (what one leaves goes to the next); the reserve is for
-    merging parts whose plans collide, and :func:`_tighten` spends what is left at the end on
+    merging parts whose plans collide, and :func:`~stlplan.planner.parts.tighten` spends what is left at the end on
     the part furthest from its bound. With ``parts.side_by_side`` workers, as many parts are
     solved at the same time (:mod:`stlplan.planner.side_by_side`). A stop request ends the loop
     before the next part.
@@ -204,8 +125,8 @@ def _solve_part(part: Part, config: PlannerConfig, budget: Budget) -> Outcome:
         with _COUNTING:
             reached.planned += done.status.has_plan
         return done
-    repaired = _repair(part, config, budget)
-    _, ceiling = _totals(part.merged_from)
+    repaired = repair_merge(part, config, budget)
+    _, ceiling = totals(part.merged_from)
     assert part.solver.watch is not None
     part.solver.watch.ceiling = ceiling
     if repaired is not None and config.solver.first_plan:  # a plan is all that is asked for
@@ -213,36 +134,6 @@ def _solve_part(part: Part, config: PlannerConfig, budget: Budget) -> Outcome:
             repaired, ceiling
         )
     return outcome.proven(repaired, ceiling, config.solver.gap) or part.solver.run(budget)
-
-
-def _repair(part: Part, config: PlannerConfig, budget: Budget) -> Outcome | None:
-    """Repair the parts' plans together by the repairs the policy names for the merge (module
-    docstring); then tighten the bounds of the parts the merged part comes from towards the
-    repaired plan (None: no plan)."""
-    tick = time.perf_counter()
-    broken = _broken(part)
-    largest = max(len(p.pm.problem.agents) for p in part.merged_from)
-    first = config.solver.first_plan
-    repairs = part.solver.policy.merge_repairs(len(part.free), largest, part.team, first)
-    for repair, share in repairs:
-        plan = repair.repair(broken, config, budget.share(share))
-        if plan is not None:
-            repaired = part.solver.repaired(plan, time.perf_counter() - tick)
-            _tighten(part.merged_from, config, budget, plan=repaired.objective)
-            return repaired
-    return None
-
-
-def _broken(part: Part) -> Broken:
-    """The plans of the parts a merged part comes from, loaded into its model, with the
-    requirements they break together."""
-    pm = part.pm
-    assert pm.deferral is not None
-    models = [p.pm for p in part.merged_from]
-    for var, planned in plan_values(pm, models):
-        var.set_value(planned, skip_validation=True)
-    bad = violated(pm.deferral.lazy, trajectory_states(pm), least_margin(pm), VIOLATION_TOL)
-    return Broken(part.solver, bad, models, part.free)
 
 
 def solve_parts(
@@ -269,21 +160,21 @@ def solve_parts(
     tick = time.perf_counter()
     with clock.building():
         full = build_model(problem, config.with_overrides({"model.floors": False}))
-    built = [_part(problem, agents, config, clock, budget, policy=policy) for agents in names]
-    parts = _followed(built, clock)
+    built = [build_part(problem, agents, config, clock, budget, policy=policy) for agents in names]
+    parts = followed(built, clock)
     if start is not None:  # its agents' states and inputs; HiGHS completes the rest
         for part in parts:
             part.solver.session.start_from(start)
     early = None
     if plan_first is not None and plans_first(problem, config, plan_first):
         early = _first_plan(problem, parts, config, clock, budget)
-        parts = _followed(parts, clock)
+        parts = followed(parts, clock)
     gap = config.solver.gap
     parts, done = _apart(problem, full, parts, config, clock, budget, tick)
     if not done.status.has_plan:
         return better(early, (full, done), gap)
     if not (signals.requested() or config.solver.first_plan):
-        _tighten(parts, config, budget)
+        tighten(parts, config, budget)
     if len(parts) == 1:  # merged into one part of the whole team: its model is a full one
         return better(early, (dataclasses.replace(parts[0].pm, problem=problem), done), gap)
     return better(early, (full, _whole(full, parts, config, clock, budget, tick)), gap)
@@ -313,7 +204,7 @@ def _apart(
             return parts, done
         if signals.requested():  # the parts' plans collide: no plan of the full problem
             return parts, dataclasses.replace(done, status=PlanStatus.INTERRUPTED_NO_PLAN)
-        parts = _merged(problem, parts, crossing, config, clock, budget)
+        parts = merged_parts(problem, parts, crossing, config, clock, budget)
 
 
 def _whole(
@@ -375,31 +266,3 @@ def _assembled(
     if objective is not None:
         clock.plan_found(objective)
     return objective
-
-
-def _merged(
-    problem: Problem,
-    parts: list[Part],
-    crossing: Sequence[Requirement],
-    config: PlannerConfig,
-    clock: Clock,
-    budget: Budget,
-) -> list[Part]:
-    """``parts`` with those linked by ``crossing`` merged (seeded with what they had added),
-    each recording the whole's bound (:func:`_followed`)."""
-    out, first = list(parts), config.solver.first_plan
-    for group in merge_groups(parts, [set(r.binding.values()) for r in crossing]):
-        agents = {a for p in group for a in p.agents}
-        free = frozenset(a for r in crossing for a in r.binding.values()) & agents
-        seed = set().union(*(added_keys(p.pm) for p in group))
-        # (a repair in turn adds them as its plans cross)
-        if not group[0].solver.policy.on_merge(len(free), len(problem.agents), first):
-            seed |= {requirement_key(r) for r in crossing if set(r.binding.values()) <= agents}
-        order = [a.name for a in problem.agents if a.name in agents]
-        out = [p for p in out if p not in group]
-        merged = _part(problem, order, config, clock, budget, seed, group[0].solver.policy)
-        clock.reached.merges += 1
-        merged.merged_from = tuple(group)
-        merged.free, merged.team = free, len(problem.agents)
-        out.append(merged)
-    return _followed(out, clock)
