@@ -15,6 +15,7 @@ from stlplan.monitor.robustness import robustness
 from stlplan.planner import guide
 from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.deferred import defer
+from stlplan.planner.guide_stops import reached
 from tests.helpers.paths import FARM
 
 ROOM = crowd.Room(side=4.0, radius=1.6, pillar_offset=0.6, pillar_half=0.25, horizon=12, hold=2)
@@ -131,3 +132,30 @@ def test_the_task_planes_are_where_and_when_the_reference_meets_its_task(pair: A
     task = next(t for t in problem.tasks if t.elements[0] == (second.name,))
     formula = problem.lowered(task.formula, task.binding(task.elements[0]))
     assert robustness(formula, {"p": path}, problem.horizon)[0] >= 0
+
+
+def test_moves_are_examined_from_reached_cells_only_and_the_paths_are_the_same(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    problem = problem_from_text(crowd.mission_text(8, ROOM), "crowd-8.yaml")
+    lazy = defer(problem, reachable_boxes(problem), 10.0).lazy
+    references = _references(problem)
+
+    def in_order() -> list[guide.Search]:
+        fixed, found = dict[str, np.ndarray](), []
+        for agent in problem.agents:  # each around the paths of those before it
+            found.append(guide.guide_path(agent, 0, references[agent.name], lazy, fixed, MARGIN))
+            if found[-1].path is not None:
+                fixed[agent.name] = found[-1].path
+        return found
+
+    near = in_order()
+    whole = reached(np.zeros(guide.make_grid(problem.agents[0], references["a1"]).shape))
+    monkeypatch.setattr(guide, "reached", lambda cost: whole)  # every cell, as if reached
+    everywhere = in_order()
+    assert sum(s.path is not None for s in near) >= 4
+    for a, b in zip(near, everywhere, strict=True):
+        assert a.blockers == b.blockers
+        assert (a.path is None) == (b.path is None)
+        if a.path is not None:
+            np.testing.assert_array_equal(a.path, b.path)

@@ -18,10 +18,10 @@ regions included. The path is not the plan: the turn takes the side it keeps of 
 requirement (:func:`stlplan.planner.encoding.deferred.best_side`) as a row without a binary,
 and solves the agent's own model for the plan (its task, its effort).
 
-Only the neighbourhood of each requirement is examined: with axis-parallel alternatives (boxes:
-obstacles, separation in the infinity norm) a segment can break a requirement only within a
-move of the region that breaks every alternative; other alternatives are examined on the whole
-grid.
+Only the neighbourhood of each requirement is examined, from the cells the search reached: with
+axis-parallel alternatives (boxes: obstacles, separation in the infinity norm) a segment can
+break a requirement only within a move of the region that breaks every alternative; other
+alternatives are examined on the whole grid (:mod:`stlplan.planner.guide_stops`).
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ import numpy as np
 
 from stlplan.mission.problem import AgentModel, Problem
 from stlplan.planner.encoding.deferred import Requirement
+from stlplan.planner.guide_stops import reached, stopped
 from stlplan.planner.witness import witness
 
 CELLS_PER_MOVE = 3
@@ -142,48 +143,6 @@ def half_planes(
     return HalfPlanes(a, c, req.k, req.span, reads)
 
 
-def _window(hp: HalfPlanes, grid: Grid, t: int) -> tuple[slice, slice]:
-    """The cells of step ``t`` within one longest move of where every alternative can fail
-    (whole axes where an alternative is not parallel to an axis)."""
-    lo, hi = np.full(2, -np.inf), np.full(2, np.inf)
-    for a, c in zip(hp.a, hp.c, strict=True):
-        axis = np.flatnonzero(a)
-        if len(axis) != 1:
-            return slice(0, grid.shape[0]), slice(0, grid.shape[1])
-        i = int(axis[0])
-        edge = c / a[i]  # a p_i >= c: beyond the edge when a > 0, short of it when a < 0
-        if a[i] > 0:
-            hi[i] = min(hi[i], float(edge.max()))
-        else:
-            lo[i] = max(lo[i], float(edge.min()))
-    reach, origin, out = CELLS_PER_MOVE + 1, grid.origin(t), []
-    for i in range(2):
-        first = (lo[i] - origin[i]) / grid.h[i]
-        last = (hi[i] - origin[i]) / grid.h[i]
-        start = 0 if np.isinf(first) else int(min(grid.shape[i], max(0, np.floor(first) - reach)))
-        stop = grid.shape[i] if np.isinf(last) else int(max(0, np.ceil(last) + reach + 1))
-        out.append(slice(start, max(start, min(stop, grid.shape[i]))))
-    return out[0], out[1]
-
-
-def _block(hp: HalfPlanes, grid: Grid, t: int, shifts: np.ndarray, out: np.ndarray) -> None:
-    """Mark in ``out`` (M, nx, ny) the moves from a cell of step ``t`` (displacements
-    ``shifts``) that break ``hp`` (a segment requirement), or whose arrival does (a step one)."""
-    wx, wy = _window(hp, grid, t)
-    xs, ys = grid.points(t)
-    px, py = xs[wx, wy], ys[wx, wy]
-    if px.size == 0:
-        return
-    value = hp.a[:, 0, None, None] * px + hp.a[:, 1, None, None] * py  # (n_alt, wx, wy)
-    along = hp.a @ shifts.T  # (n_alt, M): a . d
-    if hp.span == 0:  # the arrival p + d keeps one alternative
-        need = hp.c[:, 0, None] - along
-    else:  # p keeps it at k, p + d at k + 1
-        need = np.maximum(hp.c[:, 0, None], hp.c[:, 1, None] - along)
-    fails = value[:, None] < need[:, :, None, None]  # (n_alt, M, wx, wy)
-    out[:, wx, wy] |= fails.all(axis=0)
-
-
 def _shifted(values: np.ndarray, move: np.ndarray, fill: float) -> np.ndarray:
     """``values`` moved by ``move`` cells: ``out[p + move] = values[p]``."""
     out = np.full_like(values, fill)
@@ -224,9 +183,7 @@ def search(
     parents = []
     for t in range(first, len(grid.reference) - 1):
         cells, shifts = grid.moves(t)
-        stop = np.zeros((len(cells), *grid.shape), dtype=bool)
-        for hp in by_step.get(t, ()):
-            _block(hp, grid, t, shifts, stop)
+        stop = stopped(by_step.get(t, ()), grid, t, shifts, reached(cost), CELLS_PER_MOVE + 1)
         best, parent = np.full(grid.shape, np.inf), np.full(grid.shape, -1, dtype=int)
         length = MOVE_COST * np.abs(shifts).sum(axis=1)
         for m, move in enumerate(cells):
@@ -246,11 +203,10 @@ def _blockers(
 ) -> frozenset[str]:
     """The agents read by the requirements of ``found`` that stop a move from a cell the
     search reached at step ``t``."""
-    reached, out = np.isfinite(cost), set[str]()
+    near, out = reached(cost), set[str]()
     for hp in found:
-        stop = np.zeros((len(shifts), *grid.shape), dtype=bool)
-        _block(hp, grid, t, shifts, stop)
-        if (stop & reached).any():
+        stop = stopped([hp], grid, t, shifts, near, CELLS_PER_MOVE + 1)
+        if (stop & np.isfinite(cost)).any():
             out |= hp.reads
     return frozenset(out)
 

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from pyomo.contrib.solver.common.results import TerminationCondition
@@ -64,18 +64,24 @@ HELD_ROOM = 10.0
 class _Turn:
     """One part solved around the plans of the parts before it (module docstring)."""
 
-    def __init__(self, pm: PlanModel, merged: PlanModel, config: PlannerConfig, clock: Any):
+    def __init__(
+        self,
+        pm: PlanModel,
+        merged: PlanModel,
+        config: PlannerConfig,
+        clock: Any,
+        naming: Mapping[str, Sequence[int]],
+    ):
         self.pm, self.merged, self.config = pm, merged, config
         self.agents = {a.name for a in pm.problem.agents}
         self.session = HighsSession(pm.model, config, clock, "step1")
         self.session.trial = True
         settings = self.session.solver.config  # a turn looks for a plan: a loose gap
         settings.rel_gap = max(config.repair.gap, settings.rel_gap or 0.0)
-        assert merged.deferral is not None
-        self.crossing = [
-            n for n, r in enumerate(merged.deferral.lazy)
-            if self.agents & set(r.binding.values()) and not set(r.binding.values()) <= self.agents
-        ]  # fmt: skip
+        lazy = self._lazy()
+        mine = sorted({n for a in self.agents for n in naming.get(a, ())})
+        self.crossing = [n for n in mine if not set(lazy[n].binding.values()) <= self.agents]
+        """The merged model's requirements between the part's agents and others, by index."""
         self.block: Any = None
         self.blockers: set[str] = set()
         """Agents whose plans left the guide no path, in this turn's last solve."""
@@ -213,6 +219,16 @@ class _Turn:
             self.block = None
 
 
+def _naming(merged: PlanModel) -> dict[str, list[int]]:
+    """The requirements of ``merged`` naming each agent, by index."""
+    assert merged.deferral is not None
+    out: dict[str, list[int]] = {}
+    for n, requirement in enumerate(merged.deferral.lazy):
+        for agent in set(requirement.binding.values()):
+            out.setdefault(agent, []).append(n)
+    return out
+
+
 def _fixed_steps(pm: PlanModel, agent: str) -> int:
     """The last step whose states are fixed (the initial one, or a replan's past)."""
     k = 0
@@ -275,7 +291,8 @@ def prioritized(
     """A plan of the merged part of ``merged`` (its lazy solver) from its ``parts`` planned in
     turn (module docstring) within ``budget``, their plans joined within ``last`` (the same
     budget when None); or None."""
-    turns = [_Turn(pm, merged.pm, config, merged.clock) for pm in parts]
+    naming = _naming(merged.pm)
+    turns = [_Turn(pm, merged.pm, config, merged.clock, naming) for pm in parts]
     order, tried, fails = list(range(len(parts))), 0, dict[int, int]()
     planned: Planned = []
     saved = [model_values(pm.model) for pm in parts]
