@@ -13,6 +13,7 @@ from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.components import crossing_requirements, solve_in_shares, solve_parts
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.encoding.deferred import requirement_key
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.lazy import LazySolver
 from stlplan.planner.outcome import Outcome, Plan
@@ -282,3 +283,34 @@ def test_every_solve_of_a_merged_part_is_a_round_of_its_own() -> None:
     assert result.requirements_completed == 0
     nodes = [r["nodes"] for r in log]  # the parts alone have no integers; the merge has
     assert nodes[:2] == [None, None] and all(isinstance(n, int) and n >= 1 for n in nodes[2:])
+
+
+def test_a_merge_of_the_whole_team_reuses_the_whole_teams_requirements() -> None:
+    from stlplan.planner.merges import merged_parts
+    from stlplan.planner.parts import build_part
+
+    config, clock, budget = PlannerConfig(), Clock(0.0, None), Budget.of_seconds(60)
+    problem = two_teams(separation=0.5)
+    full = build_model(problem, config)
+    assert full.deferral is not None
+    names = agent_parts(problem)
+    parts = [build_part(problem, agents, config, clock, budget) for agents in names]
+
+    def merged(pairs: list[tuple[str, str]]) -> Any:
+        # the requirements of these pairs at step 1 are the crossings
+        lazy = full.deferral.lazy
+        crossing = [r for r in lazy if tuple(sorted(r.binding.values())) in pairs and r.k == 1]
+        assert len(crossing) >= len(pairs)
+        out = merged_parts(problem, parts, crossing, config, clock, budget, full.deferral)
+        return next(p for p in out if p.merged_from)
+
+    some = merged([("b", "c")])
+    assert set(some.agents) == {"a", "b", "c", "d"}
+    assert some.pm.deferral is not full.deferral  # a part of the team: its own
+    every = merged([("b", "c"), ("d", "e")])
+    assert set(every.agents) == {a.name for a in problem.agents}
+    assert every.pm.deferral is full.deferral
+    own = build_model(problem, config).deferral  # what it would have split itself
+    assert own is not None
+    keys = [requirement_key(r) for r in own.lazy]
+    assert keys == [requirement_key(r) for r in full.deferral.lazy]

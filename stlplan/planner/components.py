@@ -204,7 +204,7 @@ def _apart(
             return parts, done
         if signals.requested():  # the parts' plans collide: no plan of the full problem
             return parts, dataclasses.replace(done, status=PlanStatus.INTERRUPTED_NO_PLAN)
-        parts = merged_parts(problem, parts, crossing, config, clock, budget)
+        parts = merged_parts(problem, parts, crossing, config, clock, budget, full.deferral)
 
 
 def _whole(

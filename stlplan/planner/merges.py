@@ -18,7 +18,7 @@ from stlplan.planner.clock import Clock
 from stlplan.planner.collisions import merge_groups
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.alphas import violated
-from stlplan.planner.encoding.deferred import Requirement, requirement_key
+from stlplan.planner.encoding.deferred import Deferral, Requirement, requirement_key
 from stlplan.planner.outcome import Outcome
 from stlplan.planner.parts import Part, build_part, followed, tighten
 from stlplan.planner.repairs import Broken
@@ -32,9 +32,11 @@ def merged_parts(
     config: PlannerConfig,
     clock: Clock,
     budget: Budget,
+    whole: Deferral | None = None,
 ) -> list[Part]:
     """``parts`` with those linked by ``crossing`` merged (seeded with what they had added),
-    each recording the whole's bound (:func:`~stlplan.planner.parts.followed`)."""
+    each recording the whole's bound (:func:`~stlplan.planner.parts.followed`); a merge of
+    every agent reuses ``whole``, the split of the whole team's requirements."""
     out, first = list(parts), config.solver.first_plan
     for group in merge_groups(parts, [set(r.binding.values()) for r in crossing]):
         agents = {a for p in group for a in p.agents}
@@ -45,7 +47,9 @@ def merged_parts(
             seed |= {requirement_key(r) for r in crossing if set(r.binding.values()) <= agents}
         order = [a.name for a in problem.agents if a.name in agents]
         out = [p for p in out if p not in group]
-        merged = build_part(problem, order, config, clock, budget, seed, group[0].solver.policy)
+        reused = whole if len(order) == len(problem.agents) else None
+        policy = group[0].solver.policy
+        merged = build_part(problem, order, config, clock, budget, seed, policy, reused)
         clock.reached.merges += 1
         merged.merged_from = tuple(group)
         merged.free, merged.team = free, len(problem.agents)

@@ -16,7 +16,7 @@ from stlplan.planner import outcome
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.encoding.deferred import requirement_key
+from stlplan.planner.encoding.deferred import Deferral, requirement_key
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
 from stlplan.planner.lazy import LazySolver
 from stlplan.planner.outcome import Outcome
@@ -92,11 +92,13 @@ def build_part(
     budget: Budget,
     seed: set[tuple[Any, ...]] = frozenset(),  # type: ignore[assignment]
     policy: RepairPolicy | None = None,
+    deferral: Deferral | None = None,
 ) -> Part:
-    """Build (and seed with known requirements) the lazy model of one part."""
+    """Build (and seed with known requirements) the lazy model of one part (reusing
+    ``deferral``, the split of the requirements of a part of the same agents, when given)."""
     sub = sub_problem(problem, agents)
     with clock.building():
-        pm = build_model(sub, config, budget.share(config.model.floors_share).deadline)
+        pm = build_model(sub, config, budget.share(config.model.floors_share).deadline, deferral)
     assert pm.deferral is not None
     add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
     whole = len(sub.agents) == len(problem.agents)  # a merge of every part: the whole problem

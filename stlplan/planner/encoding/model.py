@@ -258,7 +258,10 @@ def encode_tasks(
 
 
 def build_model(
-    problem: Problem, config: PlannerConfig | None = None, floors_deadline: float = math.inf
+    problem: Problem,
+    config: PlannerConfig | None = None,
+    floors_deadline: float = math.inf,
+    deferral: Deferral | None = None,
 ) -> PlanModel:
     """Encode ``problem`` as the MILP of step 1, as ``config`` (default: the defaults of
     :class:`~stlplan.planner.config.PlannerConfig`, as planning has them) declares it.
@@ -281,6 +284,9 @@ def build_model(
         as they stand at step 0.
     floors_deadline
         ``time.perf_counter()`` time after which no more floors are computed.
+    deferral
+        With ``lazy.enabled``, the split of ``problem``'s requirements made for another model of
+        it (reused, its requirements shared; default: made here).
     """
     config = config or PlannerConfig()
     settings = config.model
@@ -307,12 +313,12 @@ def build_model(
         by_roles_read=settings.shared_subformulas,
     )
     tasks, synchronous = encode_tasks(ctx, problem, settings.tasks, symmetry)
-    deferral = None
     if lazy:
-        deferral = defer(problem, boxes, ceiling)
+        deferral = deferral or defer(problem, boxes, ceiling)
         for formula, k, binding in deferral.eager:
             require(formula, k, ctx.bound(binding))
     else:
+        deferral = None
         encode_constraints(ctx, problem)
         encode_separation(ctx, problem)
         for requirement in segment_requirements(problem):
