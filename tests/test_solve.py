@@ -356,3 +356,29 @@ def test_a_failed_completion_is_not_called_completed() -> None:
     assert run_events(more, Finish(), config, clock, False)[0] == (
         "3 lazy rounds, 4 requirements added; the completion added 5 more"
     )
+
+
+def test_a_continuous_stage_out_of_time_keeps_the_step_1_plan_without_its_solve(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # a large team's continuous model takes seconds to build: past the grace, no solve follows
+    from stlplan.planner import finish as finishing
+    from stlplan.planner.clock import Clock
+    from stlplan.planner.encoding.model import build_model
+    from stlplan.planner.session import solve_once
+    from stlplan.planner.values import model_values
+
+    pm = build_model(reach_problem(), paper_model())
+    options, clock = PlannerConfig().with_overrides({"solver.time_limit": 30.0}), Clock(0.0, None)
+    solve_once(pm.model, options, clock, "step1", Budget.of_seconds(30))
+    before = model_values(pm.model)
+
+    def build(*_: object) -> None:
+        raise RuntimeError("the continuous model was built")
+
+    monkeypatch.setattr(finishing, "continuous_model", build)
+    ended = finishing.finish(pm, options, clock, Budget.of_seconds(0.0))
+    assert ended.failed == finishing.OUT_OF_TIME and not ended.infeasible
+    assert model_values(pm.model) == before
+    with pytest.raises(RuntimeError, match="was built"):  # with the time, it is
+        finishing.finish(pm, options, clock, Budget.of_seconds(30.0))

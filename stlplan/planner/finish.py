@@ -44,6 +44,10 @@ INFEASIBLE = {
 """Terminations that mean the fixed decisions admit no plan."""
 
 
+OUT_OF_TIME = "the time limit and its grace ran out before the continuous solve"
+"""Why the stage failed when building its model took the time left (a large team's)."""
+
+
 @dataclass(frozen=True)
 class Finish:
     """How the continuous stage ended."""
@@ -162,9 +166,13 @@ def finish(pm: PlanModel, config: PlannerConfig, clock: Clock, budget: Budget) -
         v.set_value(val, skip_validation=True)
     if enforced is None:
         return Finish(f"the LP finding the enforced predicates ended {ended}", ended in INFEASIBLE)
+    if budget.expired():
+        return Finish(OUT_OF_TIME)
     enforced += kept_sides(pm)
     with clock.building():
         small = continuous_model(pm, enforced, "effort" if phase == "step2" else "polish")
+    if budget.expired():
+        return Finish(OUT_OF_TIME)
     session = HighsSession(small, config, clock, phase, mip=False)
     solved = session.solve(budget)
     ended = solved.results.termination_condition.name
