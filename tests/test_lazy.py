@@ -206,7 +206,7 @@ def test_a_known_ceiling_closes_the_loop() -> None:
 
 
 def test_a_completion_out_of_time_adds_no_requirement_and_has_no_plan() -> None:
-    from stlplan.planner import lazy
+    from stlplan.planner import completion
     from stlplan.planner.budget import Budget
     from stlplan.planner.clock import Clock
     from stlplan.planner.config import PlannerConfig
@@ -217,9 +217,9 @@ def test_a_completion_out_of_time_adds_no_requirement_and_has_no_plan() -> None:
     rows = session.highs.getNumRow()
     pending = len(pm.pending())
     assert pending > 0
-    assert not lazy._added_in_time(pm, session, Budget.of_seconds(-1.0))
+    assert not completion.added_in_time(pm, session, Budget.of_seconds(-1.0))
     assert len(pm.pending()) == pending
-    assert lazy._added_in_time(pm, session, Budget.of_seconds(60.0))
+    assert completion.added_in_time(pm, session, Budget.of_seconds(60.0))
     assert pm.pending() == []
     assert session.highs.getNumRow() > rows  # loaded into HiGHS as they were added
 
@@ -229,7 +229,7 @@ def test_a_completion_fixes_decisions_by_bounds_and_restores_them() -> None:
     # row it is in; bounds change one column each
     from pyomo.environ import Var
 
-    from stlplan.planner import lazy
+    from stlplan.planner import completion
     from stlplan.planner.budget import Budget
     from stlplan.planner.clock import Clock
     from stlplan.planner.config import PlannerConfig
@@ -241,12 +241,14 @@ def test_a_completion_fixes_decisions_by_bounds_and_restores_them() -> None:
     assert has_solution(session.solve(Budget.of_seconds(30.0)).results)
     binaries = [v for v in pm.model.component_data_objects(Var) if v.is_binary() and not v.fixed]
     bounds = [v.bounds for v in binaries]
-    assert lazy._added_in_time(pm, session, Budget.of_seconds(60.0))  # rows with binaries
+    assert completion.added_in_time(pm, session, Budget.of_seconds(60.0))  # rows with binaries
     rows, removed = session.highs.getNumRow(), []
     remove = session.solver.remove_constraints
     session.solver.remove_constraints = lambda found: (removed.extend(found), remove(found))[1]
     for _ in range(2):  # (the second time, the decisions changed nothing)
-        solved = lazy._fix_and_solve(pm, session, model_values(pm.model), Budget.of_seconds(30))
+        solved = completion.fix_and_solve(
+            pm, session, model_values(pm.model), Budget.of_seconds(30)
+        )
         assert solved is not None and has_solution(solved.results)
     assert removed == [] and session.highs.getNumRow() == rows  # no row taken out, added again
     assert not any(v.fixed for v in binaries)

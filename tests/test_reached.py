@@ -10,9 +10,9 @@ import pytest
 from stlplan.mission.loader import load_problem
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
+from stlplan.planner.completion import added_in_time
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.lazy import _added_in_time
 from stlplan.planner.outcome import Outcome
 from stlplan.planner.reached import Reached, agent_names
 from stlplan.planner.solve import step1_message
@@ -129,7 +129,7 @@ def test_a_completion_loads_each_batch_and_stops_when_the_time_is_up(
 
     monkeypatch.setattr(time, "perf_counter", lambda: now[0])
     session = Session()
-    assert not _added_in_time(pm, session, Budget(9.0, 9.0))  # type: ignore[arg-type]
+    assert not added_in_time(pm, session, Budget(9.0, 9.0))  # type: ignore[arg-type]
     assert loads == [500, 1000] and pending > 1000
     assert session.clock.reached.progress == f"1,000 of {pending:,} requirements left out added"
 

@@ -29,12 +29,6 @@ Window = tuple[slice, slice]
 """Cells along each axis of a grid."""
 
 
-def meet(a: slice, b: slice) -> slice:
-    """The cells of both ranges."""
-    start = max(a.start, b.start)
-    return slice(start, max(start, min(a.stop, b.stop)))
-
-
 def reached(cost: np.ndarray) -> Window:
     """The least box of cells holding every cell of finite ``cost``."""
     rows = np.flatnonzero(np.isfinite(cost).any(axis=1))

@@ -21,36 +21,35 @@ optimum to the same tolerance as an up-front solve.
 When the time limit ends the loop without a plan feasible for the full problem, the last round's
 plan is *completed*: its binaries are fixed, all remaining requirements added, and HiGHS looks for
 a plan with those decisions (a small MILP) in the grace a finishing solve has past the run's
-deadline (:meth:`stlplan.planner.budget.Budget.finishing`).
+deadline (:mod:`stlplan.planner.completion`).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import replace
 
 from pyomo.contrib.solver.common.results import TerminationCondition
-from pyomo.environ import Var
 
 from stlplan.planner import outcome
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
+from stlplan.planner.completion import complete
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.convergence import follow
 from stlplan.planner.encoding.deferred import best_side, kind, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
-from stlplan.planner.in_turn import Held, agents_of, hold_near, release
-from stlplan.planner.outcome import Outcome, Plan, VarKey, lowest, relative_gap
+from stlplan.planner.in_turn import agents_of
+from stlplan.planner.outcome import Outcome, Plan, lowest, relative_gap
 from stlplan.planner.published import Published
 from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.repairs import Broken
 from stlplan.planner.session import HighsSession, Solved, has_solution, plan_status
-from stlplan.planner.values import load_values, model_values, var_key
+from stlplan.planner.values import load_values
 from stlplan.planner.watch import Watch, pending_violations, trajectory_states
 from stlplan.result import PlanStatus
-from stlplan.runtime import signals
 
 
 class LazySolver:
@@ -232,7 +231,7 @@ class LazySolver:
         if given_up is not None:
             return given_up
         self.clock.reached.enter("completion")  # the last stage: it ends the part's solve
-        return _complete(self.pm, self.session, last, tick, rounds, budget.finishing())
+        return complete(self.pm, self.session, last, tick, rounds, budget.finishing())
 
     def _from_best(self, last: Solved, tick: float, rounds: int, status: PlanStatus) -> Outcome:
         """Load the best plan feasible for the full problem; the bound is the last round's.
@@ -328,74 +327,3 @@ def _ended(solved: Solved, seconds: float, rounds: int, added: int) -> Outcome:
         added=added,
         stop=results.termination_condition.name,
     )
-
-
-def _fix_and_solve(
-    pm: PlanModel, session: HighsSession, decisions: Mapping[VarKey, float], budget: Budget
-) -> Solved | None:
-    """Fix the binaries with a value in ``decisions``, add every requirement, solve (a
-    finishing solve whose infeasible verdict says only that those decisions admit no plan, so
-    it is neither confirmed nor reported as the mission's); None when adding the requirements
-    outlasts ``budget``.
-
-    A decision is fixed by its bounds: a fixed Pyomo variable would make the persistent
-    interface remove and add again every row it appears in."""
-    held: Held = []
-    for v in pm.model.component_data_objects(Var):
-        decided = decisions.get(var_key(v)) if v.is_binary() and not v.fixed else None
-        if decided is not None:
-            hold_near(v, float(round(decided)), held, 0.0)
-    trial, session.trial = session.trial, True  # fixed decisions: the verdict is not the mission's
-    try:
-        if not _added_in_time(pm, session, budget):
-            return None
-        return session.solve(budget)
-    finally:
-        session.trial = trial
-        release(held)
-
-
-ADD_BATCH = 500
-"""Requirements a completion adds between two looks at the clock."""
-
-
-def _added_in_time(pm: PlanModel, session: HighsSession, budget: Budget) -> bool:
-    """Add every pending requirement to ``pm`` and ``session``'s HiGHS model, in batches while
-    ``budget`` lasts; whether all were added. A large team has tens of thousands: encoding them
-    and loading them into HiGHS (about 1 ms each at 16 agents) is not bounded by HiGHS's time
-    limit, so each batch is loaded before the clock is read again."""
-    pending = pm.pending()
-    for start in range(0, len(pending), ADD_BATCH):
-        if budget.expired():
-            return False
-        add_requirements(pm, pending[start : start + ADD_BATCH])
-        session.load_changes()
-        session.clock.reached.completing(min(start + ADD_BATCH, len(pending)), len(pending))
-    return True
-
-
-def _complete(
-    pm: PlanModel,
-    session: HighsSession,
-    last: Solved,
-    tick: float,
-    rounds: int,
-    budget: Budget,
-) -> Outcome:
-    """Out of time with no plan feasible for the full problem: complete the last round's plan
-    (within ``budget``, a finishing one).
-
-    The bound stays the last round's (it bounds the full problem); the gap is recomputed.
-    """
-    bound, before = last.results.objective_bound, len(pm.added)
-    solved = _fix_and_solve(pm, session, model_values(pm.model), budget)
-    seconds = time.perf_counter() - tick
-    stop = last.results.termination_condition.name
-    base = Outcome(PlanStatus.NO_PLAN, None, bound, None, seconds, rounds, before, stop,
-                   completed=True, completion_added=len(pm.added) - before)  # fmt: skip
-    if solved is None:  # out of time while adding the requirements: no plan
-        return outcome.completed(None, bound, signals.requested(), replace(base, completed=False))
-    # (an interrupt by the watch still leaves a plan)
-    found = has_solution(solved.results)
-    objective = float(solved.results.incumbent_objective) if found else None
-    return outcome.completed(objective, bound, solved.stopped, base)
