@@ -14,9 +14,10 @@ from stlplan.formula.tree import step_parts
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from stlplan.pipeline import plan
-from stlplan.planner.encoding.alphas import alpha_maxima, alpha_values, violated
+from stlplan.planner.encoding.alphas import alpha_maxima, alpha_values, best_sides, violated
 from stlplan.planner.encoding.deferred import (
     SEPARATION,
+    best_side,
     defer,
     neighbours,
 )
@@ -294,3 +295,16 @@ def test_many_requirements_evaluated_at_once_agree_with_each_alone(mission_path:
         np.testing.assert_allclose(alpha_maxima(lazy, states), alone, atol=1e-12)
         some = list(lazy[::7])
         np.testing.assert_allclose(alpha_maxima(some, states), alone[::7], atol=1e-12)
+        sides = [best_side(r, states) for r in lazy]
+        assert best_sides(lazy, states).tolist() == sides
+
+
+def test_the_best_sides_at_once_take_the_first_of_equal_half_planes() -> None:
+    problem = load_problem(MISSIONS / "crowd/crowd-16.yaml")
+    lazy = defer(problem, reachable_boxes(problem), 10.0).lazy
+    # every agent at one point: every separation half-plane has the same alpha, -d_col
+    states = {a.name: np.zeros((problem.horizon + 1, a.n)) for a in problem.agents}
+    sides = best_sides(lazy, states)
+    assert sides.tolist() == [best_side(r, states) for r in lazy]
+    pairs = [n for n, r in enumerate(lazy) if r.source == SEPARATION]
+    assert pairs and sides[pairs].tolist() == [0] * len(pairs)

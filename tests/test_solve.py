@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+import time
 
 import numpy as np
 import pytest
@@ -382,3 +383,15 @@ def test_a_continuous_stage_out_of_time_keeps_the_step_1_plan_without_its_solve(
     assert model_values(pm.model) == before
     with pytest.raises(RuntimeError, match="was built"):  # with the time, it is
         finishing.finish(pm, options, clock, Budget.of_seconds(30.0))
+    # its first LP took 0.5 s: less left than that and a least solve, the model is not built
+    enforced_predicates = finishing.enforced_predicates
+
+    def slow(*args: object) -> object:
+        time.sleep(0.5)
+        return enforced_predicates(*args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(finishing, "enforced_predicates", slow)
+    ended = finishing.finish(pm, options, clock, Budget.of_seconds(2.0))
+    assert ended.failed == finishing.OUT_OF_TIME
+    with pytest.raises(RuntimeError, match="was built"):
+        finishing.finish(pm, options, clock, Budget.of_seconds(4.0))

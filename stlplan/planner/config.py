@@ -235,6 +235,11 @@ class ContinuousConfig(_Section):
     landing_limit: float = Field(default=1e-5, gt=0)
     """A step-2 point that breaks a predicate by at most this much is landed on the fixed
     decisions (an LP) instead of falling back to step 1's plan."""
+    near_sides: float | None = Field(default=0.2, ge=0)
+    """The continuous model starts with the kept sides of the lazy requirements step 1 left
+    out that step 1's plan meets with at most this much to spare (in the units of the map),
+    and adds the others its plan breaks (:mod:`stlplan.planner.kept_sides`); None: every side
+    from the start. Measured: docs/measurements.md#the-continuous-stage-of-a-large-team."""
 
 
 class DiagnosisConfig(_Section):

@@ -2,9 +2,10 @@
 
 Step 1's binaries are fixed at their rounded values; one LP over the step-1 model finds the
 predicates they enforce; the small continuous model of :mod:`stlplan.planner.encoding.continuous`
-minimizes the effort (or polishes the step-1 objective) over exactly those. Its plan meets every
-enforced predicate with the margin ``r >= EPSILON`` to HiGHS's LP tolerance (DESIGN 2.10), which
-step 1's plan, held only to the MIP tolerances, need not.
+minimizes the effort (or polishes the step-1 objective) over exactly those and the sides step
+1's plan keeps of the lazy requirements it left out (:mod:`stlplan.planner.kept_sides`). Its plan
+meets every enforced predicate with the margin ``r >= EPSILON`` to HiGHS's LP tolerance (DESIGN
+2.10), which step 1's plan, held only to the MIP tolerances, need not.
 
 When the continuous solve stops short of optimality without an infeasible verdict, its point is
 landed: the nearest plan meeting every enforced predicate, found by an LP
@@ -21,6 +22,7 @@ Only when the landing fails too is the step-1 plan kept, and the monitor judges 
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -30,11 +32,18 @@ from pyomo.environ import Objective, Reals, Var, minimize, value
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock, Phase
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.encoding.continuous import continuous_model, copy_plan, landing_model
-from stlplan.planner.encoding.deferred import best_option
+from stlplan.planner.encoding.continuous import (
+    add_predicate_rows,
+    continuous_model,
+    copy_plan,
+    landing_model,
+    plan_margin,
+    plan_states,
+)
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.stl import Enforced
-from stlplan.planner.session import HighsSession, solve_once
+from stlplan.planner.kept_sides import KeptSides
+from stlplan.planner.session import HighsSession, Solved, solve_once
 from stlplan.planner.watch import trajectory_states
 
 INFEASIBLE = {
@@ -45,7 +54,7 @@ INFEASIBLE = {
 
 
 OUT_OF_TIME = "the time limit and its grace ran out before the continuous solve"
-"""Why the stage failed when building its model took the time left (a large team's)."""
+"""Why the stage failed when its pieces would take (or took) the time left (a large team's)."""
 
 
 @dataclass(frozen=True)
@@ -102,12 +111,42 @@ def enforced_predicates(
     return pm.ledger.required + guarded, seconds, ended
 
 
-def kept_sides(pm: PlanModel) -> list[Enforced]:
-    """For each lazy requirement never added: the half-plane the loaded plan meets best."""
-    if pm.deferral is None:
-        return []
+@dataclass
+class _Rows:
+    """The rows a continuous (or landing) model holds: the enforced predicates and the kept
+    sides held so far (:mod:`stlplan.planner.kept_sides`), added to as solves break sides."""
+
+    pm: PlanModel
+    enforced: list[Enforced]
+    sides: KeptSides
+
+    def solve(self, session: HighsSession, clock: Clock, budget: Budget) -> tuple[Solved, bool]:
+        """Solve the session's model until its plan breaks no kept side; returns the last
+        solve and whether its plan meets every side (False: out of time, or the solve failed)."""
+        model = session.model
+        while True:
+            solved = session.solve(budget)
+            if (
+                solved.results.termination_condition
+                != TerminationCondition.convergenceCriteriaSatisfied
+            ):
+                return solved, False
+            more = self.sides.broken(plan_states(model, self.pm), plan_margin(model, self.pm))
+            if not more:
+                return solved, True
+            if budget.expired():
+                return solved, False
+            self.enforced += more
+            with clock.building():
+                add_predicate_rows(model, more, self.pm)
+
+
+def _held_rows(pm: PlanModel, enforced: list[Enforced], config: PlannerConfig) -> _Rows:
+    """The enforced predicates with the kept sides near step 1's plan (loaded in ``pm``)."""
     states = trajectory_states(pm)
-    return [e for n in pm.pending() for e in best_option(pm.deferral.lazy[n], states)]
+    sides = KeptSides.of(pm, states)
+    near = sides.near(states, float(value(pm.margin)), config.continuous.near_sides)
+    return _Rows(pm, enforced + near, sides)
 
 
 def _target(session: HighsSession, model: Any) -> dict[Any, float] | None:
@@ -134,19 +173,19 @@ def effort_kept(pm: PlanModel, target: dict[Any, float], gap: float) -> bool:
 
 def _land(
     pm: PlanModel,
-    enforced: list[Enforced],
+    rows: _Rows,
     target: dict[Any, float],
     config: PlannerConfig,
     clock: Clock,
     phase: Phase,
     budget: Budget,
 ) -> float | None:
-    """Copy into ``pm`` the plan nearest ``target`` that meets every enforced predicate; returns
-    how far it is (``sum |u - target|``), None when the LP fails."""
+    """Copy into ``pm`` the plan nearest ``target`` that meets every enforced predicate and kept
+    side; returns how far it is (``sum |u - target|``), None when the LP fails."""
     with clock.building():
-        landing = landing_model(pm, enforced, target)
-    results, _, _ = solve_once(landing, config, clock, phase, budget, mip=False)
-    if results.termination_condition != TerminationCondition.convergenceCriteriaSatisfied:
+        landing = landing_model(pm, rows.enforced, target)
+    _, met = rows.solve(HighsSession(landing, config, clock, phase, mip=False), clock, budget)
+    if not met:
         return None
     copy_plan(landing, pm)
     return float(value(landing.goal))
@@ -158,32 +197,62 @@ def finish(pm: PlanModel, config: PlannerConfig, clock: Clock, budget: Budget) -
 
     On failure the step-1 solution stays loaded in ``pm``, unless a landing succeeded.
     """
-    snapshot = [(v, v.value) for v in pm.model.component_data_objects(Var)]
     phase: Phase = "step2" if config.continuous.two_step else "polish"
+    enforced = _enforced_in_time(pm, config, clock, phase, budget)
+    if isinstance(enforced, Finish):
+        return enforced
+    rows = _held_rows(pm, enforced, config)
+    with clock.building():
+        small = continuous_model(pm, rows.enforced, "effort" if phase == "step2" else "polish")
+    if budget.expired():
+        return Finish(OUT_OF_TIME)
+    session = HighsSession(small, config, clock, phase, mip=False)
+    solved, met = rows.solve(session, clock, budget)
+    ended = solved.results.termination_condition.name
+    if met:
+        copy_plan(small, pm)
+        return Finish()
+    if ended == TerminationCondition.convergenceCriteriaSatisfied.name:
+        return Finish(OUT_OF_TIME)
+    if ended in INFEASIBLE:
+        return Finish(f"the continuous solve ended {ended}", True)
+    return _landed(pm, rows, session, ended, config, clock, phase, budget)
+
+
+def _enforced_in_time(
+    pm: PlanModel, config: PlannerConfig, clock: Clock, phase: Phase, budget: Budget
+) -> list[Enforced] | Finish:
+    """The predicates step 1's decisions enforce (its plan left loaded in ``pm``), or how the
+    stage failed: the LP failed, or the rest of the stage would not fit in ``budget``."""
+    snapshot = [(v, v.value) for v in pm.model.component_data_objects(Var)]
+    tick = time.perf_counter()
     fix_decisions(pm)
     enforced, _, ended = enforced_predicates(pm, config, clock, phase, budget)
     for v, val in snapshot:
         v.set_value(val, skip_validation=True)
     if enforced is None:
         return Finish(f"the LP finding the enforced predicates ended {ended}", ended in INFEASIBLE)
-    if budget.expired():
+    # building and loading the continuous model takes about as long as loading step 1's did
+    if budget.remaining() < budget.min_solve + time.perf_counter() - tick:
         return Finish(OUT_OF_TIME)
-    enforced += kept_sides(pm)
-    with clock.building():
-        small = continuous_model(pm, enforced, "effort" if phase == "step2" else "polish")
-    if budget.expired():
-        return Finish(OUT_OF_TIME)
-    session = HighsSession(small, config, clock, phase, mip=False)
-    solved = session.solve(budget)
-    ended = solved.results.termination_condition.name
-    if solved.results.termination_condition == TerminationCondition.convergenceCriteriaSatisfied:
-        copy_plan(small, pm)
-        return Finish()
+    return enforced
+
+
+def _landed(
+    pm: PlanModel,
+    rows: _Rows,
+    session: HighsSession,
+    ended: str,
+    config: PlannerConfig,
+    clock: Clock,
+    phase: Phase,
+    budget: Budget,
+) -> Finish:
+    """After a continuous solve that ended ``ended`` short of optimality: its point landed on
+    the rows (:func:`_land`), or the step-1 plan kept."""
     failed = f"the continuous solve ended {ended}"
-    if ended in INFEASIBLE:
-        return Finish(failed, True)
-    target = _target(session, small)
-    moved = None if target is None else _land(pm, enforced, target, config, clock, phase, budget)
+    target = _target(session, session.model)
+    moved = None if target is None else _land(pm, rows, target, config, clock, phase, budget)
     if target is None or moved is None:
         return Finish(failed)
     kept = config.continuous.two_step and effort_kept(pm, target, config.solver.gap)

@@ -92,6 +92,15 @@ def alpha_maxima(
     """``max_i alpha_values(req, states)[i]`` for every requirement, evaluated at once."""
     if not requirements:
         return np.empty(0)
+    values, firsts = half_plane_values(requirements, states)
+    return np.maximum.reduceat(values, firsts)
+
+
+def half_plane_values(
+    requirements: Sequence[Requirement], states: Mapping[str, np.ndarray]
+) -> tuple[np.ndarray, np.ndarray]:
+    """``alpha_values`` of every requirement, one after the other, and where each
+    requirement's first half-plane is in them (requirements not empty)."""
     table = _table(tuple(requirements))
     offset, cols, start = {}, {}, 0
     for agent, x in states.items():
@@ -101,7 +110,19 @@ def alpha_maxima(
     width = np.array([cols[a] for a in table.agents])[table.who]
     read = values[at + table.step * width + table.component]
     alpha = table.const + np.bincount(table.slot, table.coef * read, len(table.const))
-    return np.maximum.reduceat(np.minimum.reduceat(alpha, table.alternatives), table.firsts)
+    return np.minimum.reduceat(alpha, table.alternatives), table.firsts
+
+
+def best_sides(requirements: Sequence[Requirement], states: Mapping[str, np.ndarray]) -> np.ndarray:
+    """For every requirement, the index of its half-plane with the largest ``alpha_i`` on a
+    trajectory (the first of equals, as ``best_side``), evaluated at once."""
+    if not requirements:
+        return np.empty(0, dtype=int)
+    values, firsts = half_plane_values(requirements, states)
+    counts = np.diff(np.append(firsts, len(values)))
+    best = np.repeat(np.maximum.reduceat(values, firsts), counts)
+    hits = np.flatnonzero(values == best)
+    return hits[np.searchsorted(hits, firsts)] - firsts
 
 
 @dataclass(frozen=True)

@@ -127,17 +127,45 @@ def _absolute_inputs(model: ConcreteModel) -> None:
         model.s_rows.add(model.s[key] >= -u)
 
 
-def _predicate_rows(
-    model: ConcreteModel, enforced: Sequence[Enforced], margin: Any, pm: PlanModel
-) -> None:
+def _predicate_rows(model: ConcreteModel, enforced: Sequence[Enforced], pm: PlanModel) -> None:
     """``alpha(x(k)) - r >= 0`` for every enforced predicate, over the condensed states (its
     margin raised as step 1 raised it, :meth:`Problem.tightening`)."""
     model.predicates = ConstraintList()
+    add_predicate_rows(model, enforced, pm)
+
+
+def add_predicate_rows(model: ConcreteModel, enforced: Sequence[Enforced], pm: PlanModel) -> None:
+    """Add to a continuous (or landing) model the rows of more enforced predicates."""
+    margin = _row_margin(model, pm)
     for node, k, binding in _unique(enforced):
         raised = pm.problem.tightening(node, k)
         slack = alpha(node, k, binding, model.states) - margin - raised
         if not isinstance(slack, float):  # a number: decided by the initial state alone
             model.predicates.add(slack >= 0)
+
+
+def _row_margin(model: ConcreteModel, pm: PlanModel) -> Any:
+    """The margin ``r`` of the predicate rows: the polish's variable, else step 1's margin."""
+    return model.r if model.component("r") is not None else _fixed_margin(pm)
+
+
+def plan_states(model: ConcreteModel, pm: PlanModel) -> dict[str, np.ndarray]:
+    """The states of a solved continuous (or landing) model, agent name to an (H+1, n) array."""
+    horizon = pm.problem.horizon
+    return {
+        a.name: np.array(
+            [
+                [float(value(model.states[a.name, k, i])) for i in range(a.n)]
+                for k in range(horizon + 1)
+            ]
+        )
+        for a in pm.problem.agents
+    }
+
+
+def plan_margin(model: ConcreteModel, pm: PlanModel) -> float:
+    """The margin ``r`` the predicate rows of a solved continuous (or landing) model hold."""
+    return float(value(_row_margin(model, pm)))
 
 
 def _fixed_margin(pm: PlanModel) -> float:
@@ -173,7 +201,7 @@ def continuous_model(pm: PlanModel, enforced: Sequence[Enforced], stage: Stage) 
     if stage == "polish" and not isinstance(pm.margin, float):
         model.r = Var(bounds=(margin, None))
         margin = model.r
-    _predicate_rows(model, enforced, margin, pm)
+    _predicate_rows(model, enforced, pm)
     if stage == "effort":
         names = [a.name for a in problem.agents]
         expr = effort_objective(model, names, objective.effort)
@@ -197,7 +225,7 @@ def landing_model(
     """
     model = ConcreteModel(name=f"{pm.problem.mission.name}-landing")
     model.states = condensed_states(model, pm)
-    _predicate_rows(model, enforced, _fixed_margin(pm), pm)
+    _predicate_rows(model, enforced, pm)
     model.far = Var(list(model.u), bounds=(0.0, None))
     model.far_rows = ConstraintList()
     for key, u in model.u.items():
