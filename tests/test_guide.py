@@ -113,7 +113,9 @@ def test_a_requirement_on_an_agent_not_yet_planned_is_not_read(pair: Any) -> Non
     first, second = problem.agents
     separation = [r for r in lazy if set(r.binding.values()) == {first.name, second.name}]
     assert separation
-    assert guide.half_planes(separation[0], second.name, {}, MARGIN) is None
+    assert guide.readable_planes(separation[:1], second.name, {}, MARGIN) == []
+    fixed = {first.name: np.zeros((problem.horizon + 1, 2))}
+    assert len(guide.readable_planes(separation[:1], second.name, fixed, MARGIN)) == 1
 
 
 def test_the_task_planes_are_where_and_when_the_reference_meets_its_task(pair: Any) -> None:

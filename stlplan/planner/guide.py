@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from stlplan.mission.problem import AgentModel, Problem
+from stlplan.planner.encoding.alphas import in_position
 from stlplan.planner.encoding.deferred import Requirement
 from stlplan.planner.guide_stops import reached, stopped
 from stlplan.planner.witness import witness
@@ -122,25 +123,25 @@ class Search:
     blockers: frozenset[str] = frozenset()
 
 
-def half_planes(
-    req: Requirement, agent: str, fixed: Mapping[str, np.ndarray], margin: float
-) -> HalfPlanes | None:
-    """``req`` with the states of ``fixed`` as numbers (None when it reads another agent)."""
-    alts = req.alternatives
-    a, c = np.zeros((len(alts), 2)), np.zeros((len(alts), req.span + 1))
-    reads = frozenset(req.binding.values()) - {agent}
-    for i, alt in enumerate(alts):
-        for s, t in enumerate(req.steps):
-            c[i, s] = alt.bound + req.tightening(alt, t) + margin + CLEARANCE
-        for term in alt.terms:
-            who = req.binding[term.role]
-            if who == agent:
-                a[i, term.component] += term.coef
-            elif who in fixed:
-                c[i] -= term.coef * fixed[who][list(req.steps), term.component]
-            else:
-                return None
-    return HalfPlanes(a, c, req.k, req.span, reads)
+def readable_planes(
+    requirements: Sequence[Requirement], agent: str, fixed: Mapping[str, np.ndarray], margin: float
+) -> list[HalfPlanes]:
+    """The requirements that read no agent but ``agent`` and those of ``fixed``, with the
+    states of ``fixed`` as numbers, in order."""
+    if not requirements:
+        return []
+    where = in_position(requirements, agent, fixed, 2)
+    c = where.c + margin + CLEARANCE
+    ends = np.append(where.firsts, len(where.alternatives))
+    out = []
+    for r, req in enumerate(requirements):
+        if not where.readable[r]:
+            continue
+        alts, steps, slot = ends[r + 1] - ends[r], len(req.steps), where.alternatives[ends[r]]
+        planes = c[slot : slot + alts * steps].reshape(alts, steps)
+        reads = frozenset(req.binding.values()) - {agent}
+        out.append(HalfPlanes(where.a[ends[r] : ends[r + 1]], planes, req.k, req.span, reads))
+    return out
 
 
 def _shifted(values: np.ndarray, move: np.ndarray, fill: float) -> np.ndarray:
@@ -267,13 +268,9 @@ def guide_path(
     reference weighs more the later it is (the path strays early rather than late, when the
     reference ends where the task wants it)."""
     grid = make_grid(agent, reference)
+    later = [req for req in requirements if (req.k if req.span else req.k - 1) >= first]
     readable = [hp for hp in task if hp.k > first]
-    for req in requirements:
-        if (req.k if req.span else req.k - 1) < first:
-            continue
-        hp = half_planes(req, agent.name, fixed, margin)
-        if hp is not None:
-            readable.append(hp)
+    readable += readable_planes(later, agent.name, fixed, margin)
     steps = np.arange(len(reference), dtype=float)
     weights = (1.0 + np.maximum(0.0, steps - first)) ** 2 if late else np.ones_like(steps)
     found = search(grid, agent, first, readable, weights)

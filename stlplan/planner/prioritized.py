@@ -30,16 +30,13 @@ import time
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import numpy as np
 from pyomo.contrib.solver.common.results import TerminationCondition
 
 from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.encoding.alphas import alpha_values, violated
-from stlplan.planner.encoding.deferred import (
-    Requirement,
-    best_side,
-    neighbours,
-)
+from stlplan.planner.encoding.alphas import best_sides, half_plane_values, violated
+from stlplan.planner.encoding.deferred import Requirement, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.guide import guide_path, single_integrator, task_planes
 from stlplan.planner.in_turn import hold_agents, release
@@ -162,11 +159,12 @@ class _Turn:
         ``guide`` keeps: first those it meets by less than ``repair.guide_near``, then, solve
         after solve, those the plan breaks; or None."""
         ctx, margin = self._context(fixed), least_margin(self.pm)
-        sides = [best_side(req, guide) for req in wanted]
-        spare = [
-            alpha_values(req, guide)[side] - margin for req, side in zip(wanted, sides, strict=True)
-        ]
-        pending = [n for n, room in enumerate(spare) if room < self.config.repair.guide_near]
+        sides = best_sides(wanted, guide).tolist()
+        pending = []
+        if wanted:
+            values, firsts = half_plane_values(wanted, guide)
+            spare = values[firsts + np.asarray(sides, dtype=int)] - margin
+            pending = np.flatnonzero(spare < self.config.repair.guide_near).tolist()
         held: set[int] = set()
         for _ in range(self.config.repair.solves_per_turn):
             for n in pending:

@@ -126,6 +126,47 @@ def best_sides(requirements: Sequence[Requirement], states: Mapping[str, np.ndar
 
 
 @dataclass(frozen=True)
+class InPosition:
+    """Requirements' half-planes in one agent's state, the other agents' states as numbers:
+    ``sum_j a[h, j] x(t)[j] >= c[slot]`` for half-plane ``h`` at each of its steps."""
+
+    a: np.ndarray
+    """(half-planes, the agent's state components): the agent's coefficients."""
+    c: np.ndarray
+    """Per slot: ``-alpha`` at the agent's zero state (bound, tightening, others' terms)."""
+    readable: np.ndarray
+    """Per requirement: whether it reads no agent but the one and those given."""
+    firsts: np.ndarray
+    """Per requirement: its first half-plane."""
+    alternatives: np.ndarray
+    """Per half-plane: its first slot."""
+
+
+def in_position(
+    requirements: Sequence[Requirement], agent: str, fixed: Mapping[str, np.ndarray], n: int
+) -> InPosition:
+    """Every requirement's half-planes in ``agent``'s ``n`` state components, with the states
+    of ``fixed`` (agent name to (H+1, n) states) as numbers (requirements not empty)."""
+    table = _table(tuple(requirements))
+    names = np.array(table.agents + (agent,), dtype=object)
+    mine = names[table.who] == agent
+    known = np.array([a in fixed for a in table.agents], dtype=bool)[table.who] & ~mine
+    values = np.zeros(len(table.coef))
+    for index, name in enumerate(table.agents):
+        if name in fixed and name != agent:
+            rows = known & (table.who == index)
+            values[rows] = np.asarray(fixed[name], float)[table.step[rows], table.component[rows]]
+    c = -(table.const + np.bincount(table.slot, table.coef * values, len(table.const)))
+    half = np.searchsorted(table.alternatives, table.slot, side="right") - 1
+    own = mine & (table.slot == table.alternatives[half])  # a half-plane's terms at its first step
+    a = np.zeros((len(table.alternatives), n))
+    np.add.at(a, (half[own], table.component[own]), table.coef[own])
+    owner = np.searchsorted(table.firsts, half, side="right") - 1
+    unread = np.bincount(owner[~mine & ~known], minlength=len(table.firsts))
+    return InPosition(a, c, unread == 0, table.firsts, table.alternatives)
+
+
+@dataclass(frozen=True)
 class _Table:
     """Many requirements' :class:`Flat` forms, one after the other: ``who`` indexes ``agents``;
     ``alternatives`` holds the first slot of every half-plane, ``firsts`` the first half-plane
