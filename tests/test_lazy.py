@@ -14,6 +14,9 @@ from stlplan.formula.tree import step_parts
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from stlplan.pipeline import plan
+from stlplan.planner.budget import Budget
+from stlplan.planner.clock import Clock
+from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.alphas import alpha_maxima, alpha_values, best_sides, violated
 from stlplan.planner.encoding.deferred import (
     SEPARATION,
@@ -22,6 +25,7 @@ from stlplan.planner.encoding.deferred import (
     neighbours,
 )
 from stlplan.planner.encoding.model import build_model
+from stlplan.planner.lazy import LazySolver
 from stlplan.planner.outcome import Plan, lowest
 from stlplan.planner.watch import Watch
 from stlplan.result import PlanStatus
@@ -308,3 +312,23 @@ def test_the_best_sides_at_once_take_the_first_of_equal_half_planes() -> None:
     assert sides.tolist() == [best_side(r, states) for r in lazy]
     pairs = [n for n, r in enumerate(lazy) if r.source == SEPARATION]
     assert pairs and sides[pairs].tolist() == [0] * len(pairs)
+
+
+def test_a_lent_session_solves_without_the_loops_watch_and_gets_it_back() -> None:
+    config = PlannerConfig()
+    solver = LazySolver(build_model(swap_problem(0.5, horizon=3), config), config, Clock(0.0, None))
+    highs, usual = solver.session.highs, solver.session.solver.config.rel_gap
+    with pytest.raises(RuntimeError), solver.lent(0.05) as session:
+        assert session is solver.session and session.trial
+        assert session.solver.config.rel_gap == max(0.05, usual)
+        assert solver.watch is not None
+        assert solver.watch.on_plan not in highs.cbMipImprovingSolution.callbacks
+        assert solver.watch.maybe_stop not in highs.cbMipInterrupt.callbacks
+        session.solve(Budget.of_seconds(10.0))  # a plan, without offering it to the watch
+        assert solver.watch.best is None
+        raise RuntimeError  # the session comes back however the block ends
+    assert solver.watch.on_plan in highs.cbMipImprovingSolution.callbacks
+    assert solver.watch.maybe_stop in highs.cbMipInterrupt.callbacks
+    assert not solver.session.trial and solver.session.solver.config.rel_gap == usual
+    assert solver.run(Budget.of_seconds(10.0)).objective is not None
+    assert solver.watch.best is not None  # the loop's own solves offer their plans again

@@ -26,9 +26,10 @@ deadline (:mod:`stlplan.planner.completion`).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import replace
 
 from pyomo.contrib.solver.common.results import TerminationCondition
@@ -110,6 +111,23 @@ class LazySolver:
         self.watch.first = first
         gap = self.config.solver.gap
         self.session.solver.config.rel_gap = max(gap, self.config.repair.gap) if first else gap
+
+    @contextlib.contextmanager
+    def lent(self, gap: float) -> Iterator[HighsSession]:
+        """The session, for other solves of the model (a prioritized turn's) within the block:
+        without the loop's watch, a trial, at the relative gap ``gap`` (or the run's, when
+        looser)."""
+        highs, watch = self.session.highs, self.watch
+        if watch is not None:
+            highs.cbMipImprovingSolution -= watch.on_plan
+            highs.cbMipInterrupt -= watch.maybe_stop
+        try:
+            with self.session.looking_for_a_plan(gap):
+                yield self.session
+        finally:
+            if watch is not None:
+                highs.cbMipImprovingSolution += watch.on_plan
+                highs.cbMipInterrupt += watch.maybe_stop
 
     def run(self, budget: Budget, abs_gap: float | None = None, trial: bool = False) -> Outcome:
         """Solve within ``budget``, to the relative gap (or to ``abs_gap`` alone).

@@ -84,4 +84,4 @@ def _broken(part: Part) -> Broken:
     for var, planned in plan_values(pm, models):
         var.set_value(planned, skip_validation=True)
     bad = violated(pm.deferral.lazy, trajectory_states(pm), least_margin(pm), VIOLATION_TOL)
-    return Broken(part.solver, bad, models, part.free)
+    return Broken(part.solver, bad, models, part.free, [p.solver for p in part.merged_from])

@@ -20,11 +20,13 @@ indicator, and its plan is returned when it meets every requirement (the watch o
 takes it as any other plan of the full problem).
 
 The parts' models are left as they were: each turn's rows go in a block of their own, removed
-after the turn's order, and the turns solve in sessions of their own.
+after the turn's order, and the turns solve in the parts' own HiGHS sessions, lent without their
+lazy loops' watches (:meth:`~stlplan.planner.lazy.LazySolver.lent`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import time
 from collections.abc import Mapping, Sequence
@@ -64,17 +66,13 @@ class _Turn:
     def __init__(
         self,
         pm: PlanModel,
+        session: HighsSession,
         merged: PlanModel,
         config: PlannerConfig,
-        clock: Any,
         naming: Mapping[str, Sequence[int]],
     ):
-        self.pm, self.merged, self.config = pm, merged, config
+        self.pm, self.session, self.merged, self.config = pm, session, merged, config
         self.agents = {a.name for a in pm.problem.agents}
-        self.session = HighsSession(pm.model, config, clock, "step1")
-        self.session.trial = True
-        settings = self.session.solver.config  # a turn looks for a plan: a loose gap
-        settings.rel_gap = max(config.repair.gap, settings.rel_gap or 0.0)
         lazy = self._lazy()
         mine = sorted({n for a in self.agents for n in naming.get(a, ())})
         self.crossing = [n for n in mine if not set(lazy[n].binding.values()) <= self.agents]
@@ -281,16 +279,34 @@ def raised(
 
 def prioritized(
     merged: Any,
-    parts: Sequence[PlanModel],
+    parts: Sequence[Any],
     config: PlannerConfig,
     budget: Budget,
     last: Budget | None = None,
 ) -> Plan | None:
-    """A plan of the merged part of ``merged`` (its lazy solver) from its ``parts`` planned in
-    turn (module docstring) within ``budget``, their plans joined within ``last`` (the same
-    budget when None); or None."""
+    """A plan of the merged part of ``merged`` (its lazy solver) from its ``parts`` (their
+    lazy solvers, whose sessions the turns borrow) planned in turn (module docstring) within
+    ``budget``, their plans joined within ``last`` (the same budget when None); or None."""
+    with contextlib.ExitStack() as lent:
+        sessions = [lent.enter_context(part.lent(config.repair.gap)) for part in parts]
+        models = [part.pm for part in parts]
+        return _in_orders(merged, models, sessions, config, budget, last or budget)
+
+
+def _in_orders(
+    merged: Any,
+    parts: Sequence[PlanModel],
+    sessions: Sequence[HighsSession],
+    config: PlannerConfig,
+    budget: Budget,
+    last: Budget,
+) -> Plan | None:
+    """The orders of :func:`prioritized`, each part's turns solved in ``sessions``."""
     naming = _naming(merged.pm)
-    turns = [_Turn(pm, merged.pm, config, merged.clock, naming) for pm in parts]
+    turns = [
+        _Turn(pm, session, merged.pm, config, naming)
+        for pm, session in zip(parts, sessions, strict=True)
+    ]
     order, tried, fails = list(range(len(parts))), 0, dict[int, int]()
     planned: Planned = []
     saved = [model_values(pm.model) for pm in parts]
@@ -303,7 +319,7 @@ def prioritized(
                 tried += 1
                 merged.clock.reached.ordered(len(planned), len(parts), tried)
                 if failed is None:
-                    return _held_plan(merged, turns, config, last or budget)
+                    return _held_plan(merged, turns, config, last)
                 if budget.expired():
                     return None
                 fails[failed] = fails.get(failed, 0) + 1

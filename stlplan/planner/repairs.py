@@ -47,12 +47,15 @@ class Broken:
         For a merged part: the models of the parts it comes from, with their plans.
     free
         For a merged part: the agents the collisions name.
+    solvers
+        For a merged part: the lazy solvers of the parts it comes from (of ``parts``).
     """
 
     solver: Any
     bad: Sequence[int]
     parts: Sequence[PlanModel] = ()
     free: frozenset[str] = field(default_factory=frozenset)
+    solvers: Sequence[Any] = ()
 
 
 class Repair(Protocol):
@@ -127,7 +130,7 @@ class PrioritizedRepair:
         reached = broken.solver.clock.reached
         orders = budget.share(self.orders_share)
         with reached.within("prioritized repair"):
-            plan = prioritized(broken.solver, broken.parts, config, orders, budget)
+            plan = prioritized(broken.solver, broken.solvers, config, orders, budget)
             if plan is None:
                 reached.failed("prioritized repair")
         return plan
