@@ -148,12 +148,11 @@ def in_position(
     """Every requirement's half-planes in ``agent``'s ``n`` state components, with the states
     of ``fixed`` (agent name to (H+1, n) states) as numbers (requirements not empty)."""
     table = _table(tuple(requirements))
-    names = np.array(table.agents + (agent,), dtype=object)
-    mine = names[table.who] == agent
+    mine = np.array([a == agent for a in table.agents], dtype=bool)[table.who]
     known = np.array([a in fixed for a in table.agents], dtype=bool)[table.who] & ~mine
     values = np.zeros(len(table.coef))
     for index, name in enumerate(table.agents):
-        if name in fixed and name != agent:
+        if name in fixed:
             rows = known & (table.who == index)
             values[rows] = np.asarray(fixed[name], float)[table.step[rows], table.component[rows]]
     c = -(table.const + np.bincount(table.slot, table.coef * values, len(table.const)))

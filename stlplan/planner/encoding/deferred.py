@@ -283,11 +283,6 @@ def best_side(requirement: Requirement, states: Mapping[str, np.ndarray]) -> int
     return int(np.argmax(alpha_values(requirement, states)))
 
 
-def best_option(requirement: Requirement, states: Mapping[str, np.ndarray]) -> list[Enforced]:
-    """The half-plane with the largest ``alpha_i`` on a trajectory (the side a plan keeps)."""
-    return requirement.options()[best_side(requirement, states)]
-
-
 def neighbours(
     requirements: Sequence[Requirement], chosen: Sequence[int], window: int | None
 ) -> list[int]:
