@@ -145,6 +145,7 @@ def test_a_loop_looking_for_its_first_plan_repairs_every_round(
         "repair.after_round_seconds": 1e6,
         "repair.crowd_agents": None,
         "repair.orders": 0,
+        "parts.plan_around_published": False,  # the parts' collisions merged and repaired
     }
     result, _ = solve(problem, config)
     assert result.objective is not None and accepted(problem, result)

@@ -15,7 +15,7 @@ from stlplan.planner.components import solve_parts
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.in_turn import InTurn, agents_of
+from stlplan.planner.in_turn import InTurn, _broken, agents_of
 from stlplan.planner.parts import sub_problem
 from stlplan.planner.published import Published
 from stlplan.planner.session import HighsSession
@@ -157,3 +157,15 @@ def test_column_keys_follow_a_block_removed_and_another_of_its_size_added() -> N
         blocks = {key[0] for key in keys if key is not None and key[0].endswith(".v")}
         assert blocks == {f"{name}.v"}
         pm.model.del_component(block)
+
+
+def test_a_held_agent_breaking_a_requirement_with_a_published_plan_is_caught() -> None:
+    # d's own plan published as a's: every step of d breaks its separation from a
+    problem = pairs_problem()
+    pm, _ = _relaxed(sub_problem(problem, ["c", "d"]))
+    published = Published(build_model(problem, paper_model(lazy__enabled=True)))
+    published.publish({"a": trajectory_states(pm)["d"].copy()})
+    with published.around(pm) as outside:
+        assert outside is not None
+        _, theirs = _broken(pm, outside, free={"c"}, done={"d"})  # d held, c free
+        assert any("d" in outside.requirements[n].binding.values() for n in theirs)

@@ -39,7 +39,9 @@ a part's own figures are not the whole's, unless it is a merge of every part.
 When the largest part has ``parts.plan_first_agents`` agents or more, all of the above is first
 done for a first plan only, in a model of the whole team of its own, before the parts go on
 towards their proofs (:mod:`stlplan.planner.plan_first`). While looking for a first plan, a
-part's repairs plan around the plans of the parts done (:mod:`stlplan.planner.published`).
+part's repairs plan around the plans of the parts done (:mod:`stlplan.planner.published`), and
+before parts whose plans collide are merged, each is repaired around the others' plans
+(:mod:`stlplan.planner.replan_around`).
 """
 
 from __future__ import annotations
@@ -63,6 +65,7 @@ from stlplan.planner.parts import Part, agent_parts, build_part, followed, tight
 from stlplan.planner.plan_first import Solved, better, plans_first
 from stlplan.planner.published import published_for, publishing
 from stlplan.planner.repair_policy import RepairPolicy
+from stlplan.planner.replan_around import replanned_around
 from stlplan.planner.side_by_side import in_shares, part_workers
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
@@ -191,7 +194,8 @@ def _apart(
 ) -> tuple[list[Part], Outcome]:
     """Solve the parts in shares, merging those whose plans collide, until none do (or one
     has no plan); the parts and their combined outcome."""
-    solve = publishing(published_for(full, config), _solve_part)
+    published = published_for(full, config)
+    solve = publishing(published, _solve_part)
     while True:
         solve_in_shares(parts, config, budget, solve)
         done = _combined(parts, config, clock, tick)
@@ -200,6 +204,9 @@ def _apart(
             clock.reached.follow(failed[0] if failed else ())
             return parts, done
         crossing = crossing_requirements(full, parts)
+        if replanned_around(full, parts, crossing, published, config, budget):
+            done = _combined(parts, config, clock, tick)
+            crossing = crossing_requirements(full, parts)
         if not crossing:
             return parts, done
         if signals.requested():  # the parts' plans collide: no plan of the full problem

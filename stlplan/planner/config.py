@@ -205,8 +205,10 @@ class PartsConfig(_Section):
     """Share of the time left that looking for that first plan may take."""
     plan_around_published: bool = True
     """While looking for a first plan, a part whose lazy loop found one publishes it, and the
-    repairs in turn of the parts still looking for theirs plan around it (False: the parts'
-    plans meet only when merged). Measured: docs/measurements.md#parts-planned-around-published-plans."""
+    repairs in turn of the parts still looking for theirs plan around it; before a merge that
+    the prioritized repair does not take, each colliding part is repaired around the others'
+    plans (False: the parts' plans meet only when merged). Measured:
+    docs/measurements.md#parts-done-early-repaired-around-the-later-plans."""
     side_by_side: int | None = Field(default=None, ge=1)
     """Parts solved at the same time, each in a thread (None: ``solver.threads``, one when
     HiGHS decides). Measured: docs/performance.md#parts-side-by-side."""

@@ -314,9 +314,11 @@ def _broken(
     pm: PlanModel, outside: Outside | None, free: set[str], done: set[str]
 ) -> tuple[list[int], list[int]]:
     """The requirements the loaded plan breaks among the agents ``free`` and ``done`` (lazy
-    indices of ``pm``), and with the agents ``outside`` (its indices)."""
+    indices of ``pm``), and those between the agents ``outside`` and ``free`` or ``done`` (its
+    indices): a held agent moves within ``repair.hold``, enough to break a requirement its
+    plan met exactly, and a row keeps it from that."""
     mine = [n for n in pending_violations(pm) if agents_of(pm, [n]) <= done | free]
-    theirs = outside.broken(trajectory_states(pm), free) if outside else []
+    theirs = outside.broken(trajectory_states(pm), free | done) if outside else []
     return mine, theirs
 
 

@@ -138,6 +138,13 @@ class Published:
         with self._lock:
             self.plans.update(states)
 
+    def rank(self, agents: Collection[str]) -> int:
+        """When the first of ``agents`` was published, among the agents published so far
+        (after them all when none was)."""
+        with self._lock:
+            order = {a: i for i, a in enumerate(self.plans)}
+        return min((order[a] for a in agents if a in order), default=len(order))
+
     @contextmanager
     def around(self, pm: PlanModel) -> Iterator[Outside | None]:
         """The published plans of the agents not in ``pm`` as an :class:`Outside` of ``pm``,

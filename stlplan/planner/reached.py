@@ -34,6 +34,7 @@ STAGES = {
     "lazy rounds": "its own lazy rounds",
     "prioritized repair": "the prioritized repair",
     "repair in turn": "the repair in turn",
+    "repair around later plans": "the repair around the plans of the parts done after it",
     "held repair": "the held repair",
     "tightening": "the tightening of its bound",
     "assembly": "the assembly of the parts' plans",

@@ -68,10 +68,14 @@ class RepairPolicy:
         held: Planned = ((HeldRepair(), self.held_share),)
         if not self.on_merge(agents, team, first):
             return held
-        ordered = self.orders and largest <= self.part_agents
+        ordered = self.ordered(largest)
         prioritized = PrioritizedRepair(self.crowd_share)  # its last solve: any time left
         ahead: Planned = ((prioritized, 1.0),) if ordered else ()
         return (*ahead, (InTurnRepair(), self.crowd_share), *held)
+
+    def ordered(self, largest: int) -> bool:
+        """Whether a merge of parts of at most ``largest`` agents is repaired part by part."""
+        return bool(self.orders) and largest <= self.part_agents
 
     def after_round(self, seconds: float, agents: int) -> bool:
         """Whether a round of ``seconds`` whose violations name ``agents`` agents is repaired."""
