@@ -170,3 +170,19 @@ def test_the_16_agent_farm_with_doubled_counts_has_a_plan_within_two_minutes() -
     _, result = plan_mission(problem, Overrides(time_limit=120, threads=2))
     assert result.status.has_plan and result.report is not None and result.report.satisfied
     assert result.first_plan_seconds is not None and result.gap is not None
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(600)
+def test_the_24_agent_farm_has_a_first_plan_from_a_state_whose_parts_collide() -> None:
+    # from the bench's state 2, where the two parts' plans collide: the Vis part, done first,
+    # is repaired around the UV and IR part's plan (the bench's limit: with 120 s the UV and
+    # IR part's repair in turn runs out of its share)
+    from stlplan.bench import initial_problem
+    from stlplan.pipeline import plan as plan_mission
+    from stlplan.planner.overrides import Overrides
+
+    problem = initial_problem("scale/farm-x3", 0, 2)
+    _, result = plan_mission(problem, Overrides(time_limit=600, threads=2, first_plan=True))
+    assert result.status.has_plan and result.report is not None and result.report.satisfied
+    assert result.first_plan_seconds is not None
