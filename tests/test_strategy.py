@@ -121,8 +121,12 @@ def test_the_policy_names_the_repairs_and_their_shares() -> None:
     policy = RepairPolicy.of(EXACT)
     assert policy.round_repairs(10.0, 1) == ((InTurnRepair(), EXACT.repair.share),)
     assert policy.round_repairs(1.0, 1) == ()
-    # a loop that looks for its first plan only repairs every round naming two agents or more
-    assert policy.round_repairs(1.0, 2, first=True) == ((InTurnRepair(), EXACT.repair.share),)
+    # a loop that looks for its first plan only repairs every round naming two agents or more,
+    # within a share of its own
+    share = EXACT.repair.first_plan_share
+    assert share != EXACT.repair.share
+    assert policy.round_repairs(1.0, 2, first=True) == ((InTurnRepair(), share),)
+    assert policy.round_repairs(10.0, 1, first=True) == ((InTurnRepair(), share),)
     assert policy.round_repairs(1.0, 1, first=True) == ()  # (one agent: the next round)
     as_others = RepairPolicy.of(EXACT.with_overrides({"repair.first_plan_rounds": False}))
     assert as_others.round_repairs(1.0, 2, first=True) == ()

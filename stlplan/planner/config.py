@@ -127,6 +127,10 @@ class RepairConfig(_Section):
     Measured: docs/measurements.md#first-plans-repaired-at-once."""
     share: float = Field(default=0.25, gt=0, le=1)
     """Share of the lazy loop's time left that one repair between rounds may spend."""
+    first_plan_share: float = Field(default=0.75, gt=0, le=1)
+    """The same share in a loop that looks for its first plan only (the repair is its way to
+    a plan; the next round, a relaxation, rarely gives one). Measured:
+    docs/measurements.md#a-first-plan-under-a-short-time-limit."""
     solves_per_turn: int = Field(default=10, ge=1)
     """Solves of one agent's turn at most (each after adding what the last plan violated)."""
     free_one_more: bool = True

@@ -6,7 +6,8 @@ where the next solve would not. After a lazy round that was long
 (``repair.after_round_seconds``) or whose violations name a crowd (``repair.crowd_agents``), or
 after any round naming two agents or more of a loop that looks for its first plan only
 (``repair.first_plan_rounds``), the round's plan is repaired in turn within ``repair.share`` of
-the loop's time left. A merge of parts whose collisions name a crowd (or two agents, while
+the loop's time left (``repair.first_plan_share`` in a loop that looks for its first plan only).
+A merge of parts whose collisions name a crowd (or two agents, while
 looking for a first plan) in a team of ``repair.crowd_team`` agents or more is repaired part by
 part, each part in its own model around
 those before it (up to ``repair.orders`` orders; none when 0, or when a part has more than
@@ -40,6 +41,7 @@ class RepairPolicy:
     held_share: float = 0.25
     orders: int = 3
     part_agents: int = 4
+    first_plan_share: float = 0.75
 
     @classmethod
     def of(cls, config: PlannerConfig) -> RepairPolicy:
@@ -48,16 +50,18 @@ class RepairPolicy:
         return cls(
             repair.after_round_seconds, repair.crowd_agents, repair.crowd_team,
             repair.first_plan_rounds, repair.share, parts.crowd_repair_share,
-            parts.held_repair_share, repair.orders, repair.part_agents,
+            parts.held_repair_share, repair.orders, repair.part_agents, repair.first_plan_share,
         )  # fmt: skip
 
     def round_repairs(self, seconds: float, agents: int, first: bool = False) -> Planned:
         """The repairs of a lazy round of ``seconds`` whose violations name ``agents``, in a
         loop that looks for its first plan only when ``first`` (then any round that names two
-        agents or more, with ``first_plan_rounds``)."""
+        agents or more, with ``first_plan_rounds``, within ``first_plan_share`` of its time
+        left)."""
         before_plan = first and self.first_plan_rounds and agents >= 2
         repaired = self.after_round(seconds, agents) or before_plan
-        return ((InTurnRepair(), self.round_share),) if repaired else ()
+        share = self.first_plan_share if first else self.round_share
+        return ((InTurnRepair(), share),) if repaired else ()
 
     def merge_repairs(
         self, agents: int, largest: int = 1, team: int | None = None, first: bool = False
