@@ -92,11 +92,16 @@ def test_the_strategy_line_follows_the_configuration() -> None:
     line = describe(PlannerConfig())
     assert "parts(lazy rounds(" in line and ">= 7 agents" in line
     assert "; plan first if >= 10 agents)" in line
+    assert ", tasks kept if round >= 4 s with a plan)" in line
     direct = describe(PlannerConfig().with_overrides({"lazy.enabled": False}))
     assert "lazy" not in direct and "parts" not in direct
     quiet = describe(
         PlannerConfig().with_overrides(
-            {"repair.crowd_agents": None, "parts.plan_first_agents": None}
+            {
+                "repair.crowd_agents": None,
+                "parts.plan_first_agents": None,
+                "repair.tasks_kept_seconds": None,
+            }
         )
     )
     assert "agents" not in quiet

@@ -223,13 +223,17 @@ class LazySolver:
 
     def _repair_between_rounds(self, bad: list[int], budget: Budget, seconds: float) -> None:
         """Repair the round's plan (which violates ``bad``) in turn while no plan meets every
-        requirement and the round (of ``seconds``) was long or crowded (the repair policy); the
-        watch keeps the repaired plan. The violated requirements are added after it, for the
-        next round (none when no round follows)."""
+        requirement and the round (of ``seconds``) was long or crowded, or with its task
+        decisions kept once one does and the round was long (the repair policy; never in a
+        trial's rounds); the watch keeps the repaired plan. The violated requirements are added
+        after it, for the next round (none when no round follows)."""
         pm, watch = self.pm, self.watch
         assert watch is not None
-        repairs = self.policy.round_repairs(seconds, len(agents_of(pm, bad)), watch.first)
-        for repair, share in repairs if watch.best is None else ():
+        proving = watch.best is not None
+        if proving and self.trial:
+            return
+        repairs = self.policy.round_repairs(seconds, len(agents_of(pm, bad)), watch.first, proving)
+        for repair, share in repairs:
             plan = repair.repair(Broken(self, bad), self.config, budget.share(share))
             if plan is not None:
                 watch.offer(plan)

@@ -15,6 +15,10 @@ those before it (up to ``repair.orders`` orders; none when 0, or when a part has
 and the solve that joins their plans within all of it), then in turn, within
 ``parts.crowd_repair_share`` of the time left; then, without a plan, with the other agents held
 (within ``parts.held_repair_share``).
+
+Once a plan meets every requirement, a lazy round that took ``repair.tasks_kept_seconds`` or
+longer has its plan repaired with its task decisions kept, within ``repair.share`` of the time
+left.
 """
 
 from __future__ import annotations
@@ -22,7 +26,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.repairs import HeldRepair, InTurnRepair, PrioritizedRepair, Repair
+from stlplan.planner.repairs import (
+    HeldRepair,
+    InTurnRepair,
+    PrioritizedRepair,
+    Repair,
+    TasksKeptRepair,
+)
 
 Planned = tuple[tuple[Repair, float], ...]
 """Repairs to try in order, each with its share of the time left when it starts."""
@@ -42,6 +52,7 @@ class RepairPolicy:
     orders: int = 3
     part_agents: int = 4
     first_plan_share: float = 0.75
+    tasks_kept_seconds: float | None = None
 
     @classmethod
     def of(cls, config: PlannerConfig) -> RepairPolicy:
@@ -51,17 +62,29 @@ class RepairPolicy:
             repair.after_round_seconds, repair.crowd_agents, repair.crowd_team,
             repair.first_plan_rounds, repair.share, parts.crowd_repair_share,
             parts.held_repair_share, repair.orders, repair.part_agents, repair.first_plan_share,
+            repair.tasks_kept_seconds,
         )  # fmt: skip
 
-    def round_repairs(self, seconds: float, agents: int, first: bool = False) -> Planned:
+    def round_repairs(
+        self, seconds: float, agents: int, first: bool = False, proving: bool = False
+    ) -> Planned:
         """The repairs of a lazy round of ``seconds`` whose violations name ``agents``, in a
         loop that looks for its first plan only when ``first`` (then any round that names two
         agents or more, with ``first_plan_rounds``, within ``first_plan_share`` of its time
-        left)."""
+        left); once a plan meets every requirement (``proving``), :meth:`proof_repairs`."""
+        if proving:
+            return self.proof_repairs(seconds, first)
         before_plan = first and self.first_plan_rounds and agents >= 2
         repaired = self.after_round(seconds, agents) or before_plan
         share = self.first_plan_share if first else self.round_share
         return ((InTurnRepair(), share),) if repaired else ()
+
+    def proof_repairs(self, seconds: float, first: bool) -> Planned:
+        """The repairs of a lazy round of ``seconds`` once a plan meets every requirement (none
+        in a loop that looks for its first plan only)."""
+        limit = self.tasks_kept_seconds
+        kept = not first and limit is not None and seconds >= limit
+        return ((TasksKeptRepair(), self.round_share),) if kept else ()
 
     def merge_repairs(
         self, agents: int, largest: int = 1, team: int | None = None, first: bool = False

@@ -13,6 +13,10 @@ requirement, or None). Three repairs:
   collisions name held near the parts' plans (``repair.hold``), a small problem: to the run's
   gap first, then, without a plan, to the repair's gap (``repair.gap``: its bound bounds only
   the held problem).
+
+Once a plan meets every requirement, a long round's plan (its relaxation's optimum) is
+repaired with its task decisions kept (:class:`TasksKeptRepair`): a plan near the round's bound
+that meets every requirement may close the gap without another round.
 """
 
 from __future__ import annotations
@@ -21,11 +25,14 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from pyomo.environ import Var
+
 from stlplan.planner.assembly import hold_plans
 from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.encoding.model import PlanModel
-from stlplan.planner.in_turn import InTurn, release
+from stlplan.planner.encoding.deferred import neighbours
+from stlplan.planner.encoding.model import PlanModel, add_requirements
+from stlplan.planner.in_turn import Held, InTurn, hold_near, release
 from stlplan.planner.outcome import Plan
 from stlplan.planner.prioritized import prioritized
 from stlplan.planner.values import load_values, model_values
@@ -173,3 +180,42 @@ def _held_runs(solver: Any, config: PlannerConfig, budget: Budget) -> Any:
             return found
     with solver.session.looking_for_a_plan(config.repair.gap):
         return solver.run(budget, trial=True)
+
+
+@dataclass(frozen=True)
+class TasksKeptRepair:
+    """The round's plan with its task decisions kept: every binary but those of the lazy
+    requirements held at the plan's value, the requirements it violates added, and the model
+    solved in a trial of the loop to ``repair.tasks_kept_gap`` (the kept problem's optimum, not
+    a plan within the run's gap of its own bound); the watch keeps the plans that meet every
+    requirement. Each agent's path, and the side of every requirement, may change."""
+
+    def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
+        solver = broken.solver
+        pm, watch, session = solver.pm, solver.watch, solver.session
+        before = watch.best
+        add_requirements(pm, neighbours(pm.deferral.lazy, broken.bad, config.lazy.window))
+        held = _hold_task_decisions(pm)
+        gap, watch.gap = watch.gap, config.repair.tasks_kept_gap
+        session.solver.config.rel_gap = watch.gap
+        with solver.clock.reached.within("tasks kept"):
+            try:
+                solver.run(budget, trial=True)
+            finally:
+                release(held)
+                watch.gap = session.solver.config.rel_gap = gap
+                solver.trial = session.trial = False  # (a trial's rounds are never repaired)
+        return watch.best if watch.best is not before else None
+
+    def describe(self) -> str:
+        return "tasks kept"
+
+
+def _hold_task_decisions(pm: PlanModel) -> Held:
+    """Hold every binary of ``pm`` with a loaded value at it, but the lazy requirements'."""
+    lazy = {id(v) for part in pm.parts.values() for v in (*part.binaries, *part.indicators)}
+    held: Held = []
+    for v in pm.model.component_data_objects(Var):
+        if v.is_binary() and not v.fixed and v.value is not None and id(v) not in lazy:
+            hold_near(v, float(round(v.value)), held, 0.0)
+    return held

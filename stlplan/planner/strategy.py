@@ -100,8 +100,10 @@ class LazyRounds:
         return pm, solve_step1(pm, config, clock, budget, self.policy, start)
 
     def describe(self) -> str:
-        triggers = self.policy.describe()
-        return f"lazy rounds(direct{f', repair in turn if {triggers}' if triggers else ''})"
+        triggers, kept = self.policy.describe(), self.policy.tasks_kept_seconds
+        in_turn = f", repair in turn if {triggers}" if triggers else ""
+        tasks = "" if kept is None else f", tasks kept if round >= {kept:g} s with a plan"
+        return f"lazy rounds(direct{in_turn}{tasks})"
 
 
 @dataclass(frozen=True)
