@@ -56,6 +56,7 @@ def test_the_task_decisions_are_held_during_the_repair_and_released_after_it() -
         return run(budget, abs_gap, trial)
 
     solver.run = watched  # type: ignore[method-assign]
+    solver.session.solver.config.rel_gap = 3e-6  # (the session's gap, as a caller left it)
     plan = TasksKeptRepair().repair(Broken(solver, bad), CONFIG, Budget.of_seconds(20.0))
     assert seen["held"] == {key: (value, value) for key, value in tasks.items()}
     assert seen["free"] and all(bounds == (0, 1) for bounds in seen["free"])
@@ -63,7 +64,7 @@ def test_the_task_decisions_are_held_during_the_repair_and_released_after_it() -
     # after it: every bound back, the loop's gap back, no trial
     assert all((v.lb, v.ub) == (0, 1) for v in _binaries(solver.pm))
     assert solver.watch.gap == CONFIG.solver.gap
-    assert solver.session.solver.config.rel_gap == CONFIG.solver.gap
+    assert solver.session.solver.config.rel_gap == 3e-6
     assert not solver.trial and not solver.session.trial
     # its plan meets every requirement, with the round's task decisions
     assert plan is not None and plan is solver.watch.best

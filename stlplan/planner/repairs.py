@@ -196,14 +196,14 @@ class TasksKeptRepair:
         before = watch.best
         add_requirements(pm, neighbours(pm.deferral.lazy, broken.bad, config.lazy.window))
         held = _hold_task_decisions(pm)
-        gap, watch.gap = watch.gap, config.repair.tasks_kept_gap
-        session.solver.config.rel_gap = watch.gap
+        settings, gaps = session.solver.config, (watch.gap, session.solver.config.rel_gap)
+        watch.gap = settings.rel_gap = config.repair.tasks_kept_gap
         with solver.clock.reached.within("tasks kept"):
             try:
                 solver.run(budget, trial=True)
             finally:
                 release(held)
-                watch.gap = session.solver.config.rel_gap = gap
+                watch.gap, settings.rel_gap = gaps
                 solver.trial = session.trial = False  # (a trial's rounds are never repaired)
         return watch.best if watch.best is not before else None
 
