@@ -36,11 +36,7 @@ def fix_and_solve(
 
     A decision is fixed by its bounds: a fixed Pyomo variable would make the persistent
     interface remove and add again every row it appears in."""
-    held: Held = []
-    for v in pm.model.component_data_objects(Var):
-        decided = decisions.get(var_key(v)) if v.is_binary() and not v.fixed else None
-        if decided is not None:
-            hold_near(v, float(round(decided)), held, 0.0)
+    held = hold_decisions(pm, decisions)
     trial, session.trial = session.trial, True  # fixed decisions: the verdict is not the mission's
     try:
         if not added_in_time(pm, session, budget):
@@ -49,6 +45,19 @@ def fix_and_solve(
     finally:
         session.trial = trial
         release(held)
+
+
+def hold_decisions(
+    pm: PlanModel, decisions: Mapping[VarKey, float], free: frozenset[int] = frozenset()
+) -> Held:
+    """Hold every binary of ``pm`` with a value in ``decisions`` at it (by its bounds), but
+    those in ``free`` (by ``id``); returns what :func:`release` restores."""
+    held: Held = []
+    for v in pm.model.component_data_objects(Var):
+        decided = decisions.get(var_key(v)) if v.is_binary() and not v.fixed else None
+        if decided is not None and id(v) not in free:
+            hold_near(v, float(round(decided)), held, 0.0)
+    return held
 
 
 ADD_BATCH = 500

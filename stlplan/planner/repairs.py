@@ -25,14 +25,13 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from pyomo.environ import Var
-
 from stlplan.planner.assembly import hold_plans
 from stlplan.planner.budget import Budget
+from stlplan.planner.completion import hold_decisions
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.deferred import neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements
-from stlplan.planner.in_turn import Held, InTurn, hold_near, release
+from stlplan.planner.in_turn import Held, InTurn, release
 from stlplan.planner.outcome import Plan
 from stlplan.planner.prioritized import prioritized
 from stlplan.planner.values import load_values, model_values
@@ -197,6 +196,7 @@ class TasksKeptRepair:
         add_requirements(pm, neighbours(pm.deferral.lazy, broken.bad, config.lazy.window))
         held = _hold_task_decisions(pm)
         settings, gaps = session.solver.config, (watch.gap, session.solver.config.rel_gap)
+        trials = solver.trial, session.trial
         watch.gap = settings.rel_gap = config.repair.tasks_kept_gap
         with solver.clock.reached.within("tasks kept"):
             try:
@@ -204,7 +204,7 @@ class TasksKeptRepair:
             finally:
                 release(held)
                 watch.gap, settings.rel_gap = gaps
-                solver.trial = session.trial = False  # (a trial's rounds are never repaired)
+                solver.trial, session.trial = trials
         return watch.best if watch.best is not before else None
 
     def describe(self) -> str:
@@ -214,8 +214,4 @@ class TasksKeptRepair:
 def _hold_task_decisions(pm: PlanModel) -> Held:
     """Hold every binary of ``pm`` with a loaded value at it, but the lazy requirements'."""
     lazy = {id(v) for part in pm.parts.values() for v in (*part.binaries, *part.indicators)}
-    held: Held = []
-    for v in pm.model.component_data_objects(Var):
-        if v.is_binary() and not v.fixed and v.value is not None and id(v) not in lazy:
-            hold_near(v, float(round(v.value)), held, 0.0)
-    return held
+    return hold_decisions(pm, model_values(pm.model), frozenset(lazy))
