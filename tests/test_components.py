@@ -17,10 +17,11 @@ from stlplan.planner.encoding.deferred import requirement_key
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.lazy import LazySolver
 from stlplan.planner.outcome import Outcome, Plan
-from stlplan.planner.parts import Part, agent_parts, sub_problem
+from stlplan.planner.parts import Part
 from stlplan.planner.repairs import Broken, HeldRepair
 from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
+from stlplan.planner.team_split import agent_parts, sub_problem
 from stlplan.planner.values import plan_of
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model
@@ -177,7 +178,12 @@ def test_the_held_repair_looks_for_a_plan_to_the_repair_gap_when_the_run_gap_fin
 
     monkeypatch.setattr(LazySolver, "run", spy)
     options = PlannerConfig().with_overrides(
-        {"solver.time_limit": 60.0, "solver.gap": 1e-6, "repair.gap": 0.02}
+        {
+            "solver.time_limit": 60.0,
+            "solver.gap": 1e-6,
+            "repair.gap": 0.02,
+            "repair.by_elements": None,
+        }  # (its rounds' looser gap: test_plan_first)
     )
     options = options.with_overrides({"solver.first_plan": first_plan})
     found = solve_parts(detour_for_free(), options, Clock(0.0, None), Budget.of_seconds(60))

@@ -146,6 +146,7 @@ def test_a_loop_looking_for_its_first_plan_repairs_every_round(
         "repair.crowd_agents": None,
         "repair.orders": 0,
         "parts.plan_around_published": False,  # the parts' collisions merged and repaired
+        "repair.by_elements": None,  # (each agent its own element: no repair in turn)
     }
     result, _ = solve(problem, config)
     assert result.objective is not None and accepted(problem, result)

@@ -135,17 +135,31 @@ def test_the_parts_not_proven_go_on_from_their_first_plans(monkeypatch: pytest.M
     assert parts[1].step1 is not None and parts[1].step1.status is PlanStatus.OPTIMAL
 
 
-def test_a_loop_looking_for_its_first_plan_solves_its_rounds_to_the_repair_gap() -> None:
+@pytest.mark.parametrize("by_elements", [True, False])
+def test_a_loop_looking_for_its_first_plan_solves_its_rounds_to_a_looser_gap(
+    by_elements: bool,
+) -> None:
+    # the repair's gap; the repair by elements' looser one while it is on (it takes a round's
+    # choices, not its optimum)
     from stlplan.planner.parts import build_part
 
+    config = EXACT if by_elements else EXACT.with_overrides({"repair.by_elements": None})
     problem, clock, budget = detour_for_free(), Clock(0.0, None), Budget.of_seconds(60)
-    solver = build_part(problem, ("a", "b"), EXACT, clock, budget).solver
+    solver = build_part(problem, ("a", "b"), config, clock, budget).solver
     settings = solver.session.solver.config
     solver.stop_at_first_plan(True)
     assert solver.watch is not None and solver.watch.first
-    assert settings.rel_gap == EXACT.repair.gap > EXACT.solver.gap
+    loose = config.repair.by_elements_gap if by_elements else config.repair.gap
+    assert config.repair.by_elements_gap > config.repair.gap > config.solver.gap
+    assert settings.rel_gap == loose
     solver.stop_at_first_plan(False)
-    assert not solver.watch.first and settings.rel_gap == EXACT.solver.gap
+    assert not solver.watch.first and settings.rel_gap == config.solver.gap
+    # a run asked for its first plan starts its loops at the repair by elements' gap, or at
+    # its own
+    quick = config.with_overrides({"solver.first_plan": True})
+    first = build_part(problem, ("a", "b"), quick, clock, budget).solver
+    own = config.repair.by_elements_gap if by_elements else config.solver.gap
+    assert first.session.solver.config.rel_gap == own
 
 
 def test_a_round_solved_to_a_looser_gap_is_not_optimal() -> None:

@@ -234,3 +234,33 @@ def test_a_team_merged_into_one_part_needs_no_assembly(
     assert assembled == []
     assert result.status.has_plan and result.report is not None and result.report.satisfied
     assert result.objective is not None and result.bound is not None
+
+
+def test_a_part_without_a_plan_around_no_other_part_ends_the_orders(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # no order can plan a part that finds none first in an order: the orders stop there and
+    # name it (the repair by elements then starts its synchronous run later)
+    from types import SimpleNamespace
+
+    from stlplan.planner.reached import Reached
+
+    turns = [_Turn("a", 0.0), _Turn("b", 1.0, fails=99), _Turn("c", 2.0)]
+    for turn in turns:
+        turn.guided, turn.agents, turn.blockers = False, {turn.name}, set()  # type: ignore[attr-defined]
+        turn.clear, turn.pm = (lambda: None), SimpleNamespace(model=None)  # type: ignore[attr-defined]
+    made = iter(turns)
+    monkeypatch.setattr(prioritized, "_Turn", lambda *_: next(made))
+    monkeypatch.setattr(prioritized, "_naming", lambda _: {})
+    monkeypatch.setattr(prioritized, "model_values", lambda _: {})
+    monkeypatch.setattr(prioritized, "load_values", lambda *_: None)
+    merged = SimpleNamespace(pm=None, clock=SimpleNamespace(reached=Reached()))
+    alone: list[int] = []
+    budgets = (Budget.of_seconds(10), Budget.of_seconds(10))
+    models = [SimpleNamespace(model=None)] * 3
+    found = prioritized._in_orders(merged, models, [None] * 3, PlannerConfig(), budgets, alone)
+    assert found is None
+    assert alone == [1]
+    # b failed after a in the first order, then first in the second: no third order
+    assert [len(t.seen) for t in turns] == [1, 2, 0]
+    assert turns[1].seen == [["a"], []]

@@ -16,10 +16,10 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.in_turn import InTurn, _broken, agents_of
-from stlplan.planner.parts import sub_problem
 from stlplan.planner.published import Published
 from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
+from stlplan.planner.team_split import sub_problem
 from stlplan.planner.values import ColumnKeys
 from stlplan.planner.watch import pending_violations, trajectory_states
 from tests.helpers.configs import paper_model

@@ -116,6 +116,7 @@ def test_a_strict_retry_out_of_time_keeps_the_first_plan(
 
 
 def test_the_policy_names_the_repairs_and_their_shares() -> None:
+    from stlplan.planner.by_elements import ElementsRepair
     from stlplan.planner.repairs import (
         HeldRepair,
         InTurnRepair,
@@ -130,7 +131,13 @@ def test_the_policy_names_the_repairs_and_their_shares() -> None:
     # within a share of its own
     share = EXACT.repair.first_plan_share
     assert share != EXACT.repair.share
-    assert policy.round_repairs(1.0, 2, first=True) == ((InTurnRepair(), share),)
+    # ... the round's choices planned element by element first, within a share of their own
+    elements = EXACT.repair.by_elements
+    assert elements is not None
+    by_elements = ((ElementsRepair(), elements), (InTurnRepair(), share))
+    assert policy.round_repairs(1.0, 2, first=True) == by_elements
+    alone = RepairPolicy.of(EXACT.with_overrides({"repair.by_elements": None}))
+    assert alone.round_repairs(1.0, 2, first=True) == ((InTurnRepair(), share),)
     assert policy.round_repairs(10.0, 1, first=True) == ((InTurnRepair(), share),)
     assert policy.round_repairs(1.0, 1, first=True) == ()  # (one agent: the next round)
     as_others = RepairPolicy.of(EXACT.with_overrides({"repair.first_plan_rounds": False}))
@@ -161,3 +168,14 @@ def test_the_policy_names_the_repairs_and_their_shares() -> None:
     first = policy.merge_repairs(crowd)[0][0]
     assert first == PrioritizedRepair(EXACT.parts.crowd_repair_share)
     assert policy.merge_repairs(crowd - 1) == ((HeldRepair(), EXACT.parts.held_repair_share),)
+    # a merge of large parts while looking for a first plan: their choices planned element by
+    # element first (the prioritized repair takes a crowd's small parts as they are)
+    elements = EXACT.repair.by_elements
+    assert [r.describe() for r, _ in policy.merge_repairs(2, largest=9, first=True)] == [
+        "by elements",
+        "in turn",
+        "held",
+    ]
+    assert policy.merge_repairs(2, largest=9, first=True)[0][1] == elements
+    assert policy.merge_repairs(crowd, first=True)[0][0] == first  # parts of one agent
+    assert [r.describe() for r, _ in policy.merge_repairs(crowd, largest=9)] == ["in turn", "held"]

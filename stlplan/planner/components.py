@@ -61,12 +61,13 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import PlanModel, build_model
 from stlplan.planner.merges import merged_parts, repair_merge
 from stlplan.planner.outcome import Outcome, Plan
-from stlplan.planner.parts import Part, agent_parts, build_part, followed, tighten, totals
+from stlplan.planner.parts import Part, build_part, followed, tighten, totals
 from stlplan.planner.plan_first import Solved, better, plans_first
 from stlplan.planner.published import published_for, publishing
 from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.replan_around import replanned_around
 from stlplan.planner.side_by_side import in_shares, part_workers
+from stlplan.planner.team_split import agent_parts
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
 

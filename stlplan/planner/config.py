@@ -125,6 +125,16 @@ class RepairConfig(_Section):
     (``--first-plan``, a large team's parts), and every merge of a team of ``crowd_team`` agents
     or more whose collisions name two agents or more, meanwhile, is repaired in turn.
     Measured: docs/measurements.md#first-plans-repaired-at-once."""
+    by_elements: float | None = Field(default=0.5, gt=0, le=1)
+    """Before a first plan, in a loop that looks for one, a round's plan is first repaired by
+    elements (its task choices as parts of their own, planned in turn) within this share of the
+    loop's time left, and so is a merge of parts too large for the prioritized repair (None:
+    never). Measured: docs/measurements.md#the-repair-by-elements."""
+    by_elements_gap: float = Field(default=0.1, ge=0)
+    """Relative gap of the rounds of a loop that looks for its first plan, where its tasks
+    choose, while the repair by elements is on: the repair takes a round's choices, not its
+    optimum. Measured:
+    docs/measurements.md#the-repair-by-elements."""
     share: float = Field(default=0.25, gt=0, le=1)
     """Share of the lazy loop's time left that one repair between rounds may spend."""
     first_plan_share: float = Field(default=0.75, gt=0, le=1)

@@ -36,6 +36,7 @@ from pyomo.contrib.solver.common.results import TerminationCondition
 
 from stlplan.planner import outcome
 from stlplan.planner.budget import Budget
+from stlplan.planner.by_elements import has_choices
 from stlplan.planner.clock import Clock
 from stlplan.planner.completion import complete
 from stlplan.planner.config import PlannerConfig
@@ -87,6 +88,8 @@ class LazySolver:
         if pm.deferral is not None:
             self.watch = Watch(pm, self.session.keys, config.solver.gap)
             self.watch.first = config.solver.first_plan
+            if config.solver.first_plan:
+                self.session.solver.config.rel_gap = self._first_gap(config.solver.gap)
             self.session.highs.cbMipImprovingSolution += self.watch.on_plan
             self.session.highs.cbMipInterrupt += self.watch.maybe_stop
         elif config.solver.first_plan:  # every requirement in the model: HiGHS's first plan
@@ -102,6 +105,11 @@ class LazySolver:
             if self.watch is not None:
                 self.watch.found = clock.plan_found
 
+    def sibling(self, pm: PlanModel) -> LazySolver:
+        """A lazy loop of another model (a part's) with this loop's configuration, clock and
+        repair policy."""
+        return LazySolver(pm, self.config, self.clock, self.policy)
+
     def stop_at_first_plan(self, first: bool) -> None:
         """Stop at the first plan that meets every requirement, the rounds meanwhile solved to
         ``repair.gap`` (their plans show what to add; their bounds still bound), or go back to
@@ -110,7 +118,16 @@ class LazySolver:
             return
         self.watch.first = first
         gap = self.config.solver.gap
-        self.session.solver.config.rel_gap = max(gap, self.config.repair.gap) if first else gap
+        loose = max(gap, self.config.repair.gap)
+        self.session.solver.config.rel_gap = self._first_gap(loose) if first else gap
+
+    def _first_gap(self, gap: float) -> float:
+        """The gap of the rounds of a loop that looks for its first plan: ``gap``, or the looser
+        ``repair.by_elements_gap`` where the repair by elements may run (it takes the round's
+        choices, not its optimum)."""
+        repair = self.config.repair
+        chooses = repair.by_elements is not None and has_choices(self.pm.problem)
+        return max(gap, repair.by_elements_gap if chooses else 0.0)
 
     @contextlib.contextmanager
     def lent(self, gap: float) -> Iterator[HighsSession]:

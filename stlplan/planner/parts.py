@@ -1,13 +1,12 @@
-"""The independent parts of a team: agents that no task, constraint or objective term links.
+"""The independent parts of a team as they are solved: each part's model, lazy solver and result.
 
-:mod:`stlplan.planner.components` solves each part on its own (its docstring lists the links):
-here, which agents make a part, and a part as it is solved (its model, lazy solver and result).
+:mod:`stlplan.planner.components` solves each part on its own (its docstring lists the links);
+:mod:`stlplan.planner.team_split` says which agents make a part.
 """
 
 from __future__ import annotations
 
-import dataclasses
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,54 +20,7 @@ from stlplan.planner.encoding.model import PlanModel, add_requirements, build_mo
 from stlplan.planner.lazy import LazySolver
 from stlplan.planner.outcome import Outcome
 from stlplan.planner.repair_policy import RepairPolicy
-
-
-def agent_parts(problem: Problem) -> list[tuple[str, ...]]:
-    """The agents of each independent part, in agent order (one part when none can be split)."""
-    names = [a.name for a in problem.agents]
-    if problem.mission.objective.margin.maximize:
-        return [tuple(names)]
-    parent = {n: n for n in names}
-
-    def find(n: str) -> str:
-        while parent[n] != n:
-            parent[n] = parent[parent[n]]
-            n = parent[n]
-        return n
-
-    def link(group: Iterable[str]) -> None:
-        members = list(group)
-        for other in members[1:]:
-            parent[find(other)] = find(members[0])
-
-    for task in problem.tasks:
-        link({agent for element in task.elements for agent in element})
-    link({agent for t in problem.tasks if t.sync for e in t.elements for agent in e})
-    for constraint in problem.constraints:
-        for binding in constraint.bindings:
-            link(set(binding.values()))
-    parts: dict[str, list[str]] = {}
-    for n in names:
-        parts.setdefault(find(n), []).append(n)
-    return [tuple(p) for p in parts.values()]
-
-
-def sub_problem(problem: Problem, agents: Iterable[str]) -> Problem:
-    """``problem`` restricted to ``agents``: their tasks, constraint bindings and separation."""
-    keep = set(agents)
-    tasks = tuple(t for t in problem.tasks if {a for e in t.elements for a in e} <= keep)
-    constraints = []
-    for c in problem.constraints:
-        bindings = tuple(b for b in c.bindings if set(b.values()) <= keep)
-        if bindings:
-            constraints.append(dataclasses.replace(c, bindings=bindings))
-    return dataclasses.replace(
-        problem,
-        agents=tuple(a for a in problem.agents if a.name in keep),
-        tasks=tasks,
-        constraints=tuple(constraints),
-        _by_name={},
-    )
+from stlplan.planner.team_split import sub_problem
 
 
 @dataclass(eq=False)

@@ -28,7 +28,7 @@ from stlplan.planner import outcome
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.outcome import Outcome
-from stlplan.planner.parts import agent_parts
+from stlplan.planner.team_split import agent_parts
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
 

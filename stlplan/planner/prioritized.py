@@ -283,14 +283,18 @@ def prioritized(
     config: PlannerConfig,
     budget: Budget,
     last: Budget | None = None,
+    alone: list[int] | None = None,
 ) -> Plan | None:
     """A plan of the merged part of ``merged`` (its lazy solver) from its ``parts`` (their
     lazy solvers, whose sessions the turns borrow) planned in turn (module docstring) within
-    ``budget``, their plans joined within ``last`` (the same budget when None); or None."""
+    ``budget``, their plans joined within ``last`` (the same budget when None); or None. A
+    part whose MILP finds no plan first in an order, around no other part, ends the orders (no
+    order plans it): its index goes in ``alone``."""
     with contextlib.ExitStack() as lent:
         sessions = [lent.enter_context(part.lent(config.repair.gap)) for part in parts]
         models = [part.pm for part in parts]
-        return _in_orders(merged, models, sessions, config, budget, last or budget)
+        found = [] if alone is None else alone
+        return _in_orders(merged, models, sessions, config, (budget, last or budget), found)
 
 
 def _in_orders(
@@ -298,10 +302,12 @@ def _in_orders(
     parts: Sequence[PlanModel],
     sessions: Sequence[HighsSession],
     config: PlannerConfig,
-    budget: Budget,
-    last: Budget,
+    budgets: tuple[Budget, Budget],
+    alone: list[int],
 ) -> Plan | None:
-    """The orders of :func:`prioritized`, each part's turns solved in ``sessions``."""
+    """The orders of :func:`prioritized`, each part's turns solved in ``sessions``, within the
+    first of ``budgets``, their plans joined within the second."""
+    budget, last = budgets
     naming = _naming(merged.pm)
     turns = [
         _Turn(pm, session, merged.pm, config, naming)
@@ -320,7 +326,9 @@ def _in_orders(
                 merged.clock.reached.ordered(len(planned), len(parts), tried)
                 if failed is None:
                     return _held_plan(merged, turns, config, last)
-                if budget.expired():
+                if exact and not planned:  # no plan around no other part
+                    alone.append(failed)
+                if budget.expired() or alone:
                     return None
                 fails[failed] = fails.get(failed, 0) + 1
                 ahead = [i for i in order if turns[i].agents & turns[failed].blockers]

@@ -33,6 +33,7 @@ STAGES = {
     "up front": "its one solve, every requirement in the model",
     "lazy rounds": "its own lazy rounds",
     "prioritized repair": "the prioritized repair",
+    "repair by elements": "the repair by elements",
     "repair in turn": "the repair in turn",
     "repair around later plans": "the repair around the plans of the parts done after it",
     "held repair": "the held repair",

@@ -16,6 +16,11 @@ and the solve that joins their plans within all of it), then in turn, within
 ``parts.crowd_repair_share`` of the time left; then, without a plan, with the other agents held
 (within ``parts.held_repair_share``).
 
+In a loop that looks for its first plan only, a round naming two agents or more is repaired by
+elements first (:mod:`stlplan.planner.by_elements`: its task choices as parts of their own,
+planned part by part), within ``repair.by_elements`` of the time left, and so is a merge of parts
+too large for the prioritized repair while looking for a first plan.
+
 Once a plan meets every requirement, a lazy round that took ``repair.tasks_kept_seconds`` or
 longer has its plan repaired with its task decisions kept, within ``repair.share`` of the time
 left.
@@ -25,6 +30,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from stlplan.planner.by_elements import ElementsRepair
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.repairs import (
     HeldRepair,
@@ -53,6 +59,7 @@ class RepairPolicy:
     part_agents: int = 4
     first_plan_share: float = 0.75
     tasks_kept_seconds: float | None = None
+    by_elements: float | None = None
 
     @classmethod
     def of(cls, config: PlannerConfig) -> RepairPolicy:
@@ -62,7 +69,7 @@ class RepairPolicy:
             repair.after_round_seconds, repair.crowd_agents, repair.crowd_team,
             repair.first_plan_rounds, repair.share, parts.crowd_repair_share,
             parts.held_repair_share, repair.orders, repair.part_agents, repair.first_plan_share,
-            repair.tasks_kept_seconds,
+            repair.tasks_kept_seconds, repair.by_elements,
         )  # fmt: skip
 
     def round_repairs(
@@ -77,7 +84,11 @@ class RepairPolicy:
         before_plan = first and self.first_plan_rounds and agents >= 2
         repaired = self.after_round(seconds, agents) or before_plan
         share = self.first_plan_share if first else self.round_share
-        return ((InTurnRepair(), share),) if repaired else ()
+        if not repaired:
+            return ()
+        if before_plan and self.by_elements is not None:
+            return (ElementsRepair(), self.by_elements), (InTurnRepair(), share)
+        return ((InTurnRepair(), share),)
 
     def proof_repairs(self, seconds: float, first: bool) -> Planned:
         """The repairs of a lazy round of ``seconds`` once a plan meets every requirement (none
@@ -98,6 +109,8 @@ class RepairPolicy:
         ordered = self.ordered(largest)
         prioritized = PrioritizedRepair(self.crowd_share)  # its last solve: any time left
         ahead: Planned = ((prioritized, 1.0),) if ordered else ()
+        if first and not ordered and self.by_elements is not None:
+            ahead = ((ElementsRepair(), self.by_elements),)
         return (*ahead, (InTurnRepair(), self.crowd_share), *held)
 
     def ordered(self, largest: int) -> bool:

@@ -103,7 +103,7 @@ class LazyRounds:
         triggers, kept = self.policy.describe(), self.policy.tasks_kept_seconds
         in_turn = f", repair in turn if {triggers}" if triggers else ""
         tasks = "" if kept is None else f", tasks kept if round >= {kept:g} s with a plan"
-        return f"lazy rounds(direct{in_turn}{tasks})"
+        return f"lazy rounds(direct{_by_elements(self.policy)}{in_turn}{tasks})"
 
 
 @dataclass(frozen=True)
@@ -131,7 +131,9 @@ class Parts:
 
     def describe(self) -> str:
         policy = self.inner.policy
-        crowd, first = policy.crowd_agents, "prioritized, " if policy.orders else ""
+        ordered = ["prioritized"] if policy.orders else []
+        ordered += [] if policy.by_elements is None else ["by elements before a first plan"]
+        crowd, first = policy.crowd_agents, "".join(f"{w}, " for w in [" or ".join(ordered)] if w)
         team = "" if policy.crowd_team is None else f" of a team >= {policy.crowd_team}"
         merge = f"{first}in turn if >= {crowd} agents{team}, held" if crowd is not None else "held"
         early = "" if self.plan_first is None else f"; plan first if >= {self.plan_first} agents"
@@ -144,6 +146,11 @@ def build_strategy(config: PlannerConfig) -> Strategy:
         return Direct()
     rounds = LazyRounds(RepairPolicy.of(config))
     return Parts(rounds, config.parts.plan_first_agents) if config.parts.enabled else rounds
+
+
+def _by_elements(policy: RepairPolicy) -> str:
+    """The repair by elements in the strategy line (empty when it is off)."""
+    return "" if policy.by_elements is None else ", by elements before a first plan"
 
 
 def describe(config: PlannerConfig) -> str:
