@@ -119,7 +119,7 @@ class ElementsRepair:
         solver = broken.solver
         reached, saved = solver.clock.reached, model_values(solver.pm.model)
         with reached.within("repair by elements"):
-            plan = _by_elements(broken, config, budget, self.orders_share)
+            plan = _by_elements(broken, config, budget, self.orders_share, saved)
             if plan is None:
                 reached.failed("repair by elements")
                 load_values(solver.pm.model, saved)  # the broken plan, for the next repair
@@ -130,13 +130,14 @@ class ElementsRepair:
 
 
 def _by_elements(
-    broken: Broken, config: PlannerConfig, budget: Budget, share: float
+    broken: Broken, config: PlannerConfig, budget: Budget, share: float, loaded: Mapping[Any, float]
 ) -> Plan | None:
-    """The repair's orders (:class:`ElementsRepair`), a synchronous run started later for each
-    part that holds one and finds no plan alone."""
+    """The repair's orders (:class:`ElementsRepair`) from the broken plan's ``loaded`` values,
+    a synchronous run started later for each part that holds one and finds no plan alone."""
     solver = broken.solver
     models = broken.parts or (solver.pm,)
-    states = {k: v for k, v in model_values(solver.pm.model).items() if k[0] in ("x", "u")}
+    states = {k: v for k, v in loaded.items() if k[0] in ("x", "u")}
+    names = {s.task.name for pm in models for s in pm.synchronous}
     late: dict[str, int] = {}
     built: dict[Any, Any] = {}
     while not budget.expired():
@@ -149,7 +150,6 @@ def _by_elements(
         parts = [_part(problem, g, solver, config, budget, states, built) for g in groups]
         alone: list[int] = []
         plan = prioritized(solver, parts, config, budget.share(share), budget, alone)
-        names = {s.task.name for pm in models for s in pm.synchronous}
         runs = {run_of(t.name, names) for i in alone for t in parts[i].pm.problem.tasks}
         if plan is not None or not runs - {None}:
             return plan
