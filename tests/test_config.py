@@ -91,12 +91,14 @@ def test_every_knob_is_documented() -> None:
 def test_the_strategy_line_follows_the_configuration() -> None:
     line = describe(PlannerConfig())
     assert "parts(lazy rounds(" in line and ">= 7 agents" in line
-    assert "; plan first if >= 10 agents)" in line
+    assert "; plan first if >= 10 agents, improved by elements)" in line
+    unimproved = describe(PlannerConfig().with_overrides({"parts.improve_share": None}))
+    assert "; plan first if >= 10 agents)" in unimproved
     assert ", tasks kept if round >= 4 s with a plan)" in line
     assert "lazy rounds(direct, by elements before a first plan, repair in turn" in line
     assert "merge: prioritized or by elements before a first plan, in turn" in line
     off = describe(PlannerConfig().with_overrides({"repair.by_elements": None}))
-    assert "by elements" not in off
+    assert "by elements before" not in off
     direct = describe(PlannerConfig().with_overrides({"lazy.enabled": False}))
     assert "lazy" not in direct and "parts" not in direct
     quiet = describe(

@@ -35,10 +35,10 @@ def kept(first: Outcome, second: Outcome) -> tuple[Any, Outcome]:
 
 def test_the_configuration_plans_first_from_ten_agents_in_a_part() -> None:
     policy = RepairPolicy.of(EXACT)
-    assert build_strategy(EXACT) == Parts(LazyRounds(policy), 10)
+    assert build_strategy(EXACT) == Parts(LazyRounds(policy), 10, improve=True)
     assert "plan first if >= 10 agents" in build_strategy(EXACT).describe()
     never = EXACT.with_overrides({"parts.plan_first_agents": None})
-    assert build_strategy(never) == Parts(LazyRounds(policy))
+    assert build_strategy(never) == Parts(LazyRounds(policy), improve=True)
     assert "plan first" not in build_strategy(never).describe()
 
 

@@ -137,13 +137,13 @@ def test_merges_of_larger_parts_skip_the_prioritized_repair() -> None:
 def _guided_turns(small_crowd: Any, monkeypatch: pytest.MonkeyPatch, config: dict) -> Any:
     """The plan of the small crowd by the prioritized repair, and the guided turns' results."""
     sided: list[Any] = []
-    real = prioritized._Turn._sided
+    real = prioritized.Turn._sided
 
     def spy(self: Any, *args: Any) -> Any:
         sided.append(real(self, *args))
         return sided[-1]
 
-    monkeypatch.setattr(prioritized._Turn, "_sided", spy)
+    monkeypatch.setattr(prioritized.Turn, "_sided", spy)
     overrides = Overrides(
         time_limit=120, threads=1, first_plan=True,
         config={"repair.crowd_agents": 2, "repair.crowd_team": None, **config},
@@ -192,7 +192,7 @@ def test_the_solve_joining_the_turns_plans_may_use_all_the_repairs_time(
     # the orders take parts.crowd_repair_share of the time; when every part has a plan, the
     # solve that joins them is the likeliest plan, and 2 s short of 3 s lost crowd-64's
     deadlines: dict[str, float] = {}
-    order, held = prioritized.plan_in_order, prioritized._held_plan
+    order, held = prioritized.plan_in_order, prioritized.held_plan
 
     def orders(turns: Any, order_: Any, budget: Budget, *args: Any) -> Any:
         deadlines["orders"] = budget.deadline
@@ -203,7 +203,7 @@ def test_the_solve_joining_the_turns_plans_may_use_all_the_repairs_time(
         return held(merged, turns, config, budget)
 
     monkeypatch.setattr(prioritized, "plan_in_order", orders)
-    monkeypatch.setattr(prioritized, "_held_plan", joined)
+    monkeypatch.setattr(prioritized, "held_plan", joined)
     overrides = Overrides(
         time_limit=120,
         threads=1,
@@ -250,8 +250,8 @@ def test_a_part_without_a_plan_around_no_other_part_ends_the_orders(
         turn.guided, turn.agents, turn.blockers = False, {turn.name}, set()  # type: ignore[attr-defined]
         turn.clear, turn.pm = (lambda: None), SimpleNamespace(model=None)  # type: ignore[attr-defined]
     made = iter(turns)
-    monkeypatch.setattr(prioritized, "_Turn", lambda *_: next(made))
-    monkeypatch.setattr(prioritized, "_naming", lambda _: {})
+    monkeypatch.setattr(prioritized, "Turn", lambda *_: next(made))
+    monkeypatch.setattr(prioritized, "requirements_naming", lambda _: {})
     monkeypatch.setattr(prioritized, "model_values", lambda _: {})
     monkeypatch.setattr(prioritized, "load_values", lambda *_: None)
     merged = SimpleNamespace(pm=None, clock=SimpleNamespace(reached=Reached()))

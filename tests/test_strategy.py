@@ -23,7 +23,7 @@ POLICY = RepairPolicy.of(EXACT)
 
 
 def test_the_configuration_composes_the_strategy() -> None:
-    assert build_strategy(EXACT) == Parts(LazyRounds(POLICY), 10)
+    assert build_strategy(EXACT) == Parts(LazyRounds(POLICY), 10, improve=True)
     assert build_strategy(EXACT.with_overrides({"parts.enabled": False})) == LazyRounds(POLICY)
     assert build_strategy(EXACT.with_overrides({"lazy.enabled": False})) == Direct()
     line = describe(EXACT)

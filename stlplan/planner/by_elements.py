@@ -147,7 +147,7 @@ def _by_elements(
         groups = agent_parts(problem)
         if len(groups) < 2 or max(map(len, groups)) > config.repair.part_agents:
             return None
-        parts = [_part(problem, g, solver, config, budget, states, built) for g in groups]
+        parts = [element_part(problem, g, solver, config, budget, states, built) for g in groups]
         alone: list[int] = []
         plan = prioritized(solver, parts, config, budget.share(share), budget, alone)
         runs = {run_of(t.name, names) for i in alone for t in parts[i].pm.problem.tasks}
@@ -165,7 +165,7 @@ def run_of(name: str, synchronous: set[str]) -> str | None:
     return head if found and index.isdigit() and head in synchronous else None
 
 
-def _part(
+def element_part(
     problem: Problem,
     agents: tuple[str, ...],
     solver: Any,

@@ -41,7 +41,8 @@ done for a first plan only, in a model of the whole team of its own, before the 
 towards their proofs (:mod:`stlplan.planner.plan_first`). While looking for a first plan, a
 part's repairs plan around the plans of the parts done (:mod:`stlplan.planner.published`), and
 before parts whose plans collide are merged, each is repaired around the others' plans
-(:mod:`stlplan.planner.replan_around`).
+(:mod:`stlplan.planner.replan_around`). That first plan is then improved element by element
+(:mod:`stlplan.planner.improve`), within ``parts.improve_share`` of the time left.
 """
 
 from __future__ import annotations
@@ -59,6 +60,7 @@ from stlplan.planner.clock import Clock
 from stlplan.planner.collisions import crossing_requirements
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import PlanModel, build_model
+from stlplan.planner.improve import improved
 from stlplan.planner.merges import merged_parts, repair_merge
 from stlplan.planner.outcome import Outcome, Plan
 from stlplan.planner.parts import Part, build_part, followed, tighten, totals
@@ -171,7 +173,9 @@ def solve_parts(
             part.solver.session.start_from(start)
     early = None
     if plan_first is not None and plans_first(problem, config, plan_first):
-        early = _first_plan(problem, parts, config, clock, budget)
+        early = _improved(
+            problem, _first_plan(problem, parts, config, clock, budget), config, clock, budget
+        )
         parts = followed(parts, clock)
     gap = config.solver.gap
     parts, done = _apart(problem, full, parts, config, clock, budget, tick)
@@ -253,6 +257,17 @@ def _first_plan(
         if part.step1 is not None and part.step1.status is not PlanStatus.OPTIMAL:
             part.step1 = None
     return (full, found) if found is not None and found.status.has_plan else None
+
+
+def _improved(
+    problem: Problem, early: Solved | None, config: PlannerConfig, clock: Clock, budget: Budget
+) -> Solved | None:
+    """The first plan ``early`` improved element by element within ``parts.improve_share`` of
+    the time left (:mod:`stlplan.planner.improve`)."""
+    share = config.parts.improve_share
+    if early is None or share is None or signals.requested():
+        return early
+    return improved(problem, early, config, clock, budget.share(share))
 
 
 def _stop_at_first_plans(parts: Sequence[Part], first: bool) -> None:

@@ -225,6 +225,10 @@ class PartsConfig(_Section):
     before their proofs (null: never). Measured: docs/measurements.md#a-first-plan-before-the-proof."""
     plan_first_share: float = Field(default=0.75, gt=0, lt=1)
     """Share of the time left that looking for that first plan may take."""
+    improve_share: float | None = Field(default=0.25, gt=0, le=1)
+    """Share of the time left after that first plan in which its elements are planned again,
+    each around all the others, while that lowers the effort (None: never). Measured:
+    docs/measurements.md#the-first-plan-improved-element-by-element."""
     plan_around_published: bool = True
     """While looking for a first plan, a part whose lazy loop found one publishes it, and the
     repairs in turn of the parts still looking for theirs plan around it; before a merge that

@@ -60,7 +60,7 @@ HELD_ROOM = 10.0
 """A requirement the turns' plans meet by less than this many holds goes into the held solve."""
 
 
-class _Turn:
+class Turn:
     """One part solved around the plans of the parts before it (module docstring)."""
 
     def __init__(
@@ -215,7 +215,7 @@ class _Turn:
             self.block = None
 
 
-def _naming(merged: PlanModel) -> dict[str, list[int]]:
+def requirements_naming(merged: PlanModel) -> dict[str, list[int]]:
     """The requirements of ``merged`` naming each agent, by index."""
     assert merged.deferral is not None
     out: dict[str, list[int]] = {}
@@ -308,9 +308,9 @@ def _in_orders(
     """The orders of :func:`prioritized`, each part's turns solved in ``sessions``, within the
     first of ``budgets``, their plans joined within the second."""
     budget, last = budgets
-    naming = _naming(merged.pm)
+    naming = requirements_naming(merged.pm)
     turns = [
-        _Turn(pm, session, merged.pm, config, naming)
+        Turn(pm, session, merged.pm, config, naming)
         for pm, session in zip(parts, sessions, strict=True)
     ]
     order, tried, fails = list(range(len(parts))), 0, dict[int, int]()
@@ -325,7 +325,7 @@ def _in_orders(
                 tried += 1
                 merged.clock.reached.ordered(len(planned), len(parts), tried)
                 if failed is None:
-                    return _held_plan(merged, turns, config, last)
+                    return held_plan(merged, turns, config, last)
                 if exact and not planned:  # no plan around no other part
                     alone.append(failed)
                 if budget.expired() or alone:
@@ -340,8 +340,8 @@ def _in_orders(
             load_values(turn.pm.model, values)
 
 
-def _held_plan(
-    merged: Any, turns: Sequence[_Turn], config: PlannerConfig, budget: Budget
+def held_plan(
+    merged: Any, turns: Sequence[Turn], config: PlannerConfig, budget: Budget
 ) -> Plan | None:
     """The merged model solved once with every agent held near the turns' plans."""
     pm, planned = merged.pm, dict[Any, float]()

@@ -40,6 +40,7 @@ STAGES = {
     "tasks kept": "the repair of a round's plan with its task decisions kept",
     "tightening": "the tightening of its bound",
     "assembly": "the assembly of the parts' plans",
+    "improvement by elements": "the improvement of the first plan element by element",
     "completion": "the completion of the last round's plan",
 }
 """Each stage of a part, as the message names it."""

@@ -113,6 +113,7 @@ class Parts:
 
     inner: LazyRounds
     plan_first: int | None = None
+    improve: bool = False
 
     def solve(
         self,
@@ -137,6 +138,7 @@ class Parts:
         team = "" if policy.crowd_team is None else f" of a team >= {policy.crowd_team}"
         merge = f"{first}in turn if >= {crowd} agents{team}, held" if crowd is not None else "held"
         early = "" if self.plan_first is None else f"; plan first if >= {self.plan_first} agents"
+        early += ", improved by elements" if early and self.improve else ""
         return f"parts({self.inner.describe()}; merge: {merge}{early})"
 
 
@@ -145,7 +147,9 @@ def build_strategy(config: PlannerConfig) -> Strategy:
     if not config.lazy.enabled:
         return Direct()
     rounds = LazyRounds(RepairPolicy.of(config))
-    return Parts(rounds, config.parts.plan_first_agents) if config.parts.enabled else rounds
+    improve = config.parts.improve_share is not None
+    parts = Parts(rounds, config.parts.plan_first_agents, improve)
+    return parts if config.parts.enabled else rounds
 
 
 def _by_elements(policy: RepairPolicy) -> str:

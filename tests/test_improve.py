@@ -1,0 +1,154 @@
+"""A large team's first plan improved element by element: each element planned again around the
+others, a new plan kept only when it spends less."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+import pytest
+from pyomo.environ import value
+
+from stlplan.monitor.verdicts import check
+from stlplan.planner import improve
+from stlplan.planner.budget import Budget
+from stlplan.planner.clock import Clock
+from stlplan.planner.encoding.alphas import violated
+from stlplan.planner.encoding.readout import chosen, chosen_run, trajectory
+from stlplan.planner.outcome import Outcome
+from stlplan.planner.values import model_values
+from stlplan.planner.watch import VIOLATION_TOL, least_margin, trajectory_states
+from stlplan.result import PlanStatus
+from tests.test_by_elements import QUICK, meeting, solved_part
+
+
+class _Model:
+    def __init__(self, spent: float) -> None:
+        self.values = {"spent": spent}
+
+
+class _Turn:
+    """A part whose solves spend ``efforts`` in turn (None: no plan)."""
+
+    def __init__(self, name: str, spent: float, efforts: list[float | None]) -> None:
+        self.name, self.efforts, self.fixed = name, list(efforts), list[dict[str, Any]]()
+        self.own = {name: f"{name} as planned"}
+        self.pm = type("PM", (), {"model": _Model(spent)})()
+        self.cleared = 0
+
+    def solve(self, fixed: dict[str, Any], budget: Budget) -> dict[str, Any] | None:
+        self.fixed.append(dict(fixed))
+        spent = self.efforts.pop(0) if self.efforts else self.pm.model.values["spent"]
+        self.pm.model.values = {"spent": 99.0 if spent is None else spent}
+        return None if spent is None else {self.name: f"{self.name} at {spent}"}
+
+    def clear(self) -> None:
+        self.cleared += 1
+
+
+@pytest.fixture()
+def fake_models(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(improve, "model_values", lambda model: dict(model.values))
+    monkeypatch.setattr(improve, "load_values", lambda model, v: setattr(model, "values", dict(v)))
+    monkeypatch.setattr(improve, "effort", lambda pm: pm.model.values["spent"])
+
+
+@pytest.mark.usefixtures("fake_models")
+def test_a_part_keeps_a_new_plan_only_when_it_spends_less() -> None:
+    a = _Turn("a", 1.0, [0.5, 0.5])  # better, then the same: kept once
+    b = _Turn("b", 3.0, [4.0, None])  # worse, then no plan: never kept
+    c = _Turn("c", 2.0, [1.0, 1.0])
+    assert improve.sweeps([a, b, c], Budget.of_seconds(30))
+    # the most effort first; each around every other part's plan, its own left out
+    assert [t.fixed[0].keys() for t in (b, c, a)] == [{"a", "c"}, {"a", "b"}, {"b", "c"}]
+    assert b.fixed[0] == {"a": "a as planned", "c": "c as planned"}
+    assert a.fixed[0]["c"] == "c at 1.0"  # a kept plan is an obstacle at once
+    # b's worse plan and its failed solve leave it as it was
+    assert b.pm.model.values == {"spent": 3.0}
+    assert a.pm.model.values == {"spent": 0.5} and c.pm.model.values == {"spent": 1.0}
+    assert a.fixed[1]["b"] == "b as planned"
+    # a second sweep lowered nothing: no third
+    assert [len(t.fixed) for t in (a, b, c)] == [2, 2, 2]
+    assert a.cleared == b.cleared == 2
+
+
+@pytest.mark.usefixtures("fake_models")
+def test_sweeps_that_lower_nothing_say_so() -> None:
+    turns = [_Turn("a", 1.0, [1.0]), _Turn("b", 1.0, [None])]
+    assert not improve.sweeps(turns, Budget.of_seconds(30))
+    assert [t.pm.model.values for t in turns] == [{"spent": 1.0}, {"spent": 1.0}]
+
+
+def _idle(solver: Any) -> str:
+    """An agent that no element of the loaded plan's choices names."""
+    pm = solver.pm
+    (reach,) = pm.tasks
+    (meet,) = pm.synchronous
+    members, _, _ = chosen_run(meet)
+    named = {a for i in chosen(reach) for a in reach.task.elements[i]}
+    named |= {a for i in members for a in meet.task.elements[i]}
+    return next(a.name for a in pm.problem.agents if a.name not in named)
+
+
+def _wasteful(solver: Any) -> tuple[str, float]:
+    """The loaded plan with an idle agent stepping out and back (its inputs ``d`` then ``-d``,
+    its states following its dynamics); the effort added."""
+    pm, name = solver.pm, _idle(solver)
+    agent = pm.problem.agent(name)
+    step = np.zeros(agent.B.shape[1])
+    step[0] = 0.05
+    x = np.array(agent.initial_state, dtype=float)
+    for k in range(pm.problem.horizon):
+        u = step if k == 0 else -step if k == 1 else 0 * step
+        for j, uj in enumerate(u):
+            pm.model.u[name, k, j].set_value(float(uj))
+        x = agent.A @ x + agent.B @ u
+        for i, xi in enumerate(x):
+            pm.model.x[name, k + 1, i].set_value(float(xi))
+    return name, 2 * float(np.abs(step).sum())
+
+
+def test_a_wasteful_first_plan_is_improved() -> None:
+    problem = meeting()
+    solver = solved_part(problem)
+    pm, beta = solver.pm, problem.mission.objective.beta
+    optimum = float(value(pm.model.step1))
+    name, added = _wasteful(solver)
+    states = trajectory_states(pm)
+    assert not violated(pm.deferral.lazy, states, least_margin(pm), VIOLATION_TOL)
+    assert check(problem, trajectory(pm)).satisfied
+    first = optimum - beta * added
+    done = Outcome(PlanStatus.FEASIBLE, first, optimum + 1.0, None, 0.0, 1, len(pm.added), "test")
+    clock = Clock(0.0, None)
+    full, better = improve.improved(problem, (pm, done), QUICK, clock, Budget.of_seconds(30))
+    assert full is pm and better.objective is not None
+    assert better.objective > first + 0.5 * beta * added
+    assert better.objective == pytest.approx(float(value(pm.model.step1)))
+    assert better.gap == pytest.approx((optimum + 1.0 - better.objective) / abs(better.objective))
+    assert check(problem, trajectory(pm)).satisfied
+    assert np.allclose(trajectory_states(pm)[name][1:3], trajectory_states(pm)[name][0], atol=1e-3)
+    assert clock.convergence.incumbent == better.objective
+    assert [r["stage"] for r in clock.round_log][-1:] == ["improvement by elements"]
+
+
+def test_a_plan_no_sweep_improves_is_left_as_it_was() -> None:
+    problem = meeting()
+    solver = solved_part(problem)
+    pm = solver.pm
+    objective = float(value(pm.model.step1))
+    saved = model_values(pm.model)
+    done = Outcome(PlanStatus.FEASIBLE, objective, objective, 0.0, 0.0, 1, len(pm.added), "test")
+    solved = (pm, done)
+    again = improve.improved(problem, solved, QUICK, Clock(0.0, None), Budget.of_seconds(30))
+    assert again is solved
+    assert model_values(pm.model) == saved
+    # nothing to improve without choices of elements (a margin maximized: no element problem)
+    margin = problem.mission.objective.margin.model_copy(update={"maximize": True})
+    objective_ = problem.mission.objective.model_copy(update={"margin": margin})
+    widened = dataclasses.replace(
+        problem, mission=problem.mission.model_copy(update={"objective": objective_}), _by_name={}
+    )
+    assert (
+        improve.improved(widened, solved, QUICK, Clock(0.0, None), Budget.of_seconds(30)) is solved
+    )
