@@ -8,13 +8,15 @@ from typing import Any
 
 import numpy as np
 import pytest
-from pyomo.environ import value
+from pyomo.environ import Var, value
 
 from stlplan.monitor.verdicts import check
 from stlplan.planner import improve
 from stlplan.planner.budget import Budget
 from stlplan.planner.clock import Clock
 from stlplan.planner.encoding.alphas import violated
+from stlplan.planner.encoding.deferred import best_side
+from stlplan.planner.encoding.model import add_requirements
 from stlplan.planner.encoding.readout import chosen, chosen_run, trajectory
 from stlplan.planner.outcome import Outcome
 from stlplan.planner.values import model_values
@@ -152,3 +154,38 @@ def test_a_plan_no_sweep_improves_is_left_as_it_was() -> None:
     assert (
         improve.improved(widened, solved, QUICK, Clock(0.0, None), Budget.of_seconds(30)) is solved
     )
+
+
+def test_a_joined_plan_not_taken_leaves_every_decision_as_the_first_plan_has_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    problem = meeting()
+    solver = solved_part(problem)
+    pm, beta = solver.pm, problem.mission.objective.beta
+    optimum = float(value(pm.model.step1))
+    _, added = _wasteful(solver)
+    first_values = model_values(pm.model)
+    lazy = pm.deferral.lazy
+    fresh = next(n for n in range(len(lazy)) if n not in pm.added)
+
+    def joined_then_lost(merged: Any, *_: Any) -> None:
+        add_requirements(merged.pm, [fresh])  # as the joining solve's rounds would
+        for v in merged.pm.model.component_data_objects(Var):
+            if v.is_binary() and not v.fixed:
+                v.set_value(None, skip_validation=True)
+        return None
+
+    monkeypatch.setattr(improve, "held_plan", joined_then_lost)
+    done = Outcome(PlanStatus.FEASIBLE, optimum - beta * added, optimum, None, 0.0, 1,
+                   len(pm.added), "test")  # fmt: skip
+    solved = (pm, done)
+    assert (
+        improve.improved(problem, solved, QUICK, Clock(0.0, None), Budget.of_seconds(30)) is solved
+    )
+    now = model_values(pm.model)
+    assert all(now.get(k) == v for k, v in first_values.items())
+    states = trajectory_states(pm)
+    assert fresh in pm.added
+    side = best_side(lazy[fresh], states)
+    assert all(v.value is not None for v in pm.model.component_data_objects(Var) if v.is_binary())
+    assert side is not None
