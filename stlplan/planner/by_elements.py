@@ -144,8 +144,8 @@ def _by_elements(
         problem = element_problem(solver.pm.problem, models, late)
         if problem is None:
             return None
-        groups = agent_parts(problem)
-        if len(groups) < 2 or max(map(len, groups)) > config.repair.part_agents:
+        groups = element_groups(problem, config)
+        if groups is None:
             return None
         parts = [element_part(problem, g, solver, config, budget, states, built) for g in groups]
         alone: list[int] = []
@@ -156,6 +156,15 @@ def _by_elements(
         for name in runs - {None}:
             late[str(name)] = late.get(str(name), 0) + 1
     return None
+
+
+def element_groups(problem: Problem, config: PlannerConfig) -> list[tuple[str, ...]] | None:
+    """The independent parts of an element problem (:func:`element_problem`) when there are two
+    or more, each of at most ``repair.part_agents`` agents; None otherwise."""
+    groups = agent_parts(problem)
+    if len(groups) < 2 or max(map(len, groups)) > config.repair.part_agents:
+        return None
+    return groups
 
 
 def run_of(name: str, synchronous: set[str]) -> str | None:

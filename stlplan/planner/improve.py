@@ -32,17 +32,15 @@ from typing import Any
 
 from stlplan.mission.problem import Problem
 from stlplan.planner.budget import Budget
-from stlplan.planner.by_elements import element_part, element_problem
+from stlplan.planner.by_elements import element_groups, element_part, element_problem
 from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.encoding.deferred import best_side
-from stlplan.planner.encoding.model import PlanModel, assign_side
+from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.lazy import LazySolver
 from stlplan.planner.outcome import Outcome, Plan, relative_gap
 from stlplan.planner.prioritized import Turn, held_plan, requirements_naming
-from stlplan.planner.team_split import agent_parts
 from stlplan.planner.values import load_values, model_values
-from stlplan.planner.watch import trajectory_states
+from stlplan.planner.watch import load_plan
 from stlplan.runtime import signals
 
 Solved = tuple[PlanModel, Outcome]
@@ -60,33 +58,23 @@ def improved(
     elements = element_problem(problem, [full])
     if elements is None:
         return solved
-    groups = agent_parts(elements)
-    if len(groups) < 2 or max(map(len, groups)) > config.repair.part_agents:
+    groups = element_groups(elements, config)
+    if groups is None:
         return solved
-    saved, before = model_values(full.model), set(full.added)
-    plan = None
+    saved, before = model_values(full.model), frozenset(full.added)
+    plan, taken = None, False
     try:
         with clock.reached.within("improvement by elements"):
             plan = _swept(elements, groups, full, config, clock, budget, saved)
+        taken = plan is not None and plan.objective > done.objective
     finally:
-        if plan is None or plan.objective <= done.objective:
-            _restored(full, saved, before)
-    if plan is None or plan.objective <= done.objective:
+        if not taken:  # the first plan again, the requirements added since on its sides
+            load_plan(full, saved, before)
+    if plan is None or not taken:
         return solved
     clock.plan_found(plan.objective)
     gap = relative_gap(plan.objective, done.bound)
     return full, dataclasses.replace(done, objective=plan.objective, gap=gap)
-
-
-def _restored(full: PlanModel, saved: dict[Any, float], before: set[int]) -> None:
-    """The first plan's ``saved`` values loaded again in ``full``; requirements added since
-    (``full.added`` beyond ``before``) take the side that plan meets best, so every decision
-    agrees with it."""
-    assert full.deferral is not None
-    load_values(full.model, saved)
-    states = trajectory_states(full)
-    for n in set(full.added) - before:
-        assign_side(full, n, best_side(full.deferral.lazy[n], states))
 
 
 def _swept(

@@ -41,16 +41,15 @@ from stlplan.planner.clock import Clock
 from stlplan.planner.completion import complete
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.convergence import follow
-from stlplan.planner.encoding.deferred import best_side, kind, neighbours
-from stlplan.planner.encoding.model import PlanModel, add_requirements, assign_side
+from stlplan.planner.encoding.deferred import kind, neighbours
+from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.in_turn import agents_of
 from stlplan.planner.outcome import Outcome, Plan, lowest, relative_gap
 from stlplan.planner.published import Published
 from stlplan.planner.repair_policy import RepairPolicy
 from stlplan.planner.repairs import Broken
 from stlplan.planner.session import HighsSession, Solved, has_solution, plan_status
-from stlplan.planner.values import load_values
-from stlplan.planner.watch import Watch, pending_violations, trajectory_states
+from stlplan.planner.watch import Watch, load_plan, pending_violations
 from stlplan.result import PlanStatus
 
 
@@ -305,12 +304,8 @@ class LazySolver:
         plan meets best. Returns its objective."""
         pm, watch = self.pm, self.watch
         assert watch is not None and watch.best is not None and pm.deferral is not None
-        objective, added_then = watch.best.objective, watch.best.added
-        load_values(pm.model, watch.best.values)
-        states = trajectory_states(pm)
-        for n in pm.added - added_then:
-            assign_side(pm, n, best_side(pm.deferral.lazy[n], states))
-        return objective
+        load_plan(pm, watch.best.values, watch.best.added)
+        return watch.best.objective
 
 
 def added_by_kind(pm: PlanModel) -> dict[str, int]:

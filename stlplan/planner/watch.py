@@ -16,9 +16,10 @@ import numpy as np
 from pyomo.environ import value
 
 from stlplan.planner.encoding.alphas import violated
-from stlplan.planner.encoding.model import PlanModel
+from stlplan.planner.encoding.deferred import best_side
+from stlplan.planner.encoding.model import PlanModel, assign_side
 from stlplan.planner.outcome import Plan, lowest
-from stlplan.planner.values import ColumnKeys, plan_of
+from stlplan.planner.values import ColumnKeys, load_values, plan_of
 
 VIOLATION_TOL = 1e-7
 """A requirement counts as violated when ``max_i alpha_i - r`` is below ``-VIOLATION_TOL``."""
@@ -43,6 +44,16 @@ def pending_violations(pm: PlanModel) -> list[int]:
     states = trajectory_states(pm)
     found = violated(pm.deferral.lazy, states, float(value(pm.margin)), VIOLATION_TOL)
     return [n for n in found if n not in pm.added]
+
+
+def load_plan(pm: PlanModel, values: Any, added_then: Any) -> None:
+    """Load ``values``, a plan found while ``pm`` held the requirements ``added_then``; those
+    added since take the side the plan meets best, so every decision agrees with it."""
+    assert pm.deferral is not None
+    load_values(pm.model, values)
+    states = trajectory_states(pm)
+    for n in set(pm.added) - set(added_then):
+        assign_side(pm, n, best_side(pm.deferral.lazy[n], states))
 
 
 def loaded_plan(pm: PlanModel) -> Plan | None:
