@@ -18,7 +18,9 @@ from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.deferred import best_side
 from stlplan.planner.encoding.model import add_requirements
 from stlplan.planner.encoding.readout import chosen, chosen_run, trajectory
-from stlplan.planner.outcome import Outcome
+from stlplan.planner.in_turn import hold_agents, release
+from stlplan.planner.lazy import LazySolver
+from stlplan.planner.outcome import Outcome, Plan
 from stlplan.planner.values import model_values
 from stlplan.planner.watch import VIOLATION_TOL, least_margin, trajectory_states
 from stlplan.result import PlanStatus
@@ -61,7 +63,7 @@ def test_a_part_keeps_a_new_plan_only_when_it_spends_less() -> None:
     a = _Turn("a", 1.0, [0.5, 0.5])  # better, then the same: kept once
     b = _Turn("b", 3.0, [4.0, None])  # worse, then no plan: never kept
     c = _Turn("c", 2.0, [1.0, 1.0])
-    assert improve.sweeps([a, b, c], Budget.of_seconds(30))
+    assert improve.sweeps(improve.Team.of([a, b, c]), Budget.of_seconds(30))
     # the most effort first; each around every other part's plan, its own left out
     assert [t.fixed[0].keys() for t in (b, c, a)] == [{"a", "c"}, {"a", "b"}, {"b", "c"}]
     assert b.fixed[0] == {"a": "a as planned", "c": "c as planned"}
@@ -78,8 +80,87 @@ def test_a_part_keeps_a_new_plan_only_when_it_spends_less() -> None:
 @pytest.mark.usefixtures("fake_models")
 def test_sweeps_that_lower_nothing_say_so() -> None:
     turns = [_Turn("a", 1.0, [1.0]), _Turn("b", 1.0, [None])]
-    assert not improve.sweeps(turns, Budget.of_seconds(30))
+    assert not improve.sweeps(improve.Team.of(turns), Budget.of_seconds(30))
     assert [t.pm.model.values for t in turns] == [{"spent": 1.0}, {"spent": 1.0}]
+
+
+class _Part:
+    """A part that finds a plan unless an agent of ``blocked_by`` is among those it goes around;
+    the plan breaks requirements with the agents of ``in_way`` it did not go around."""
+
+    def __init__(self, name: str, blocked_by: tuple[str, ...] = (), in_way: tuple[str, ...] = ()):
+        self.name, self.agents = name, {name}
+        self.blocked_by, self.in_way = set(blocked_by), set(in_way)
+        self.own = {name: f"{name} as planned"}
+        self.pm = type("PM", (), {"model": _Model(1.0)})()
+        self.fixed = list[dict[str, Any]]()
+
+    def solve(self, fixed: dict[str, Any], budget: Budget) -> dict[str, Any] | None:
+        self.fixed.append(dict(fixed))
+        self.pm.model.values = {"spent": 2.0}  # a solve's values, kept or not
+        if self.blocked_by & set(fixed):
+            return None
+        return {self.name: f"{self.name} around {','.join(sorted(fixed))}"}
+
+    def clear(self) -> None:
+        pass
+
+    def in_the_way(self, found: dict[str, Any], others: dict[str, Any]) -> set[str]:
+        around = found[self.name].split(" around ")[1].split(",")
+        return (self.in_way & set(others)) - set(around)
+
+
+@pytest.mark.usefixtures("fake_models")
+def test_the_parts_in_a_moved_parts_way_are_planned_again_after_it() -> None:
+    a, b, c, d = _Part("a"), _Part("b"), _Part("c"), _Part("d")
+    team = improve.Team.of([a, b, c, d])
+    # a's part with its run earlier: no plan around b; alone, in the way of b and c
+    moved = _Part("a", blocked_by=("b",), in_way=("b", "c"))
+    assert improve._moved(team, [moved, b, c, d], Budget.of_seconds(30))
+    assert team.turns == [moved, b, c, d]
+    assert team.plans[0] == {"a": "a around c"}  # c taken back: only b is in its way
+    assert team.plans[1] == {"b": "b around a,c,d"}  # after it, around its plan
+    assert team.plans[2:] == [{"c": "c as planned"}, {"d": "d as planned"}]
+    plans = {"b": "b as planned", "c": "c as planned", "d": "d as planned"}
+    assert moved.fixed == [plans, {}, {"b": plans["b"]}, {"c": plans["c"]}]
+    assert c.fixed == d.fixed == []
+
+
+@pytest.mark.usefixtures("fake_models")
+def test_a_move_whose_chain_breaks_leaves_the_team_as_it_was() -> None:
+    a, b, c = _Part("a"), _Part("b"), _Part("c", blocked_by=("a",))
+    team = improve.Team.of([a, b, c])
+    moved = _Part("a", blocked_by=("b", "c"), in_way=("b", "c"))
+    assert not improve._moved(team, [moved, b, c], Budget.of_seconds(30))
+    assert b.fixed and c.fixed  # both planned again after it, c found none
+    assert team.turns == [a, b, c]
+    assert team.plans == [{"a": "a as planned"}, {"b": "b as planned"}, {"c": "c as planned"}]
+    assert [t.pm.model.values for t in (a, b, c)] == [{"spent": 1.0}] * 3
+
+
+@pytest.mark.usefixtures("fake_models")
+def test_the_better_of_the_joined_plans_is_kept_loaded(monkeypatch: pytest.MonkeyPatch) -> None:
+    moved, swept = improve.Team.of([_Part("a")]), improve.Team.of([_Part("a")])
+    joined: list[Any] = []
+    objectives = {id(moved.turns[0]): 1.0, id(swept.turns[0]): 2.0}
+
+    def held(solver: Any, turns: list[Any], *_: Any) -> Plan:
+        joined.append(solver)
+        return Plan(objectives[id(turns[0])], {("n",): float(len(joined))})
+
+    loaded: list[Any] = []
+    monkeypatch.setattr(improve, "held_plan", held)
+    monkeypatch.setattr(improve, "LazySolver", lambda *_: "a fresh solver")
+    monkeypatch.setattr(improve, "load_plan", lambda pm, values, added: loaded.append(values))
+    whole = type("Whole", (), {"pm": "the team's model", "clock": None})()
+    best = improve._joined(whole, [moved, swept], QUICK, Budget.of_seconds(30))
+    assert best is not None and best.objective == 2.0
+    assert joined == [whole, "a fresh solver"]  # a joined plan is the watch's best: fresh
+    assert loaded == []  # the last joined is the one loaded
+    objectives[id(swept.turns[0])] = 0.5
+    joined.clear()
+    best = improve._joined(whole, [moved, swept], QUICK, Budget.of_seconds(30))
+    assert best is not None and best.objective == 1.0 and loaded == [{("n",): 1.0}]
 
 
 def _idle(solver: Any) -> str:
@@ -189,3 +270,45 @@ def test_a_joined_plan_not_taken_leaves_every_decision_as_the_first_plan_has_it(
     side = best_side(lazy[fresh], states)
     assert all(v.value is not None for v in pm.model.component_data_objects(Var) if v.is_binary())
     assert side is not None
+
+
+def _later(solver: Any) -> None:
+    """The loaded plan a step later: every agent waits at its initial state for one step, then
+    follows its plan (single integrators: the input shifted a step)."""
+    pm = solver.pm
+    horizon, m = pm.problem.horizon, pm.model
+    for a in pm.problem.agents:
+        for j in range(a.B.shape[1]):
+            inputs = [float(m.u[a.name, k, j].value) for k in range(horizon)]
+            for k, v in enumerate([0.0, *inputs[:-1]]):
+                m.u[a.name, k, j].set_value(v)
+        for i in range(a.A.shape[0]):
+            states = [float(m.x[a.name, k, i].value) for k in range(horizon + 1)]
+            for k, v in enumerate([states[0], *states[:-1]]):
+                if k > 0:
+                    m.x[a.name, k, i].set_value(v)
+
+
+def test_a_late_synchronous_run_is_started_earlier() -> None:
+    problem = meeting()
+    solver = solved_part(problem)
+    pm = solver.pm
+    (meet,) = pm.synchronous
+    _, start, _ = chosen_run(meet)
+    _later(solver)
+    late = check(problem, trajectory(pm))
+    assert late.satisfied and late.rho_s is not None
+    held = hold_agents(pm, [a.name for a in problem.agents], QUICK.repair.hold)
+    try:
+        done = LazySolver(pm, QUICK, Clock(0.0, None)).run(Budget.of_seconds(60))
+    finally:
+        release(held)
+    assert done.objective is not None and chosen_run(meet)[1] == start + 1
+    clock = Clock(0.0, None)
+    full, better = improve.improved(problem, (pm, done), QUICK, clock, Budget.of_seconds(30))
+    assert full is pm and better.objective is not None
+    assert chosen_run(meet)[1] == start  # one step more synchronous robustness
+    assert better.objective > done.objective + 0.5
+    report = check(problem, trajectory(pm))
+    assert report.satisfied and report.rho_s == pytest.approx(late.rho_s + 1)
+    assert clock.convergence.incumbent == better.objective

@@ -139,6 +139,18 @@ class Turn:
         _log.debug("prioritized: no guided plan for %s", agent.name)
         return None
 
+    def in_the_way(self, found: States, others: States) -> set[str]:
+        """The agents of ``others`` whose plans break a requirement with the part's plan
+        ``found``."""
+        lazy = self._lazy()
+        mine = [
+            lazy[n]
+            for n in self.crossing
+            if set(lazy[n].binding.values()) <= self.agents | set(others)
+        ]
+        broken = violated(mine, {**others, **found}, least_margin(self.pm), VIOLATION_TOL)
+        return {a for i in broken for a in mine[i].binding.values()} - self.agents
+
     @property
     def guided(self) -> bool:
         """Whether the part's turns start from a guide path: one single-integrator agent."""
