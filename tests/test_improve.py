@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from pyomo.environ import Var, value
 
+from stlplan.formula.tree import Interval
 from stlplan.monitor.verdicts import check
 from stlplan.planner import improve
 from stlplan.planner.budget import Budget
@@ -312,3 +313,20 @@ def test_a_late_synchronous_run_is_started_earlier() -> None:
     report = check(problem, trajectory(pm))
     assert report.satisfied and report.rho_s == pytest.approx(late.rho_s + 1)
     assert clock.convergence.incumbent == better.objective
+
+
+def test_a_run_is_started_earlier_within_its_window_and_what_its_robustness_counts() -> None:
+    problem = meeting()
+    pm = solved_part(problem).pm
+    (meet,) = pm.synchronous
+    members, start, length = chosen_run(meet)
+    window = meet.task.sync
+    assert window is not None and start - 1 >= window.a  # the plan's run from 2, the window's 1
+    sooner = improve.earlier(problem, pm, "meet", 1, {})
+    assert sooner is not None
+    runs = {t.formula.interval for t in sooner.tasks if t.name.startswith("meet")}
+    assert runs == {Interval(start - 1, start + length - 1)}
+    assert improve.earlier(problem, pm, "meet", start - window.a + 1, {}) is None
+    # a run longer than gamma counts no more: not started earlier
+    object.__setattr__(meet.task, "sync", dataclasses.replace(window, gamma=length - 1 - window.d))
+    assert improve.earlier(problem, pm, "meet", 1, {}) is None

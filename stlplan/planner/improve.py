@@ -45,7 +45,7 @@ from typing import Any
 
 from stlplan.mission.problem import Problem
 from stlplan.planner.budget import Budget
-from stlplan.planner.by_elements import element_groups, element_part, element_problem
+from stlplan.planner.by_elements import Late, element_groups, element_part, element_problem
 from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import PlanModel
@@ -115,11 +115,11 @@ def _improved(
         turns = Turns(problem, groups, full, whole, config, budget, lent)
         team = Team.of(turns.of(elements, saved))
         within = budget.share(SWEEPS_SHARE)
-        swept = sweeps(team, within.share(0.5))
+        first = sweeps(team, within.share(0.5))
         before = team.copy()
         moved = config.parts.earlier_runs and earlier_runs(team, turns, within)
-        swept = sweeps(team, within) or swept
-        teams = [team, before] if moved else [team] if swept else []
+        swept = sweeps(team, within) or first
+        teams = [team, before] if moved and first else [team] if moved or swept else []
         return _joined(whole, teams, config, budget)
 
 
@@ -130,7 +130,7 @@ def _joined(
     it), or None."""
     best = plan = None
     for n, team in enumerate(teams):
-        if signals.requested():
+        if signals.requested() or (n > 0 and budget.expired()):
             break
         team.load()
         solver = whole if n == 0 else LazySolver(whole.pm, config, whole.clock)
@@ -177,15 +177,6 @@ class Turns:
             out.append(self.made[id(part)])
         return out
 
-    def earlier(self, name: str, steps: int) -> Problem | None:
-        """The element problem with task ``name``'s run started ``steps`` steps earlier than
-        the first plan's; None when that starts it before the task's window opens."""
-        (sync,) = (s for s in self.full.synchronous if s.task.name == name)
-        assert sync.task.sync is not None
-        if chosen_run(sync)[1] - steps < sync.task.sync.a:
-            return None
-        return element_problem(self.problem, [self.full], {name: -steps})
-
 
 @dataclass
 class Team:
@@ -224,24 +215,39 @@ class Team:
         return out
 
     def take(self, i: int, turn: Any, found: States) -> None:
-        """Part ``i``'s new plan ``found``, loaded in ``turn``'s model."""
+        """Part ``i``'s new plan ``found``, with the values ``turn``'s model holds (the plan's:
+        the caller loads them)."""
         self.turns[i], self.plans[i] = turn, found
         self.kept[i], self.spent[i] = model_values(turn.pm.model), effort(turn.pm)
 
 
 def earlier_runs(team: Team, turns: Turns, budget: Budget) -> bool:
-    """Each synchronous task's run started one step earlier than the team's, while every element
-    of the run finds a plan around all the others' (module docstring); whether one was."""
-    moved = False
+    """Each synchronous task's run started a step earlier, and again, while the elements of its
+    run and the parts then in their way all find plans (:func:`_moved`); whether a run was."""
+    late: dict[str, int] = {}
     for sync in turns.full.synchronous:
         name, steps = sync.task.name, 1
         while not (budget.expired() or signals.requested()):
-            elements = turns.earlier(name, steps)
+            elements = earlier(turns.problem, turns.full, name, steps, late)
             if elements is None or not _moved(team, turns.of(elements, team.values()), budget):
                 break
             _log.debug("improvement: the run of %s starts %d step(s) earlier", name, steps)
-            moved, steps = True, steps + 1
-    return moved
+            late[name], steps = -steps, steps + 1
+    return bool(late)
+
+
+def earlier(problem: Problem, full: PlanModel, name: str, steps: int, late: Late) -> Problem | None:
+    """The element problem of the plan loaded in ``full`` with task ``name``'s run started
+    ``steps`` steps earlier (and the other runs ``late`` steps later); None when that starts it
+    before the task's window opens, or makes it longer than its synchronous robustness counts
+    (``gamma``)."""
+    (sync,) = (s for s in full.synchronous if s.task.name == name)
+    window = sync.task.sync
+    assert window is not None
+    _, start, length = chosen_run(sync)
+    if start - steps < window.a or length + steps - 1 - window.d > window.gamma:
+        return None
+    return element_problem(problem, [full], {**late, name: -steps})
 
 
 def _moved(team: Team, turns: Sequence[Any], budget: Budget) -> bool:
@@ -258,8 +264,8 @@ def _moved(team: Team, turns: Sequence[Any], budget: Budget) -> bool:
 
 def _chain(team: Team, turns: Sequence[Any], changed: Sequence[int], budget: Budget) -> bool:
     """The parts ``changed``, one after the other, each around the plans of every part not
-    waiting for its turn; a part that finds none there finds one with fewest parts' plans left
-    out (:func:`_displacing`), and those wait for a turn of their own, after it (an ejection
+    waiting for its turn; a part that finds none there finds one around some of them only
+    (:func:`_displacing`), and the others wait for a turn of their own, after it (an ejection
     chain). Whether every part waiting found a plan."""
     owner = {a: j for j, plan in enumerate(team.plans) for a in plan}
     waiting, planned = list(changed), set[int]()
@@ -295,7 +301,7 @@ def _displacing(
     if found is None:
         return None
     for j in sorted({owner[a] for a in turn.in_the_way(found[0], settled)}):
-        if budget.expired():
+        if budget.expired() or signals.requested():
             break
         tried = {**kept, **{a: s for a, s in settled.items() if owner[a] == j}}
         better = _solved(turn, tried, budget)
