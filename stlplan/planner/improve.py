@@ -198,6 +198,11 @@ class Team:
         """The team as it is now, its lists copied."""
         return Team(list(self.turns), list(self.plans), list(self.kept), list(self.spent))
 
+    def restore(self, was: Team) -> None:
+        """The team as ``was`` (a :meth:`copy`), each part's plan loaded in its model."""
+        self.turns, self.plans, self.kept, self.spent = was.turns, was.plans, was.kept, was.spent
+        self.load()
+
     def load(self) -> None:
         """Each part's current plan loaded in its turn's model."""
         for turn, kept in zip(self.turns, self.kept, strict=True):
@@ -257,8 +262,7 @@ def _moved(team: Team, turns: Sequence[Any], budget: Budget) -> bool:
     was = team.copy()
     if changed and _chain(team, turns, changed, budget):
         return True
-    team.__dict__.update(was.__dict__)
-    team.load()  # the parts planned in a broken chain
+    team.restore(was)  # and the models of the parts planned in a broken chain
     return False
 
 

@@ -87,9 +87,7 @@ class Turn:
         """The part's states around ``fixed`` (the earlier agents' plans), or None. Without
         ``exact`` a guided part (:attr:`guided`) tries its guided solves only, not its MILP."""
         lazy, self.blockers = self._lazy(), set()
-        mine = [
-            n for n in self.crossing if set(lazy[n].binding.values()) <= self.agents | set(fixed)
-        ]
+        mine = self._crossing_with(fixed)
         guided = self._guided(fixed, [lazy[n] for n in mine], budget)
         if guided is not None or (self.guided and not exact):
             return guided
@@ -143,13 +141,14 @@ class Turn:
         """The agents of ``others`` whose plans break a requirement with the part's plan
         ``found``."""
         lazy = self._lazy()
-        mine = [
-            lazy[n]
-            for n in self.crossing
-            if set(lazy[n].binding.values()) <= self.agents | set(others)
-        ]
+        mine = [lazy[n] for n in self._crossing_with(others)]
         broken = violated(mine, {**others, **found}, least_margin(self.pm), VIOLATION_TOL)
         return {a for i in broken for a in mine[i].binding.values()} - self.agents
+
+    def _crossing_with(self, others: States) -> list[int]:
+        """The requirements of :attr:`crossing` between the part's agents and ``others``."""
+        lazy, named = self._lazy(), self.agents | set(others)
+        return [n for n in self.crossing if set(lazy[n].binding.values()) <= named]
 
     @property
     def guided(self) -> bool:
