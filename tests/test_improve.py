@@ -56,7 +56,7 @@ class _Turn:
 def fake_models(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(improve, "model_values", lambda model: dict(model.values))
     monkeypatch.setattr(improve, "load_values", lambda model, v: setattr(model, "values", dict(v)))
-    monkeypatch.setattr(improve, "effort", lambda pm: pm.model.values["spent"])
+    monkeypatch.setattr(improve, "effort", lambda model: model.values["spent"])
 
 
 @pytest.mark.usefixtures("fake_models")

@@ -19,10 +19,13 @@ moving obstacles (a prioritized turn, :class:`~stlplan.planner.prioritized.Turn`
   element that finds no plan around the others finds one around as many of them as it can, and
   the parts still in its way are planned again after it (an ejection chain). The earlier run is
   kept when every part planned again finds a plan (one step more synchronous robustness, often
-  for more effort), left as it was otherwise.
+  for more effort), left as it was otherwise;
+- **parts together** (:mod:`stlplan.planner.together`): a part that spends more than it would
+  alone planned in one turn with the parts in its way.
 
 Sweeps run first, within half of ``SWEEPS_SHARE`` of ``parts.improve_share`` of the time left;
-then the earlier runs and, after them, sweeps again within the rest. The plans of the team after
+then the earlier runs and, after them, sweeps again within half of the rest, then parts
+together and sweeps, in turn, while that lowers the effort. The plans of the team after
 the first sweeps and after the earlier runs are each joined in the model of the whole team,
 solved once with every agent held near its plan
 (:func:`~stlplan.planner.prioritized.held_plan`); the better is taken when its objective is
@@ -54,7 +57,8 @@ from stlplan.planner.lazy import LazySolver
 from stlplan.planner.outcome import Outcome, Plan, relative_gap
 from stlplan.planner.overlay import States
 from stlplan.planner.prioritized import Turn, held_plan, requirements_naming
-from stlplan.planner.values import load_values, model_values
+from stlplan.planner.together import together
+from stlplan.planner.values import effort, load_values, model_values
 from stlplan.planner.watch import load_plan
 from stlplan.runtime import signals
 
@@ -118,9 +122,21 @@ def _improved(
         first = sweeps(team, within.share(0.5))
         before = team.copy()
         moved = config.parts.earlier_runs and earlier_runs(team, turns, within)
-        swept = sweeps(team, within) or first
+        swept = _swept_together(team, turns, within) or first
         teams = [team, before] if moved and first else [team] if moved or swept else []
         return _joined(whole, teams, config, budget)
+
+
+def _swept_together(team: Team, turns: Turns, budget: Budget) -> bool:
+    """Sweeps, then parts planned together (:func:`~stlplan.planner.together.together`) and
+    sweeps again while that lowers the effort; whether any plan changed."""
+    if not turns.config.parts.together:
+        return sweeps(team, budget)
+    changed = sweeps(team, budget.share(0.5))
+    while not budget.expired() and together(team, turns, budget):
+        changed = True
+        sweeps(team, budget.share(0.5))
+    return changed
 
 
 def _joined(
@@ -161,6 +177,8 @@ class Turns:
         self.naming = requirements_naming(full)
         self.built: dict[Any, Any] = {}
         self.made: dict[int, Turn] = {}
+        self.alone: dict[int, Any] = {}
+        """Each turn's plan around no one and its effort (None: no plan), by the turn's id."""
 
     def of(self, elements: Problem, values: dict[Any, float]) -> list[Turn]:
         """The turns of ``elements``'s parts, a new part's model loaded with ``values`` (states
@@ -171,11 +189,16 @@ class Turns:
             part = element_part(
                 elements, group, self.whole, self.config, self.budget, states, self.built
             )
-            if id(part) not in self.made:
-                session = self.lent.enter_context(part.lent(self.config.repair.gap))
-                self.made[id(part)] = Turn(part.pm, session, self.full, self.config, self.naming)
-            out.append(self.made[id(part)])
+            out.append(self.turn_of(part, self.config))
         return out
+
+    def turn_of(self, part: Any, config: PlannerConfig) -> Turn:
+        """The turn of ``part`` (a lazy loop of :func:`element_part`), made once, its session
+        lent."""
+        if id(part) not in self.made:
+            session = self.lent.enter_context(part.lent(config.repair.gap))
+            self.made[id(part)] = Turn(part.pm, session, self.full, config, self.naming)
+        return self.made[id(part)]
 
 
 @dataclass
@@ -192,7 +215,9 @@ class Team:
     def of(cls, turns: Sequence[Any]) -> Team:
         """The turns with the plans loaded in their models."""
         kept = [model_values(turn.pm.model) for turn in turns]
-        return cls(list(turns), [dict(t.own) for t in turns], kept, [effort(t.pm) for t in turns])
+        return cls(
+            list(turns), [dict(t.own) for t in turns], kept, [effort(t.pm.model) for t in turns]
+        )
 
     def copy(self) -> Team:
         """The team as it is now, its lists copied."""
@@ -223,7 +248,7 @@ class Team:
         """Part ``i``'s new plan ``found``, with the values ``turn``'s model holds (the plan's:
         the caller loads them)."""
         self.turns[i], self.plans[i] = turn, found
-        self.kept[i], self.spent[i] = model_values(turn.pm.model), effort(turn.pm)
+        self.kept[i], self.spent[i] = model_values(turn.pm.model), effort(turn.pm.model)
 
 
 def earlier_runs(team: Team, turns: Turns, budget: Budget) -> bool:
@@ -335,7 +360,7 @@ def sweeps(team: Team, budget: Budget) -> bool:
             turn, spent = team.turns[i], team.spent[i]
             found = turn.solve(team.around(i), budget)
             turn.clear()
-            now = effort(turn.pm) if found is not None else None
+            now = effort(turn.pm.model) if found is not None else None
             if found is not None and now is not None and now < spent - EFFORT_TOL:
                 gained += spent - now
                 team.take(i, turn, found)
@@ -353,8 +378,3 @@ joins their plans may take the rest."""
 
 EFFORT_TOL = 1e-6
 """A part's new plan is kept when it spends less effort than its plan by more than this."""
-
-
-def effort(pm: PlanModel) -> float:
-    """The L1 effort of the inputs loaded in ``pm`` (the effort step 1 counts)."""
-    return sum(abs(v) for k, v in model_values(pm.model).items() if k[0] == "u")

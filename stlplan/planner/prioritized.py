@@ -83,9 +83,12 @@ class Turn:
         self.own = trajectory_states(pm)
         """The part's plan on its own (loaded when the repair starts): the guide's reference."""
 
-    def solve(self, fixed: States, budget: Budget, exact: bool = True) -> States | None:
+    def solve(
+        self, fixed: States, budget: Budget, exact: bool = True, start: Plan | None = None
+    ) -> States | None:
         """The part's states around ``fixed`` (the earlier agents' plans), or None. Without
-        ``exact`` a guided part (:attr:`guided`) tries its guided solves only, not its MILP."""
+        ``exact`` a guided part (:attr:`guided`) tries its guided solves only, not its MILP;
+        every solve of the MILP starts from ``start`` (a plan around ``fixed``) when given."""
         lazy, self.blockers = self._lazy(), set()
         mine = self._crossing_with(fixed)
         guided = self._guided(fixed, [lazy[n] for n in mine], budget)
@@ -93,6 +96,8 @@ class Turn:
             return guided
         ctx, added = self._context(fixed), set[int]()
         for _ in range(self.config.repair.solves_per_turn):
+            if start is not None:
+                self.session.start_from(start)
             if not self._solved(budget):
                 return None
             states = {**fixed, **trajectory_states(self.pm)}

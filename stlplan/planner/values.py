@@ -23,6 +23,11 @@ def var_key(var: Any) -> VarKey:
     return (var.parent_component().name, index)
 
 
+def effort(model: ConcreteModel) -> float:
+    """The L1 effort of the inputs loaded in ``model`` (the effort step 1 counts)."""
+    return sum(abs(v) for k, v in model_values(model).items() if k[0] == "u")
+
+
 def model_values(model: ConcreteModel) -> dict[VarKey, float]:
     """The values loaded in ``model``, by key (variables without a value are left out)."""
     return {
