@@ -48,13 +48,17 @@ class _Part:
 class _Joint:
     """The turn of parts planned together: its plan spends ``spent`` per agent."""
 
-    def __init__(self, agents: set[str], spent: float) -> None:
+    def __init__(self, agents: set[str], spent: float | None) -> None:
         self.agents, self.spent = agents, spent
         self.pm = SimpleNamespace(model=_Model({}))
         self.calls = list[tuple[dict[str, Any], Any]]()
 
-    def solve(self, fixed: dict[str, Any], budget: Budget, start: Any = None) -> dict[str, Any]:
+    def solve(
+        self, fixed: dict[str, Any], budget: Budget, start: Any = None
+    ) -> dict[str, Any] | None:
         self.calls.append((dict(fixed), start))
+        if self.spent is None:
+            return None
         for a in self.agents:
             self.pm.model.values.update(_u(a, self.spent))
         return {a: f"{a} together" for a in self.agents}
@@ -76,8 +80,9 @@ def fakes(monkeypatch: pytest.MonkeyPatch) -> list[_Joint]:
 
     made: list[_Joint] = []
 
-    def joint(team: Any, turns: Any, members: list[int]) -> _Joint:
-        made.append(_Joint({a for m in members for a in team.turns[m].agents}, turns.spent))
+    def joint(team: Any, turns: Any, members: list[int], budget: Budget) -> _Joint:
+        agents = {a for m in members for a in team.turns[m].agents}
+        made.append(_Joint(agents, turns.spent))
         return made[-1]
 
     for module in (improve, together):
@@ -88,7 +93,7 @@ def fakes(monkeypatch: pytest.MonkeyPatch) -> list[_Joint]:
     return made
 
 
-def _turns(spent: float, agents: int = 8) -> Any:
+def _turns(spent: float | None, agents: int = 8) -> Any:
     config = PlannerConfig().with_overrides({"parts.together_agents": agents})
     return SimpleNamespace(config=config, spent=spent, alone={})
 
@@ -122,7 +127,7 @@ def test_plans_together_that_spend_no_less_are_left(fakes: list[_Joint]) -> None
 
 
 def test_the_neighbourhood_holds_at_most_its_agents(fakes: list[_Joint]) -> None:
-    # b has the larger excess but two agents: with a, more than three
+    # b has the larger excess but two agents: with a, three, more than two
     a = _Part("a", 4.0, 1.0, in_way="bxc")
     b, c = _Part("bx", 3.0, 1.0), _Part("c", 1.5, 1.0)
     team = improve.Team.of([a, b, c])
@@ -134,3 +139,12 @@ def test_no_part_spends_more_than_alone_nothing_is_planned(fakes: list[_Joint]) 
     team = improve.Team.of([_Part("a", 1.0, 1.0, in_way="b"), _Part("b", 2.0, 2.0)])
     assert not together.together(team, _turns(spent=0.1), Budget.of_seconds(30))
     assert fakes == []
+
+
+def test_parts_together_without_a_plan_are_left(fakes: list[_Joint]) -> None:
+    a, b = _Part("a", 4.0, 1.0, in_way="b"), _Part("b", 1.0, 1.0)
+    team = improve.Team.of([a, b])
+    assert not together.together(team, _turns(spent=None), Budget.of_seconds(30))
+    assert len(fakes) == 1 and team.spent == [4.0, 1.0]
+    assert team.plans == [{"a": "a as planned"}, {"b": "b as planned"}]
+    assert a.pm.model.values == _u("a", 4.0) and b.pm.model.values == _u("b", 1.0)

@@ -241,7 +241,8 @@ class PartsConfig(_Section):
     """Most agents of parts planned together. Measured:
     docs/measurements.md#parts-planned-together."""
     together_seconds: float = Field(default=5.0, gt=0)
-    """Time limit of one solve of parts planned together, s."""
+    """Time limit of one solve of parts planned together, s. Measured:
+    docs/measurements.md#parts-planned-together."""
     plan_around_published: bool = True
     """While looking for a first plan, a part whose lazy loop found one publishes it, and the
     repairs in turn of the parts still looking for theirs plan around it; before a merge that

@@ -24,8 +24,9 @@ moving obstacles (a prioritized turn, :class:`~stlplan.planner.prioritized.Turn`
   alone planned in one turn with the parts in its way.
 
 Sweeps run first, within half of ``SWEEPS_SHARE`` of ``parts.improve_share`` of the time left;
-then the earlier runs and, after them, sweeps again within half of the rest, then parts
-together and sweeps, in turn, while that lowers the effort. The plans of the team after
+then the earlier runs and, after them, sweeps again within the rest; with ``parts.together``,
+within half of the rest, then parts together and sweeps, in turn, while that lowers the
+effort. The plans of the team after
 the first sweeps and after the earlier runs are each joined in the model of the whole team,
 solved once with every agent held near its plan
 (:func:`~stlplan.planner.prioritized.held_plan`); the better is taken when its objective is

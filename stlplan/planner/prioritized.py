@@ -98,7 +98,7 @@ class Turn:
         for _ in range(self.config.repair.solves_per_turn):
             if start is not None:
                 self.session.start_from(start)
-            if not self._solved(budget):
+            if not self._solved(budget, fallback=start is None):
                 return None
             states = {**fixed, **trajectory_states(self.pm)}
             own = pending_violations(self.pm)
@@ -197,10 +197,11 @@ class Turn:
             return None
         return {a: found[a] for a in self.agents}
 
-    def _solved(self, budget: Budget) -> bool:
-        """Whether a solve found a plan: within ``repair.solve_seconds`` or, with none by then,
-        within the turn's ``budget``."""
-        for limit in (budget.seconds(self.config.repair.solve_seconds), budget):
+    def _solved(self, budget: Budget, fallback: bool = True) -> bool:
+        """Whether a solve found a plan: within ``repair.solve_seconds`` or, with none by then
+        and ``fallback``, within the turn's ``budget``."""
+        first = budget.seconds(self.config.repair.solve_seconds)
+        for limit in (first, budget) if fallback else (first,):
             solved = self.session.solve(limit)
             if solved.stopped or has_solution(solved.results):
                 return not solved.stopped

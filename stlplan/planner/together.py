@@ -5,8 +5,10 @@ around all the others, so two parts that each go around the other stay as they a
 can take the path it would take alone while the other's plan is in the way. Here a part whose
 plan spends more effort than its plan around no one (its *excess*) is planned together with
 the parts whose plans are in that plan's way, every other part's plan held as moving obstacles,
-starting from their current plans (so the solve starts with a plan and can only do better).
-The new plans are kept when together they spend less effort than the plans they replace.
+every solve of that turn given their current plans to start from (completed by HiGHS, so a
+solve returns a plan no worse than them) and limited to ``parts.together_seconds``, without
+the longer solve a prioritized turn falls back on. The new plans are kept when together they
+spend less effort than the plans they replace.
 Parts with the largest excess go first; the neighbourhood holds at most
 ``parts.together_agents`` agents.
 """
@@ -43,7 +45,7 @@ def together(team: Any, turns: Any, budget: Budget) -> bool:
         if budget.expired() or signals.requested():
             break
         if team.spent[i] - alone[i][1] <= EFFORT_TOL:
-            break
+            continue  # (a part's effort may have risen in an earlier neighbourhood)
         members = _neighbourhood(team, i, alone, turns.config.parts.together_agents)
         if len(members) > 1 and _planned_together(team, turns, members, budget):
             lowered = True
@@ -61,8 +63,11 @@ def _alone(team: Any, made: dict[int, Any], budget: Budget) -> dict[int, tuple[S
         if id(turn) not in made:
             found = turn.solve({}, budget)
             turn.clear()
-            made[id(turn)] = None if found is None else (found, effort(turn.pm.model))
+            spent = effort(turn.pm.model)
             load_values(turn.pm.model, team.kept[i])
+            if found is None and budget.expired():
+                break  # (cut off: not known to have no plan alone)
+            made[id(turn)] = None if found is None else (found, spent)
         if made[id(turn)] is not None:
             out[i] = made[id(turn)]
     return out
@@ -90,7 +95,7 @@ def _neighbourhood(
 def _planned_together(team: Any, turns: Any, members: Sequence[int], budget: Budget) -> bool:
     """The parts ``members`` planned in one turn around every other part, from their current
     plans; their new plans taken when they spend less effort. Whether they were."""
-    turn = _joint_turn(team, turns, members)
+    turn = _joint_turn(team, turns, members, budget)
     agents = turn.agents
     start = _states_of(team.values(), agents)  # HiGHS completes the rest
     fixed = {a: s for j, plan in enumerate(team.plans) if j not in members for a, s in plan.items()}
@@ -113,7 +118,7 @@ def _states_of(values: Mapping[Any, float], agents: Collection[str]) -> dict[Any
     return {k: v for k, v in values.items() if k[0] in ("x", "u") and k[1][0] in agents}
 
 
-def _joint_turn(team: Any, turns: Any, members: Sequence[int]) -> Turn:
+def _joint_turn(team: Any, turns: Any, members: Sequence[int], budget: Budget) -> Turn:
     """The turn of the agents of the parts ``members`` with their tasks (built once for the
     same agents and tasks), its session lent for as long as ``turns`` lends them."""
     parts = [team.turns[m] for m in members]
@@ -124,5 +129,5 @@ def _joint_turn(team: Any, turns: Any, members: Sequence[int]) -> Turn:
     config = turns.config.with_overrides(
         {"repair.solve_seconds": turns.config.parts.together_seconds}
     )
-    part = element_part(joint, agents, turns.whole, config, turns.budget, states, turns.built)
+    part = element_part(joint, agents, turns.whole, config, budget, states, turns.built)
     return turns.turn_of(part, config)

@@ -3,7 +3,9 @@
 A variable's key is its component's name and its index (``("x", ("vis1", 3, 0))``), the same in
 every model built for the problem: a plan read from one model loads into another, or starts a
 solve of it, whatever columns HiGHS gave each. Keys one model has and the other lacks (a lazy
-requirement's indicators) are skipped; a start that misses some is completed by HiGHS.
+requirement's indicators) are skipped; a start that misses some is completed by HiGHS. Between
+models of other agents or tasks (a part's and the whole team's) only the states' and inputs'
+keys name the same variables: a numbered component's index may stand for another one there.
 """
 
 from __future__ import annotations
