@@ -148,3 +148,32 @@ def test_parts_together_without_a_plan_are_left(fakes: list[_Joint]) -> None:
     assert len(fakes) == 1 and team.spent == [4.0, 1.0]
     assert team.plans == [{"a": "a as planned"}, {"b": "b as planned"}]
     assert a.pm.model.values == _u("a", 4.0) and b.pm.model.values == _u("b", 1.0)
+
+
+@pytest.mark.parametrize("on", [False, True])
+def test_the_improvement_plans_parts_together_only_when_asked(
+    fakes: list[_Joint], on: bool
+) -> None:
+    # a's sweep turn finds nothing better (its plan alone breaks b's), together they do
+    a, b = _Part("a", 4.0, 1.0, in_way="b"), _Part("b", 1.0, 1.0)
+    a.solve = _alone_then_kept(a)  # type: ignore[method-assign]
+    turns = _turns(spent=1.5)
+    turns.config = turns.config.with_overrides({"parts.together": on})
+    team = improve.Team.of([a, b])
+    changed = improve._swept_together(team, turns, Budget.of_seconds(30))
+    assert changed is on
+    assert len(fakes) == (2 if on else 0)  # a second pass lowers nothing: the loop ends
+    assert team.spent == ([1.5, 1.0] if on else [4.0, 1.0])  # b lowered again by a sweep after
+
+
+def _alone_then_kept(part: _Part) -> Any:
+    """``part``'s solves: around no one its plan alone, around others its plan as it is."""
+    spent = part.pm.model.values[("u", (part.first, 0, 0))]
+
+    def solve(fixed: dict[str, Any], budget: Budget, **_: Any) -> dict[str, Any]:
+        part.fixed.append(dict(fixed))
+        value = part.alone if not fixed else spent
+        part.pm.model.values.update(_u(part.first, value))
+        return {a: f"{a} {'alone' if not fixed else 'as planned'}" for a in part.agents}
+
+    return solve

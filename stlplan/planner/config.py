@@ -233,10 +233,11 @@ class PartsConfig(_Section):
     """While the first plan is improved, each synchronous task's run is started a step earlier
     while its elements can be planned again so (False: never). Measured:
     docs/measurements.md#a-synchronous-run-started-earlier."""
-    together: bool = True
+    together: bool = False
     """While the first plan is improved, a part whose plan spends more effort than its plan
-    around no one is planned together with the parts in that plan's way (False: never).
-    Measured: docs/measurements.md#parts-planned-together."""
+    around no one is planned together with the parts in that plan's way (False: never; within
+    the improvement's time it gains no more than the sweeps it shortens). Measured:
+    docs/measurements.md#parts-planned-together."""
     together_agents: int = Field(default=4, ge=2)
     """Most agents of parts planned together. Measured:
     docs/measurements.md#parts-planned-together."""
