@@ -1,0 +1,111 @@
+"""The repairs' knobs: a section of :class:`stlplan.planner.config.PlannerConfig`
+(``repair.*``), and the base of every section. No Pyomo, no HiGHS here."""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class Section(BaseModel):
+    """A section of the planner's knobs: unknown keys and wrong types refused."""
+
+    model_config = ConfigDict(
+        extra="forbid", frozen=True, strict=True, use_attribute_docstrings=True
+    )
+
+
+class RepairConfig(Section):
+    """Repairing a plan agent by agent (prioritized planning) while no plan meets every
+    requirement."""
+
+    after_round_seconds: float | None = Field(default=8.0, ge=0)
+    """A lazy round that took at least this long has its plan repaired before the next round
+    (None: never by duration). Measured: docs/dropped.md#the-repair-in-turn."""
+    crowd_agents: int | None = Field(default=7, ge=1)
+    """A lazy round, or a merge of parts, whose violated requirements name at least this many
+    agents is repaired in turn (None: never by crowd). Measured:
+    docs/measurements.md#the-16-agent-farm-with-doubled-counts."""
+    crowd_team: int | None = Field(default=10, ge=1)
+    """A merge's crowd is repaired in turn only in a team of this many agents or more (None: any).
+    Measured: docs/performance.md#crowded-merges-in-cases-i-iii."""
+    first_plan_rounds: bool = True
+    """Every round naming two agents or more of a lazy loop that looks for its first plan only
+    (``--first-plan``, a large team's parts), and every merge of a team of ``crowd_team`` agents
+    or more whose collisions name two agents or more, meanwhile, is repaired in turn.
+    Measured: docs/measurements.md#first-plans-repaired-at-once."""
+    by_elements: float | None = Field(default=0.5, gt=0, le=1)
+    """Before a first plan, in a loop that looks for one, a round's plan is first repaired by
+    elements (its task choices as parts of their own, planned in turn) within this share of the
+    loop's time left, and so is a merge of parts too large for the prioritized repair (None:
+    never). Measured: docs/measurements.md#the-repair-by-elements."""
+    by_elements_gap: float = Field(default=0.1, ge=0)
+    """Relative gap of the rounds of a loop that looks for its first plan, where its tasks
+    choose, while the repair by elements is on: the repair takes a round's choices, not its
+    optimum. Measured:
+    docs/measurements.md#the-repair-by-elements."""
+    share: float = Field(default=0.25, gt=0, le=1)
+    """Share of the lazy loop's time left that one repair between rounds may spend."""
+    first_plan_share: float = Field(default=0.75, gt=0, le=1)
+    """The same share in a loop that looks for its first plan only (the repair is its way to
+    a plan; the next round, a relaxation, rarely gives one). Measured:
+    docs/measurements.md#a-first-plan-under-a-short-time-limit."""
+    tasks_kept_seconds: float | None = Field(default=4.0, ge=0)
+    """Once a plan meets every requirement, a lazy round of at least this long whose plan breaks
+    requirements has that plan repaired with its task decisions kept (every binary but the lazy
+    requirements' held), within ``repair.share`` of the time left (None: never). Measured:
+    docs/performance.md#a-rounds-plan-with-its-task-decisions-kept."""
+    tasks_kept_gap: float = Field(default=1e-6, ge=0)
+    """Relative gap of that repair's solves: its plan should be the optimum of the problem with
+    the round's task decisions, the closest it can come to the round's bound."""
+    solves_per_turn: int = Field(default=10, ge=1)
+    """Solves of one agent's turn at most (each after adding what the last plan violated)."""
+    free_one_more: bool = True
+    """A turn without a plan is solved again with the agents in its way freed one at a time, the
+    most in the way first (False: all at once). Measured: docs/measurements.md#freed-one-at-a-time."""
+    formations_together: bool = True
+    """Each agent's turn is followed by its formation partners' (the other roles of the elements
+    it fills) rather than in the team's order. Measured: docs/measurements.md#formations-in-turn."""
+    keep_met: bool = True
+    """A turn whose agent's plan already meets the requirements it must meet there keeps it
+    without a solve (False: every turn solves). Measured: docs/measurements.md#turns-kept-as-they-are."""
+    window: int | None = Field(default=None, ge=0)
+    """Steps of a violated requirement's family (the same pair, or agent and constraint) a turn
+    adds with it (None: all of them). Measured: docs/measurements.md#the-24-agent-farm."""
+    gap: float = Field(default=0.01, ge=0)
+    """Relative gap of a repair's solves (a turn's, the held repair's rounds): the repair looks
+    for a plan, the rounds prove. Measured: docs/measurements.md#where-farm-x2s-first-plan-comes-from."""
+    held_exact_share: float = Field(default=0.5, ge=0, le=1)
+    """Share of its time the held repair of a merged part spends solving to the run's gap (its
+    plan may then prove the merged part); the rest, when that found no plan, goes to solving
+    to ``repair.gap``. Measured: docs/measurements.md#where-farm-x2s-first-plan-comes-from."""
+    solve_seconds: float = Field(default=1.0, gt=0)
+    """Time limit of one solve of a prioritized repair's turn, s: its best plan within it is
+    taken (the turn looks for a plan, not for its optimum). Measured:
+    docs/measurements.md#the-prioritized-repair."""
+    near: float = Field(default=0.3, ge=0)
+    """A prioritized turn adds, with the requirements against earlier parts its plan violates,
+    those it meets by less than this (fewer solves per turn). Measured:
+    docs/measurements.md#the-prioritized-repair."""
+    orders: int = Field(default=3, ge=0)
+    """Orders of the parts a prioritized repair of a merged crowd tries with the turns' MILPs, a
+    failed part moved before the parts in its way (0: no prioritized repair). Measured:
+    docs/measurements.md#the-prioritized-repair."""
+    guide: bool = True
+    """A prioritized turn of one agent that moves as a single integrator in the plane first
+    searches a grid of positions in time for a path around the earlier agents, and solves once
+    with the sides that path keeps (no binaries for them); without a plan it solves as usual.
+    Measured: docs/measurements.md#guided-turns."""
+    guided_orders: int = Field(default=16, ge=0)
+    """Orders a prioritized repair first tries with guided parts on their guide paths only,
+    before its ``repair.orders`` orders with the turns' MILPs. Measured:
+    docs/measurements.md#guided-turns."""
+    guide_near: float = Field(default=0.5, ge=0)
+    """A guided turn first holds the sides of the requirements its guide path meets by less
+    than this; the others when its plan breaks them. Measured: docs/measurements.md#guided-turns."""
+    part_agents: int = Field(default=4, ge=1)
+    """A prioritized repair runs only when the parts of the merge have at most this many agents
+    each: a larger part's turn is a MILP of its own that does not finish. Measured:
+    docs/measurements.md#guided-turns."""
+    hold: float = Field(default=1e-4, gt=0)
+    """How far a held state or input may move from its plan (room for HiGHS's integrality
+    tolerance, ``big-M * 1e-6``)."""
