@@ -22,7 +22,13 @@ LAYERS = (
     ),
     ("stlplan.formula",),
     ("stlplan.mission", "stlplan.examples"),
-    ("stlplan.monitor", "stlplan.analysis", "stlplan.planner.config", "stlplan.planner.budget"),
+    (
+        "stlplan.monitor",
+        "stlplan.analysis",
+        "stlplan.planner.config",
+        "stlplan.planner.config_repair",
+        "stlplan.planner.budget",
+    ),
     ("stlplan.planner.encoding",),
     ("stlplan.planner",),
     (
