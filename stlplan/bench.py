@@ -174,6 +174,7 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
         gap=None if result.gap is None else f"{result.gap:.2e}",
         rho_s=None if report is None else report.rho_s,
         objective=_step1_objective(result),
+        bound=None if result.bound is None else round(result.bound, 6) + 0.0,
         effort=None if result.effort is None else round(result.effort, 4) + 0.0,
         message=result.message,
     )

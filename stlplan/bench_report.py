@@ -17,7 +17,7 @@ COLUMNS = (
     "case", "seed", "run", "formulation", "variables", "binaries", "constraints", "build_s",
     "solve_s", "wall_s", "cpu_s", "first_plan_s", "rounds", "requirements_added",
     "requirements_candidates", "requirements_unneeded", "status", "accepted", "gap", "rho_s",
-    "objective", "effort", "message",
+    "objective", "bound", "effort", "message",
 )  # fmt: skip
 
 

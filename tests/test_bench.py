@@ -88,3 +88,13 @@ def test_the_summary_counts_plans_and_gives_the_latest_first_plan_and_largest_ga
     assert summary["max_gap"] == 0.02
     (planned,) = bench_report.summary_rows(rows[:2])
     assert planned["max_first_plan_s"] == 50.9 and planned["with_plan"] == 2
+
+
+def test_a_solve_row_records_step_1_objective_and_the_bound_it_ended_with() -> None:
+    job = bench.Job("stl/dwell", 0, "default", 60.0)
+    solved = bench.solve_job(job, seed=0, threads=1)
+    assert solved["status"] == "optimal" and solved["accepted"] is True
+    objective, bound = solved["objective"], solved["bound"]
+    assert isinstance(bound, float) and isinstance(objective, float)
+    assert bound >= objective - 1e-9
+    assert bound - objective <= bench_report.GAP * max(1.0, abs(objective)) + 1e-6
