@@ -10,7 +10,7 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.outcome import Plan
 from stlplan.planner.solve import plan
-from stlplan.planner.values import load_values, model_values, plan_of
+from stlplan.planner.values import load_values, model_values, plan_of, trajectory_values
 from stlplan.result import PlanStatus
 from tests.helpers.missions import detour_for_free, swap_problem
 
@@ -86,3 +86,18 @@ def test_the_time_to_the_first_plan_is_recorded(dotted: dict[str, bool]) -> None
     assert result.status is PlanStatus.OPTIMAL
     seconds = result.first_plan_seconds
     assert seconds is not None and 0 < seconds <= result.build_seconds + result.solve_seconds
+
+
+def test_trajectory_values_keep_states_and_inputs_of_the_agents_asked() -> None:
+    values = {
+        ("x", ("a", 0, 0)): 1.0,
+        ("u", ("a", 0, 1)): 2.0,
+        ("x", ("b", 3, 0)): 3.0,
+        ("spec.binaries", ("a", 0, 0)): 1.0,  # a numbered component: left out
+        ("rho_s", ("task",)): 4.0,
+    }
+    assert trajectory_values(values) == {k: v for k, v in values.items() if k[0] in ("x", "u")}
+    assert trajectory_values(values, {"a"}) == {
+        ("x", ("a", 0, 0)): 1.0,
+        ("u", ("a", 0, 1)): 2.0,
+    }

@@ -46,7 +46,7 @@ from stlplan.planner.outcome import Plan
 from stlplan.planner.prioritized import prioritized
 from stlplan.planner.repairs import Broken
 from stlplan.planner.team_split import agent_parts, sub_problem
-from stlplan.planner.values import load_values, model_values
+from stlplan.planner.values import load_values, model_values, trajectory_values
 
 RUN = "_run_e"
 """Between a synchronous task's name and an element's index in the name of the element's task
@@ -136,7 +136,7 @@ def _by_elements(
     a synchronous run started later for each part that holds one and finds no plan alone."""
     solver = broken.solver
     models = broken.parts or (solver.pm,)
-    states = {k: v for k, v in loaded.items() if k[0] in ("x", "u")}
+    states = trajectory_values(loaded)
     names = {s.task.name for pm in models for s in pm.synchronous}
     late: dict[str, int] = {}
     built: dict[Any, Any] = {}

@@ -59,7 +59,7 @@ from stlplan.planner.outcome import Outcome, Plan, relative_gap
 from stlplan.planner.overlay import States
 from stlplan.planner.prioritized import Turn, held_plan, requirements_naming
 from stlplan.planner.together import together
-from stlplan.planner.values import effort, load_values, model_values
+from stlplan.planner.values import effort, load_values, model_values, trajectory_values
 from stlplan.planner.watch import load_plan
 from stlplan.runtime import signals
 
@@ -184,7 +184,7 @@ class Turns:
     def of(self, elements: Problem, values: dict[Any, float]) -> list[Turn]:
         """The turns of ``elements``'s parts, a new part's model loaded with ``values`` (states
         of the team's current plan)."""
-        states = {k: v for k, v in values.items() if k[0] in ("x", "u")}
+        states = trajectory_values(values)
         out = []
         for group in self.groups:
             part = element_part(
@@ -242,7 +242,7 @@ class Team:
         """The states and inputs of the team's current plan, by variable."""
         out: dict[Any, float] = {}
         for kept in self.kept:
-            out.update((k, v) for k, v in kept.items() if k[0] in ("x", "u"))
+            out.update(trajectory_values(kept))
         return out
 
     def take(self, i: int, turn: Any, found: States) -> None:

@@ -45,7 +45,7 @@ from stlplan.planner.in_turn import hold_agents, release
 from stlplan.planner.outcome import Plan
 from stlplan.planner.overlay import States, overlay_context
 from stlplan.planner.session import HighsSession, has_solution
-from stlplan.planner.values import load_values, model_values
+from stlplan.planner.values import load_values, model_values, trajectory_values
 from stlplan.planner.watch import (
     VIOLATION_TOL,
     least_margin,
@@ -363,7 +363,7 @@ def held_plan(
     """The merged model solved once with every agent held near the turns' plans."""
     pm, planned = merged.pm, dict[Any, float]()
     for turn in turns:
-        planned.update((k, v) for k, v in model_values(turn.pm.model).items() if k[0] in ("x", "u"))
+        planned.update(trajectory_values(model_values(turn.pm.model)))
     load_values(pm.model, planned)
     # a requirement the turns' plans meet with less to spare than the holds allow to move
     # (both agents of a pair) would be broken by the held solve: it goes in with them

@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 from stlplan.planner.budget import Budget
@@ -26,7 +26,7 @@ from stlplan.planner.by_elements import element_part
 from stlplan.planner.outcome import Plan
 from stlplan.planner.overlay import States
 from stlplan.planner.prioritized import Turn
-from stlplan.planner.values import effort, load_values, model_values
+from stlplan.planner.values import effort, load_values, model_values, trajectory_values
 from stlplan.runtime import signals
 
 _log = logging.getLogger(__name__)
@@ -97,7 +97,7 @@ def _planned_together(team: Any, turns: Any, members: Sequence[int], budget: Bud
     plans; their new plans taken when they spend less effort. Whether they were."""
     turn = _joint_turn(team, turns, members, budget)
     agents = turn.agents
-    start = _states_of(team.values(), agents)  # HiGHS completes the rest
+    start = trajectory_values(team.values(), agents)  # HiGHS completes the rest
     fixed = {a: s for j, plan in enumerate(team.plans) if j not in members for a, s in plan.items()}
     found = turn.solve(fixed, budget, start=Plan(math.nan, start))
     turn.clear()
@@ -108,14 +108,9 @@ def _planned_together(team: Any, turns: Any, members: Sequence[int], budget: Bud
     values = model_values(turn.pm.model)
     for m in members:
         part = team.turns[m]
-        load_values(part.pm.model, _states_of(values, part.agents))
+        load_values(part.pm.model, trajectory_values(values, part.agents))
         team.take(m, part, {a: found[a] for a in part.agents})
     return True
-
-
-def _states_of(values: Mapping[Any, float], agents: Collection[str]) -> dict[Any, float]:
-    """The states and inputs of ``agents`` among ``values`` (keys ``("x", (agent, k, i))``)."""
-    return {k: v for k, v in values.items() if k[0] in ("x", "u") and k[1][0] in agents}
 
 
 def _joint_turn(team: Any, turns: Any, members: Sequence[int], budget: Budget) -> Turn:
@@ -125,7 +120,7 @@ def _joint_turn(team: Any, turns: Any, members: Sequence[int], budget: Budget) -
     agents = tuple(a.name for a in turns.problem.agents if any(a.name in p.agents for p in parts))
     tasks = tuple(t for p in parts for t in p.pm.problem.tasks)
     joint = dataclasses.replace(turns.problem, tasks=tasks, _by_name={})
-    states = _states_of(team.values(), agents)
+    states = trajectory_values(team.values(), agents)
     config = turns.config.with_overrides(
         {"repair.solve_seconds": turns.config.parts.together_seconds}
     )

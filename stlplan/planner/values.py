@@ -10,7 +10,7 @@ keys name the same variables: a numbered component's index may stand for another
 
 from __future__ import annotations
 
-from collections.abc import Hashable, Iterable, Mapping
+from collections.abc import Collection, Hashable, Iterable, Mapping
 from typing import Any
 
 import numpy as np
@@ -28,6 +28,18 @@ def var_key(var: Any) -> VarKey:
 def effort(model: ConcreteModel) -> float:
     """The L1 effort of the inputs loaded in ``model`` (the effort step 1 counts)."""
     return sum(abs(v) for k, v in model_values(model).items() if k[0] == "u")
+
+
+def trajectory_values(
+    values: Mapping[VarKey, float], agents: Collection[str] | None = None
+) -> dict[VarKey, float]:
+    """The states and inputs among ``values`` (keys ``("x", (agent, k, i))`` and ``("u", ...)``),
+    of ``agents`` only when given: the values that mean the same in every model."""
+    return {
+        k: v
+        for k, v in values.items()
+        if k[0] in ("x", "u") and (agents is None or k[1][0] in agents)  # type: ignore[index]
+    }
 
 
 def model_values(model: ConcreteModel) -> dict[VarKey, float]:
