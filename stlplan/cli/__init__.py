@@ -24,7 +24,8 @@ from stlplan.runtime import signals
 EPILOG = (
     "Exit codes: 0 satisfied or valid, 1 a checked trajectory violates the mission, 2 usage "
     "error, 3 bad input, 4 infeasible, 5 no plan within the time limit, 6 solver error or a plan "
-    "the monitor rejects, 70 internal error, 130 / 143 stopped by Ctrl-C / SIGTERM. Every "
+    "the monitor rejects, 7 a degraded plan (solve --degrade, replan), 70 internal error, "
+    "130 / 143 stopped by Ctrl-C / SIGTERM. Every "
     "command takes --json (one JSON document on stdout) and --quiet (one line)."
 )
 

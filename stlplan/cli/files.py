@@ -214,7 +214,8 @@ def example(
     quiet: QuietOption = False,
 ) -> None:
     """Write one of the shipped missions (paper Cases I-III, small ones, the scaled farms of
-    missions/scale and the STL suite of missions/stl) to start from.
+    missions/scale, the crowds of missions/crowd and the STL suite of missions/stl) to start
+    from.
 
     Its schema line points at the schema installed with stlplan, from where it is written.
     """
