@@ -23,7 +23,8 @@ COLUMNS = (
 
 def summary_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     """Per case and formulation: runs, how many ended with a plan, optimal and accepted counts,
-    mean/median/max wall time, the latest first plan and the largest gap of a plan."""
+    mean/median/max wall time, the latest first plan and the largest gap of a plan: the written
+    plan's, and step 1's plan's to the bound."""
     out = []
     keys = sorted({(r["case"], r["formulation"]) for r in rows}, key=lambda k: (k[0], k[1]))
     for case, name in keys:
@@ -44,8 +45,17 @@ def summary_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
             "mean_rounds": round(float(np.mean([float(r.get("rounds") or 1) for r in mine])), 1),
             "max_first_plan_s": _largest(r.get("first_plan_s") for r in mine),
             "max_gap": _largest(r.get("gap") for r in mine if _has_plan(r)),
+            "max_step1_gap": _largest(_step1_gap(r) for r in mine if _has_plan(r)),
         })  # fmt: skip
     return out
+
+
+def _step1_gap(row: dict[str, Any]) -> float | None:
+    """The gap of step 1's plan (before step 2 moved it) to the bound the run ended with."""
+    objective, bound = _number(row.get("objective")), _number(row.get("bound"))
+    if objective is None or bound is None or objective == 0:
+        return None
+    return round(max(0.0, (bound - objective) / abs(objective)), 6)
 
 
 def _has_plan(row: dict[str, Any]) -> bool:

@@ -78,14 +78,25 @@ def test_crowd_cases_run_once_as_written() -> None:
 
 def test_the_summary_counts_plans_and_gives_the_latest_first_plan_and_largest_gap() -> None:
     rows = [
-        {**row(0, "default", 600.0, "feasible", 2.5), "first_plan_s": 50.9, "gap": 0.02},
-        {**row(1, "default", 300.0, "optimal", 2.4), "first_plan_s": 26.2, "gap": 1e-5},
+        {
+            **row(0, "default", 600.0, "feasible", 2.5),
+            "first_plan_s": 50.9,
+            "gap": 0.02,
+            "bound": 2.6,
+        },
+        {
+            **row(1, "default", 300.0, "optimal", 2.4),
+            "first_plan_s": 26.2,
+            "gap": 1e-5,
+            "bound": 2.4001,
+        },
         {**row(2, "default", 600.0, "no_plan", None), "first_plan_s": None, "gap": None},
     ]
     (summary,) = bench_report.summary_rows(rows)
     assert summary["runs"] == 3 and summary["with_plan"] == 2 and summary["optimal"] == 1
     assert summary["max_first_plan_s"] is None  # a run without a plan has no first plan
     assert summary["max_gap"] == 0.02
+    assert summary["max_step1_gap"] == 0.04  # (2.6 - 2.5) / 2.5: step 1's plan to the bound
     (planned,) = bench_report.summary_rows(rows[:2])
     assert planned["max_first_plan_s"] == 50.9 and planned["with_plan"] == 2
 
