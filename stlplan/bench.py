@@ -163,6 +163,8 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
         first_plan_s=None
         if result.first_plan_seconds is None
         else round(result.first_plan_seconds, 2),
+        first_plan_stage=result.trace.get("first_plan"),
+        final_plan_stage=result.trace.get("final_plan"),
         rounds=result.rounds,
         requirements_added=result.requirements_added,
         requirements_candidates=result.requirements_candidates,

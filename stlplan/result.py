@@ -331,6 +331,11 @@ class PlanResult:
     convergence: tuple[ConvergencePoint, ...] = ()
     """The whole problem's incumbent and bound over step 1, thinned, in time order (empty
     when neither was ever known)."""
+    trace: Mapping[str, Any] = field(default_factory=dict)
+    """Every incumbent of step 1 credited to the stage that found it, and each stage's seconds
+    (:mod:`stlplan.planner.trace`): ``incumbents`` (``at``, ``objective``, ``stage``, ``part``,
+    and for an assembly ``parts``: how many parts' plans each stage found), ``stages`` (s),
+    ``first_plan`` and ``final_plan`` (the stages that found the first and the best plan)."""
     replan: Replan | None = None
     """For a replan: its step, events and time (None for a plan from the initial states)."""
     dropped: tuple[Dropped, ...] = ()

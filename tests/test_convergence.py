@@ -14,7 +14,6 @@ import pytest
 
 import stlplan.planner.components as components_module
 from stlplan import api
-from stlplan.mission.problem import Problem
 from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.convergence import THIN_SECONDS, Convergence, known
@@ -22,7 +21,7 @@ from stlplan.planner.lazy import LazySolver
 from stlplan.planner.session import HighsSession
 from stlplan.planner.solve import plan
 from stlplan.result import ConvergencePoint, PlanResult, PlanStatus
-from tests.helpers.missions import crossing_problem, mission
+from tests.helpers.missions import crossing_problem, sync_and_errand
 from tests.helpers.paths import PAIR
 from tests.helpers.solving import up_front_optimum
 
@@ -107,31 +106,6 @@ def test_the_clock_records_only_a_tighter_bound_unless_forced() -> None:
 
 
 # ------------------------------------------------------------------------- solved missions
-def sync_and_errand() -> Problem:
-    """Two parts: a and b meet in Goal (a synchronous task, ``rho_s`` up to 4), c runs an errand
-    to S. The whole optimum is about ``rho_s - 0.1 * effort`` > 0, c's part alone only
-    ``-0.1 * effort_c`` < 0: a part's bound recorded as the whole's would fall below the optimum."""
-    agents = [
-        {"name": "a", "dynamics": "si", "capabilities": ["X"], "initial_state": [0, 0]},
-        {"name": "b", "dynamics": "si", "capabilities": ["X"], "initial_state": [0, 1]},
-        {"name": "c", "dynamics": "si", "capabilities": ["Y"], "initial_state": [4, 0]},
-    ]
-    return mission(
-        horizon=7,
-        agents=agents,
-        regions={"Goal": {"box": [[1, 2], [0, 1]]}, "S": {"box": [[4, 5], [3, 4]]}},
-        tasks={
-            "meet": {
-                "formula": "in(p, Goal)",
-                "count": 2,
-                "roles": {"p": "X"},
-                "synchronous": {"within": [1, 3], "hold": 1},
-            },
-            "errand": {"formula": "F[3,5] in(p, S)", "roles": {"p": "Y"}},
-        },
-        separation=0.05,
-        objective={"beta": 0.1, "gamma": 4, "effort": "l1"},
-    )
 
 
 @pytest.fixture

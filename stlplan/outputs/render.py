@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 from rich.console import Console
 from rich.table import Table
@@ -157,11 +158,27 @@ def print_plan(console: Console, result: PlanResult, verbose: bool = False) -> N
     if verbose:
         for event in result.events:
             console.print(f"[bold]run[/]        {event}")
+        print_trace(console, result.trace)
     print_confirmations(console, result, verbose)
     if result.report is not None:
         print_report(console, result.report, result.dropped)
     if result.diagnosis is not None:
         print_diagnosis(console, result.diagnosis)
+
+
+def print_trace(console: Console, trace: Mapping[str, Any]) -> None:
+    """Each incumbent of step 1 with the stage that found it, then each stage's seconds."""
+    for found in trace.get("incumbents", ()):
+        parts = found.get("parts") or {}
+        made = f" from {', '.join(f'{n} by {s}' for s, n in parts.items())}" if parts else ""
+        console.print(
+            f"[bold]plan[/]       {_num(found['objective'], 6)} at {found['at']:.2f} s by "
+            f"{found['stage']} ({found['part']}){made}"
+        )
+    stages = trace.get("stages") or {}
+    if stages:
+        spent = ", ".join(f"{stage} {seconds:.2f} s" for stage, seconds in stages.items())
+        console.print(f"[bold]stages[/]     {spent}")
 
 
 def _solver_note(mine: float | None, theirs: float | None) -> str:

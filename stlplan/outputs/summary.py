@@ -100,6 +100,7 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "first_plan_seconds": result.first_plan_seconds,
         "convergence": [dataclasses.asdict(point) for point in result.convergence],
         "stage_seconds": dict(result.stage_seconds),
+        "trace": dict(result.trace),
         "config": dict(result.config),
         "fallback": fallback_dict(result.fallback),
         "replan": None if result.replan is None else dataclasses.asdict(result.replan),

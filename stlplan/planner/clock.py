@@ -19,6 +19,7 @@ from typing import Any, Literal
 
 from stlplan.planner.convergence import Convergence
 from stlplan.planner.reached import Reached, agent_names
+from stlplan.planner.trace import Incumbent, Trace
 from stlplan.result import Confirmation
 
 Phase = Literal["build", "step1", "step2", "polish", "done"]
@@ -86,13 +87,26 @@ class Clock:
     """Parts solved side by side report one at a time: the progress callback is never called
     from two threads at once."""
 
-    def plan_found(self, objective: float | None) -> None:
+    @property
+    def trace(self) -> Trace:
+        """Every incumbent credited to its stage, and each stage's seconds."""
+        return self.reached.trace
+
+    def plan_found(
+        self, objective: float | None, stage: str | None = None, parts: dict[str, int] | None = None
+    ) -> None:
         """Note that step 1 holds a plan of the whole problem with ``objective`` (the first time
-        is the first plan's)."""
+        is the first plan's), found by ``stage`` (default: the calling thread's part's) from the
+        plans of ``parts`` (an assembly: how many of them each stage found)."""
         at = self.elapsed()
         if self.first_plan is None:
             self.first_plan = at
         self.convergence.found(at, objective)
+        if objective is not None:
+            track = self.reached.track
+            part = agent_names(track.part, self.reached.order or track.part)
+            found = Incumbent(at, objective, stage or track.stage, part, parts or {})
+            self.trace.credit(found)
 
     def bound_found(self, bound: float | None, force: bool = False) -> None:
         """Note a bound of the whole problem (``force``: a point even when it is not tighter)."""

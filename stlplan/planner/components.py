@@ -287,5 +287,6 @@ def _assembled(
         if objective is None:
             clock.reached.failed("assembly")
     if objective is not None:
-        clock.plan_found(objective)
+        parts_agents = [[a.name for a in p.pm.problem.agents] for p in parts]
+        clock.plan_found(objective, "assembly", clock.reached.sources(parts_agents))
     return objective

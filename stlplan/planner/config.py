@@ -132,17 +132,6 @@ class PartsConfig(_Section):
     """While the first plan is improved, each synchronous task's run is started a step earlier
     while its elements can be planned again so (False: never). Measured:
     docs/measurements.md#a-synchronous-run-started-earlier."""
-    together: bool = False
-    """While the first plan is improved, a part whose plan spends more effort than its plan
-    around no one is planned together with the parts in that plan's way (False: never; within
-    the improvement's time it gains no more than the sweeps it shortens). Measured:
-    docs/measurements.md#parts-planned-together."""
-    together_agents: int = Field(default=4, ge=2)
-    """Most agents of parts planned together. Measured:
-    docs/measurements.md#parts-planned-together."""
-    together_seconds: float = Field(default=5.0, gt=0)
-    """Time limit of one solve of parts planned together, s. Measured:
-    docs/measurements.md#parts-planned-together."""
     plan_around_published: bool = True
     """While looking for a first plan, a part whose lazy loop found one publishes it, and the
     repairs in turn of the parts still looking for theirs plan around it; before a merge that

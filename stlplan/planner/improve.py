@@ -20,13 +20,9 @@ moving obstacles (a prioritized turn, :class:`~stlplan.planner.prioritized.Turn`
   the parts still in its way are planned again after it (an ejection chain). The earlier run is
   kept when every part planned again finds a plan (one step more synchronous robustness, often
   for more effort), left as it was otherwise;
-- **parts together** (:mod:`stlplan.planner.together`): a part that spends more than it would
-  alone planned in one turn with the parts in its way.
 
 Sweeps run first, within half of ``SWEEPS_SHARE`` of ``parts.improve_share`` of the time left;
-then the earlier runs and, after them, sweeps again within the rest; with ``parts.together``,
-within half of the rest, then parts together and sweeps, in turn, while that lowers the
-effort. The plans of the team after
+then the earlier runs and, after them, sweeps again within the rest. The plans of the team after
 the first sweeps and after the earlier runs are each joined in the model of the whole team,
 solved once with every agent held near its plan
 (:func:`~stlplan.planner.prioritized.held_plan`); the better is taken when its objective is
@@ -58,7 +54,6 @@ from stlplan.planner.lazy import LazySolver
 from stlplan.planner.outcome import Outcome, Plan, relative_gap
 from stlplan.planner.overlay import States
 from stlplan.planner.prioritized import Turn, held_plan, requirements_naming
-from stlplan.planner.together import together
 from stlplan.planner.values import effort, load_values, model_values, trajectory_values
 from stlplan.planner.watch import load_plan
 from stlplan.runtime import signals
@@ -97,7 +92,7 @@ def improved(
             load_plan(full, saved, before)
     if plan is None or not taken:
         return solved
-    clock.plan_found(plan.objective)
+    clock.plan_found(plan.objective, "improvement by elements")
     gap = relative_gap(plan.objective, done.bound)
     return full, dataclasses.replace(done, objective=plan.objective, gap=gap)
 
@@ -123,21 +118,9 @@ def _improved(
         first = sweeps(team, within.share(0.5))
         before = team.copy()
         moved = config.parts.earlier_runs and earlier_runs(team, turns, within)
-        swept = _swept_together(team, turns, within) or first
+        swept = sweeps(team, within) or first
         teams = [team, before] if moved and first else [team] if moved or swept else []
         return _joined(whole, teams, config, budget)
-
-
-def _swept_together(team: Team, turns: Turns, budget: Budget) -> bool:
-    """Sweeps, then parts planned together (:func:`~stlplan.planner.together.together`) and
-    sweeps again while that lowers the effort; whether any plan changed."""
-    if not turns.config.parts.together:
-        return sweeps(team, budget)
-    changed = sweeps(team, budget.share(0.5))
-    while not budget.expired() and together(team, turns, budget):
-        changed = True
-        sweeps(team, budget.share(0.5))
-    return changed
 
 
 def _joined(
@@ -178,8 +161,6 @@ class Turns:
         self.naming = requirements_naming(full)
         self.built: dict[Any, Any] = {}
         self.made: dict[int, Turn] = {}
-        self.alone: dict[int, Any] = {}
-        """Each turn's plan around no one and its effort (None: no plan), by the turn's id."""
 
     def of(self, elements: Problem, values: dict[Any, float]) -> list[Turn]:
         """The turns of ``elements``'s parts, a new part's model loaded with ``values`` (states

@@ -91,6 +91,7 @@ class LazySolver:
                 self.session.solver.config.rel_gap = self._first_gap(config.solver.gap)
             self.session.highs.cbMipImprovingSolution += self.watch.on_plan
             self.session.highs.cbMipInterrupt += self.watch.maybe_stop
+            self.watch.found = self._kept
         elif config.solver.first_plan:  # every requirement in the model: HiGHS's first plan
             options = self.session.solver.config.solver_options
             self.session.solver.config.solver_options = {**options, "mip_max_improving_sols": 1}
@@ -101,8 +102,13 @@ class LazySolver:
         """Other parts' first plans for the repairs to plan around (:mod:`.published`)."""
         if whole:
             follow(self.session.highs, lambda: self.session.trial, clock, pm.deferral is None)
-            if self.watch is not None:
-                self.watch.found = clock.plan_found
+
+    def _kept(self, objective: float) -> None:
+        """The watch kept a plan with ``objective``: credited to the stage the part is in, and
+        for the whole team's model a plan of the run (:mod:`stlplan.planner.trace`)."""
+        self.clock.reached.kept()
+        if self.whole:
+            self.clock.plan_found(objective)
 
     def sibling(self, pm: PlanModel) -> LazySolver:
         """A lazy loop of another model (a part's) with this loop's configuration, clock and
@@ -269,7 +275,8 @@ class LazySolver:
         if given_up is not None:
             return given_up
         self.clock.reached.enter("completion")  # the last stage: it ends the part's solve
-        return complete(self.pm, self.session, last, tick, rounds, budget.finishing())
+        with self.clock.reached.timed("completion"):
+            return complete(self.pm, self.session, last, tick, rounds, budget.finishing())
 
     def _from_best(self, last: Solved, tick: float, rounds: int, status: PlanStatus) -> Outcome:
         """Load the best plan feasible for the full problem; the bound is the last round's.

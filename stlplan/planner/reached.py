@@ -21,9 +21,12 @@ from __future__ import annotations
 
 import contextlib
 import threading
+import time
+from collections import Counter
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 
+from stlplan.planner.trace import Trace
 from stlplan.words import counted
 
 SHOWN = 3
@@ -73,6 +76,8 @@ class Track:
         The part's lazy rounds so far, and the requirements its model held in the last one.
     notes
         The part's earlier stages that ended without a plan, each with how far it got.
+    plan_from
+        The stage the part was in when its loop last kept a plan (None: none kept yet).
     """
 
     part: tuple[str, ...] = ()
@@ -82,6 +87,14 @@ class Track:
     rounds: int = 0
     held: int = 0
     notes: list[str] = field(default_factory=list)
+    plan_from: str | None = None
+
+    def source(self) -> str:
+        """The stage that found the part's plan: a completion, else the stage its loop last kept
+        a plan in, else its stage (a model without lazy requirements keeps no plan aside)."""
+        if self.stage == "completion" or self.plan_from is None:
+            return self.stage
+        return self.plan_from
 
 
 @dataclass
@@ -97,12 +110,16 @@ class Reached:
     parts, planned, merges
         Parts the team was split into, how many of them planned on their own, and the merges
         of parts whose plans collided (1, 0 and 0 for a team solved whole).
+    trace
+        Every incumbent credited to its stage, and each stage's seconds
+        (:mod:`stlplan.planner.trace`).
     """
 
     order: tuple[str, ...] = ()
     parts: int = 1
     planned: int = 0
     merges: int = 0
+    trace: Trace = field(default_factory=Trace)
     _tracks: dict[tuple[str, ...], Track] = field(default_factory=dict, repr=False)
     _local: threading.local = field(default_factory=threading.local, repr=False)
     _first: Track = field(default_factory=Track, repr=False)
@@ -128,7 +145,7 @@ class Reached:
         key = tuple(agents)
         track = self._tracks.setdefault(key, Track(key))
         if track is not self.track:
-            track.rounds, track.held, track.notes = 0, 0, []
+            track.rounds, track.held, track.notes, track.plan_from = 0, 0, [], None
         self._local.track = track
         track.merged_from, track.stage, track.progress = merged_from, "lazy rounds", ""
 
@@ -155,9 +172,28 @@ class Reached:
         before = track.stage, track.progress
         self.enter(stage)
         try:
-            yield
+            with self.timed(stage):
+                yield
         finally:
             track.stage, track.progress = before
+
+    @contextlib.contextmanager
+    def timed(self, stage: str) -> Iterator[None]:
+        """Add the block's wall time to ``stage``'s seconds in the trace."""
+        tick = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.trace.spent(stage, time.perf_counter() - tick)
+
+    def kept(self) -> None:
+        """The calling thread's part kept a plan in its current stage."""
+        self.track.plan_from = self.track.stage
+
+    def sources(self, parts: Sequence[Sequence[str]]) -> dict[str, int]:
+        """How many of the plans of ``parts`` (each its agents) each stage found."""
+        tracks = [self._tracks.get(tuple(agents)) for agents in parts]
+        return dict(Counter(track.source() for track in tracks if track is not None))
 
     def turns(self, repaired: int, freed: int) -> None:
         """A repair in turn has repaired ``repaired`` of the ``freed`` agents."""

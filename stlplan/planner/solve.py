@@ -127,6 +127,7 @@ def _strict_retry(run: _Run) -> None:
     first = dataclasses.replace(run)
     run.config, run.strictly = strict(run.config), True
     run.clock.convergence.restart(run.clock.elapsed())  # the first plan met its decisions loosely
+    run.clock.trace.restart()
     _step_one(run)
     _continuous(run)
     out_of_time = (PlanStatus.NO_PLAN, PlanStatus.INTERRUPTED_NO_PLAN)
@@ -209,6 +210,7 @@ def _readout(run: _Run) -> PlanResult:
         "round_log": tuple(clock.round_log),
         "first_plan_seconds": clock.first_plan if step1.status.has_plan else None,
         "convergence": tuple(clock.convergence.points),
+        "trace": clock.trace.record(clock.round_log),
     }
     build, solve = clock.build_seconds, clock.elapsed() - clock.build_seconds
     if not step1.status.has_plan:
