@@ -182,7 +182,7 @@ def solve(
 
     ``animation``: write ``plan.gif`` (and ``plan.mp4``) too; ``viewer``: write ``plan.html``
     too (:func:`write_plan`). ``progress`` is called with each
-    :class:`~stlplan.planner.clock.Progress`, one call at a time, from the thread that solves
+    :class:`~stlplan.planner.run.clock.Progress`, one call at a time, from the thread that solves
     (with two threads or more, parts are solved in threads of their own).
     """
     # a bad mission leaves no output folder behind

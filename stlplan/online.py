@@ -22,8 +22,8 @@ from stlplan.errors import EventError
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from stlplan.pipeline import plan
-from stlplan.planner.outcome import Plan
 from stlplan.planner.overrides import Overrides
+from stlplan.planner.run.outcome import Plan
 from stlplan.replanning import replan
 from stlplan.result import PlanResult, Trajectory
 

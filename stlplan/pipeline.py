@@ -20,10 +20,10 @@ from stlplan.degraded import degrade
 from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
 from stlplan.native_output import discard_highs_banner
-from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.outcome import Plan
 from stlplan.planner.overrides import Overrides
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.outcome import Plan
 from stlplan.result import Confirmation, PlanResult, PlanStatus
 from stlplan.runtime import signals
 from stlplan.verify import verified

@@ -32,12 +32,12 @@ import numpy as np
 from stlplan.bench import initial_problem
 from stlplan.mission.problem import Problem
 from stlplan.pipeline import plan
+from stlplan.planner.backend.values import var_key
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.alphas import alpha_values
 from stlplan.planner.encoding.deferred import kind
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.overrides import Overrides
-from stlplan.planner.values import var_key
 from stlplan.result import PlanResult
 
 BINDING = 1e-3

@@ -18,8 +18,8 @@ import numpy as np
 
 from stlplan.mission.past import replanned
 from stlplan.mission.problem import Problem
-from stlplan.planner.outcome import Plan, VarKey
 from stlplan.planner.overrides import Overrides
+from stlplan.planner.run.outcome import Plan, VarKey
 from stlplan.result import PlanResult, Replan, Trajectory
 
 

@@ -245,7 +245,7 @@ class Fallback:
 @dataclass(frozen=True)
 class ConvergencePoint:
     """The whole problem's incumbent and bound at one moment of step 1
-    (:mod:`stlplan.planner.convergence` says which figures count)."""
+    (:mod:`stlplan.planner.run.convergence` says which figures count)."""
 
     at: float
     """Seconds since planning started."""
@@ -333,7 +333,7 @@ class PlanResult:
     when neither was ever known)."""
     trace: Mapping[str, Any] = field(default_factory=dict)
     """Every incumbent of step 1 credited to the stage that found it, and each stage's seconds
-    (:mod:`stlplan.planner.trace`): ``incumbents`` (``at``, ``objective``, ``stage``, ``part``,
+    (:mod:`stlplan.planner.run.trace`): ``incumbents`` (``at``, ``objective``, ``stage``, ``part``,
     and for an assembly ``parts``: how many parts' plans each stage found), ``stages`` (s),
     ``first_plan`` and ``final_plan`` (the stages that found the first and the best plan)."""
     replan: Replan | None = None

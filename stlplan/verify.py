@@ -26,7 +26,7 @@ import numpy as np
 from stlplan.errors import SolverError
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
-from stlplan.planner.outcome import gap_words, relative_gap
+from stlplan.planner.run.outcome import gap_words, relative_gap
 from stlplan.result import (
     Dropped,
     MonitorReport,

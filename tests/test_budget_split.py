@@ -1,4 +1,4 @@
-"""The run's time shared out (stlplan.planner.budget.Budget), on a clock the tests move."""
+"""The run's time shared out (stlplan.planner.run.budget.Budget), on a clock the tests move."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from stlplan import api
-from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.run.budget import Budget
 from tests.helpers.paths import MISSIONS
 
 

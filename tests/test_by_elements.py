@@ -9,16 +9,21 @@ import pytest
 from stlplan.formula.tree import Always, Interval
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check
-from stlplan.planner import by_elements
-from stlplan.planner.budget import Budget
-from stlplan.planner.by_elements import element_problem, element_tasks, has_choices, run_of
-from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.core.in_turn import InTurn
+from stlplan.planner.core.parts import build_part
+from stlplan.planner.core.repairs import Broken
+from stlplan.planner.core.team_split import agent_parts
 from stlplan.planner.encoding.readout import chosen, chosen_run
-from stlplan.planner.in_turn import InTurn
-from stlplan.planner.parts import build_part
-from stlplan.planner.repairs import Broken
-from stlplan.planner.team_split import agent_parts
+from stlplan.planner.first_plan import by_elements
+from stlplan.planner.first_plan.by_elements import (
+    element_problem,
+    element_tasks,
+    has_choices,
+    run_of,
+)
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock
 from tests.helpers.missions import crossing_problem, mission
 from tests.helpers.solving import accepted, solve
 

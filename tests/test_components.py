@@ -9,20 +9,20 @@ from typing import Any
 import pytest
 
 from stlplan.formula.boundary import EPSILON
-from stlplan.planner.budget import Budget
-from stlplan.planner.clock import Clock
-from stlplan.planner.components import crossing_requirements, solve_in_shares, solve_parts
+from stlplan.planner.backend.session import HighsSession
+from stlplan.planner.backend.values import plan_of
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.core.components import crossing_requirements, solve_in_shares, solve_parts
+from stlplan.planner.core.lazy import LazySolver
+from stlplan.planner.core.parts import Part
+from stlplan.planner.core.repairs import Broken, HeldRepair
+from stlplan.planner.core.team_split import agent_parts, sub_problem
 from stlplan.planner.encoding.deferred import requirement_key
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.lazy import LazySolver
-from stlplan.planner.outcome import Outcome, Plan
-from stlplan.planner.parts import Part
-from stlplan.planner.repairs import Broken, HeldRepair
-from stlplan.planner.session import HighsSession
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock
+from stlplan.planner.run.outcome import Outcome, Plan
 from stlplan.planner.solve import plan
-from stlplan.planner.team_split import agent_parts, sub_problem
-from stlplan.planner.values import plan_of
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model
 from tests.helpers.missions import detour_for_free, mission, swap_problem
@@ -292,8 +292,8 @@ def test_every_solve_of_a_merged_part_is_a_round_of_its_own() -> None:
 
 
 def test_a_merge_of_the_whole_team_reuses_the_whole_teams_requirements() -> None:
-    from stlplan.planner.merges import merged_parts
-    from stlplan.planner.parts import build_part
+    from stlplan.planner.core.merges import merged_parts
+    from stlplan.planner.core.parts import build_part
 
     config, clock, budget = PlannerConfig(), Clock(0.0, None), Budget.of_seconds(60)
     problem = two_teams(separation=0.5)

@@ -19,6 +19,7 @@ from stlplan.planner.encoding.stl import StlContext
 from stlplan.planner.overrides import Overrides
 from stlplan.planner.solve import model_size
 from stlplan.planner.strategy import describe
+from tests.helpers import knob_table
 from tests.helpers.paths import MISSIONS, ROOT
 
 PAIR = MISSIONS / "sync-pair.yaml"
@@ -150,3 +151,16 @@ def test_the_planner_page_lists_every_knob() -> None:
     page = (ROOT / "docs" / "planner.md").read_text()
     missing = [name for name in PlannerConfig().dotted() if f"`{name}`" not in page]
     assert not missing
+
+
+def test_the_knob_table_is_the_one_the_code_gives() -> None:
+    # regenerate with: python -m tests.helpers.knob_table
+    page = (ROOT / "docs" / "planner.md").read_text()
+    assert knob_table.page_table(page) == knob_table.table()
+
+
+def test_every_knob_acts_somewhere() -> None:
+    acting = knob_table.readers()
+    assert not [name for name in PlannerConfig().dotted() if not acting.get(name)]
+    assert "planner/core/policy.py" in acting["repair.crowd_agents"]
+    assert "planner/run/budget.py" in acting["budget.grace_share"]  # read through an alias

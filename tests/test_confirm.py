@@ -1,4 +1,4 @@
-"""Confirmation of HiGHS's infeasible verdicts (stlplan.planner.confirm)."""
+"""Confirmation of HiGHS's infeasible verdicts (stlplan.planner.backend.confirm)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 
 from stlplan import api
 from stlplan.api import Overrides
-from stlplan.planner.confirm import attempts, has_plan, option, verdict
+from stlplan.planner.backend.confirm import attempts, has_plan, option, verdict
 from tests.helpers.confirming import solve_confirmed
 from tests.helpers.paths import DATA, MISSIONS
 
@@ -113,7 +113,7 @@ def test_a_false_verdict_in_a_lazy_round_is_overturned_and_the_loop_goes_on(
     """The first step-1 solve is made infeasible by a row HiGHS alone sees, removed after it."""
     import highspy as hs
 
-    from stlplan.planner.session import HighsSession
+    from stlplan.planner.backend.session import HighsSession
 
     usual = HighsSession._run
     spoiled = []

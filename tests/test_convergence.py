@@ -1,4 +1,4 @@
-"""The whole problem's incumbent and bound over step 1 (stlplan.planner.convergence): the
+"""The whole problem's incumbent and bound over step 1 (stlplan.planner.run.convergence): the
 record's thinning, and on solved missions that every point is the whole problem's own figure."""
 
 from __future__ import annotations
@@ -12,13 +12,13 @@ from typing import Any
 
 import pytest
 
-import stlplan.planner.components as components_module
+import stlplan.planner.core.components as components_module
 from stlplan import api
-from stlplan.planner.clock import Clock
+from stlplan.planner.backend.session import HighsSession
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.convergence import THIN_SECONDS, Convergence, known
-from stlplan.planner.lazy import LazySolver
-from stlplan.planner.session import HighsSession
+from stlplan.planner.core.lazy import LazySolver
+from stlplan.planner.run.clock import Clock
+from stlplan.planner.run.convergence import THIN_SECONDS, Convergence, known
 from stlplan.planner.solve import plan
 from stlplan.result import ConvergencePoint, PlanResult, PlanStatus
 from tests.helpers.missions import crossing_problem, sync_and_errand
@@ -197,15 +197,15 @@ def test_every_point_is_the_whole_problems_own(
 
 def test_the_trials_ran_and_would_have_leaked(guarded: list[str]) -> None:
     # the guard sees trial solves and the assembly run here (so the test above can fail)
-    import stlplan.planner.convergence as convergence_module
+    import stlplan.planner.backend.progress as progress
 
-    follow = convergence_module.follow
+    follow = progress.follow
 
     def careless(highs: Any, trial: Any, recorder: Any, plans: bool) -> None:
         follow(highs, lambda: False, recorder, plans)
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr("stlplan.planner.lazy.follow", careless)
+        patch.setattr("stlplan.planner.core.lazy.follow", careless)
         plan(crossing_problem(), EXACT.with_overrides({"repair.after_round_seconds": 0.0}))
     assert any("trial" in leak for leak in guarded)
 
@@ -214,7 +214,7 @@ def test_a_strict_retry_out_of_time_ends_with_the_first_plan(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     import stlplan.planner.solve as solve_module
-    from stlplan.planner.finish import Finish
+    from stlplan.planner.core.finish import Finish
     from stlplan.planner.strategy import build_strategy
 
     real, calls = build_strategy(EXACT), []

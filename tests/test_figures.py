@@ -45,7 +45,7 @@ def test_a_failed_continuous_solve_says_why_and_what_it_costs(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     import stlplan.planner.solve
-    from stlplan.planner.finish import Finish
+    from stlplan.planner.core.finish import Finish
 
     def failing(pm, config, clock, budget):  # type: ignore[no-untyped-def]
         return Finish("the continuous solve ended maxTimeLimit")

@@ -12,10 +12,10 @@ from stlplan import crowd
 from stlplan.analysis.reach import reachable_boxes
 from stlplan.mission.loader import load_problem, problem_from_text
 from stlplan.monitor.robustness import robustness
-from stlplan.planner import guide
 from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.deferred import defer
-from stlplan.planner.guide_stops import reached
+from stlplan.planner.first_plan import guide
+from stlplan.planner.first_plan.guide_stops import reached
 from tests.helpers.paths import FARM
 
 ROOM = crowd.Room(side=4.0, radius=1.6, pillar_offset=0.6, pillar_half=0.25, horizon=12, hold=2)

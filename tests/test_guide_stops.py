@@ -9,8 +9,8 @@ import numpy as np
 from stlplan import crowd
 from stlplan.analysis.reach import reachable_boxes
 from stlplan.mission.loader import problem_from_text
-from stlplan.planner import guide, guide_stops
 from stlplan.planner.encoding.deferred import defer
+from stlplan.planner.first_plan import guide, guide_stops
 from tests.reference.half_planes import half_planes
 
 ROOM = crowd.Room(side=4.0, radius=1.6, pillar_offset=0.6, pillar_half=0.25, horizon=12, hold=2)

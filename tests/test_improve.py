@@ -12,18 +12,18 @@ from pyomo.environ import Var, value
 
 from stlplan.formula.tree import Interval
 from stlplan.monitor.verdicts import check
-from stlplan.planner import improve
-from stlplan.planner.budget import Budget
-from stlplan.planner.clock import Clock
+from stlplan.planner.backend.values import model_values
+from stlplan.planner.core.in_turn import hold_agents, release
+from stlplan.planner.core.lazy import LazySolver
+from stlplan.planner.core.watch import VIOLATION_TOL, least_margin, trajectory_states
 from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.deferred import best_side
 from stlplan.planner.encoding.model import add_requirements
 from stlplan.planner.encoding.readout import chosen, chosen_run, trajectory
-from stlplan.planner.in_turn import hold_agents, release
-from stlplan.planner.lazy import LazySolver
-from stlplan.planner.outcome import Outcome, Plan
-from stlplan.planner.values import model_values
-from stlplan.planner.watch import VIOLATION_TOL, least_margin, trajectory_states
+from stlplan.planner.first_plan import improve
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock
+from stlplan.planner.run.outcome import Outcome, Plan
 from stlplan.result import PlanStatus
 from tests.test_by_elements import QUICK, meeting, solved_part
 
@@ -153,7 +153,7 @@ def test_the_better_of_the_joined_plans_is_kept_loaded(monkeypatch: pytest.Monke
     monkeypatch.setattr(improve, "held_plan", held)
     monkeypatch.setattr(improve, "LazySolver", lambda *_: "a fresh solver")
     monkeypatch.setattr(improve, "load_plan", lambda pm, values, added: loaded.append(values))
-    whole = type("Whole", (), {"pm": "the team's model", "clock": None})()
+    whole = type("Whole", (), {"pm": "the team's model", "clock": None, "policy": None})()
     best = improve._joined(whole, [moved, swept], QUICK, Budget.of_seconds(30))
     assert best is not None and best.objective == 2.0
     assert joined == [whole, "a fresh solver"]  # a joined plan is the watch's best: fresh

@@ -12,14 +12,11 @@ from pyomo.environ import value
 
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
-from stlplan.planner import in_turn
-from stlplan.planner.budget import Budget
-from stlplan.planner.clock import Clock
-from stlplan.planner.components import solve_parts
+from stlplan.planner.backend.session import HighsSession
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.encoding.model import add_requirements, build_model
-from stlplan.planner.encoding.readout import assignments, partners
-from stlplan.planner.in_turn import (
+from stlplan.planner.core import in_turn
+from stlplan.planner.core.components import solve_parts
+from stlplan.planner.core.in_turn import (
     InTurn,
     agents_of,
     hold_agents,
@@ -29,11 +26,14 @@ from stlplan.planner.in_turn import (
     release,
     solve_free,
 )
-from stlplan.planner.outcome import Plan
-from stlplan.planner.repairs import Broken, HeldRepair, InTurnRepair
-from stlplan.planner.session import HighsSession
+from stlplan.planner.core.repairs import Broken, HeldRepair, InTurnRepair
+from stlplan.planner.core.watch import pending_violations
+from stlplan.planner.encoding.model import add_requirements, build_model
+from stlplan.planner.encoding.readout import assignments, partners
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock
+from stlplan.planner.run.outcome import Plan
 from stlplan.planner.solve import plan
-from stlplan.planner.watch import pending_violations
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model
 from tests.helpers.missions import crossing_problem, detour_for_free

@@ -10,12 +10,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pyomo.environ import Reals, Var
 
-from stlplan.planner.budget import Budget
-from stlplan.planner.clock import Clock
+from stlplan.planner.backend.session import HighsSession
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding import floors, team_floors
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.session import HighsSession
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model

@@ -9,7 +9,7 @@ import pytest
 
 from stlplan.mission.loader import load_problem
 from stlplan.pipeline import plan
-from stlplan.planner import kept_sides
+from stlplan.planner.core import kept_sides
 from stlplan.planner.overrides import Overrides
 from tests.helpers.paths import MISSIONS
 

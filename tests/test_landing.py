@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from stlplan.planner.core.finish import effort_kept
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.finish import effort_kept
 from tests.helpers.configs import paper_model
 from tests.helpers.missions import mission
 

@@ -14,9 +14,9 @@ from stlplan.formula.tree import step_parts
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from stlplan.pipeline import plan
-from stlplan.planner.budget import Budget
-from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.core.lazy import LazySolver
+from stlplan.planner.core.watch import Watch
 from stlplan.planner.encoding.alphas import alpha_maxima, alpha_values, best_sides, violated
 from stlplan.planner.encoding.deferred import (
     SEPARATION,
@@ -25,9 +25,9 @@ from stlplan.planner.encoding.deferred import (
     neighbours,
 )
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.lazy import LazySolver
-from stlplan.planner.outcome import Plan, lowest
-from stlplan.planner.watch import Watch
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock
+from stlplan.planner.run.outcome import Plan, lowest
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model
 from tests.helpers.missions import mission, swap_problem
@@ -211,11 +211,11 @@ def test_a_known_ceiling_closes_the_loop() -> None:
 
 
 def test_a_completion_out_of_time_adds_no_requirement_and_has_no_plan() -> None:
-    from stlplan.planner import completion
-    from stlplan.planner.budget import Budget
-    from stlplan.planner.clock import Clock
+    from stlplan.planner.backend.session import HighsSession
     from stlplan.planner.config import PlannerConfig
-    from stlplan.planner.session import HighsSession
+    from stlplan.planner.core import completion
+    from stlplan.planner.run.budget import Budget
+    from stlplan.planner.run.clock import Clock
 
     pm = build_model(swap_problem(0.5, horizon=3, inter_sample=True), PlannerConfig())
     session = HighsSession(pm.model, PlannerConfig(), Clock(0.0, None), "step1")
@@ -234,12 +234,12 @@ def test_a_completion_fixes_decisions_by_bounds_and_restores_them() -> None:
     # row it is in; bounds change one column each
     from pyomo.environ import Var
 
-    from stlplan.planner import completion
-    from stlplan.planner.budget import Budget
-    from stlplan.planner.clock import Clock
+    from stlplan.planner.backend.session import HighsSession, has_solution
+    from stlplan.planner.backend.values import model_values
     from stlplan.planner.config import PlannerConfig
-    from stlplan.planner.session import HighsSession, has_solution
-    from stlplan.planner.values import model_values
+    from stlplan.planner.core import completion
+    from stlplan.planner.run.budget import Budget
+    from stlplan.planner.run.clock import Clock
 
     pm = build_model(swap_problem(0.5, horizon=3, inter_sample=True), PlannerConfig())
     session = HighsSession(pm.model, PlannerConfig(), Clock(0.0, None), "step1")

@@ -1,4 +1,4 @@
-"""Every status and gap rule of step 1 (stlplan.planner.outcome), without a solver."""
+"""Every status and gap rule of step 1 (stlplan.planner.run.outcome), without a solver."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import dataclasses
 
 import pytest
 
-from stlplan.planner import outcome
-from stlplan.planner.outcome import Outcome
+from stlplan.planner.run import outcome
+from stlplan.planner.run.outcome import Outcome
 from stlplan.result import PlanStatus as S
 
 

@@ -1,4 +1,4 @@
-"""A large team's first plan before its parts' proofs (stlplan.planner.plan_first): which teams,
+"""A large team's first plan before its parts' proofs (stlplan.planner.first_plan.hooks): which teams,
 which plan and bound are kept, and the optimum reached from the first plan."""
 
 from __future__ import annotations
@@ -7,14 +7,14 @@ from typing import Any
 
 import pytest
 
-from stlplan.planner.budget import Budget
-from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.outcome import Outcome
-from stlplan.planner.plan_first import better, plans_first
-from stlplan.planner.repair_policy import RepairPolicy
+from stlplan.planner.core.components import better
+from stlplan.planner.first_plan.hooks import FirstPlan
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock
+from stlplan.planner.run.outcome import Outcome
 from stlplan.planner.solve import plan
-from stlplan.planner.strategy import LazyRounds, Parts, build_strategy
+from stlplan.planner.strategy import LazyRounds, Parts, build_strategy, policy_of
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
 from tests.helpers.missions import detour_for_free, mission, swap_problem
@@ -34,27 +34,27 @@ def kept(first: Outcome, second: Outcome) -> tuple[Any, Outcome]:
 
 
 def test_the_configuration_plans_first_from_ten_agents_in_a_part() -> None:
-    policy = RepairPolicy.of(EXACT)
-    assert build_strategy(EXACT) == Parts(LazyRounds(policy), 10, improve=True)
+    policy = policy_of(EXACT)
+    assert build_strategy(EXACT) == Parts(LazyRounds(policy), 10, FirstPlan.of(EXACT))
     assert "plan first if >= 10 agents" in build_strategy(EXACT).describe()
     never = EXACT.with_overrides({"parts.plan_first_agents": None})
-    assert build_strategy(never) == Parts(LazyRounds(policy), improve=True)
+    assert build_strategy(never) == Parts(LazyRounds(policy), hooks=FirstPlan.of(EXACT))
     assert "plan first" not in build_strategy(never).describe()
 
 
 def test_only_a_team_with_a_large_part_plans_first() -> None:
     swap = swap_problem(0.5)  # two parts of one agent
-    assert plans_first(swap, EXACT, 1)
-    assert not plans_first(swap, EXACT, 2)
-    assert not plans_first(swap, EXACT.with_overrides({"solver.first_plan": True}), 1)
-    assert plans_first(detour_for_free(), EXACT, 2)  # parts (a, b) and (e)
-    assert not plans_first(detour_for_free(), EXACT, 3)
+    assert FirstPlan().plans_first(swap, EXACT, 1)
+    assert not FirstPlan().plans_first(swap, EXACT, 2)
+    assert not FirstPlan().plans_first(swap, EXACT.with_overrides({"solver.first_plan": True}), 1)
+    assert FirstPlan().plans_first(detour_for_free(), EXACT, 2)  # parts (a, b) and (e)
+    assert not FirstPlan().plans_first(detour_for_free(), EXACT, 3)
     one_part = mission(
         horizon=2,
         agents=[{"name": n, "dynamics": "si", "initial_state": [i, 0]} for i, n in enumerate("ab")],
         objective={"margin": {"maximize": True}},
     )
-    assert not plans_first(one_part, EXACT, 1)
+    assert not FirstPlan().plans_first(one_part, EXACT, 1)
 
 
 def test_without_a_first_plan_the_second_solve_stands_as_it_is() -> None:
@@ -113,8 +113,8 @@ def test_planning_first_reaches_the_optimum_accepted_by_the_monitor(problem: Any
 
 def test_the_parts_not_proven_go_on_from_their_first_plans(monkeypatch: pytest.MonkeyPatch) -> None:
     # the first plans of the parts (a, b) and (e): (a, b)'s not proven, (e)'s proven
-    import stlplan.planner.components as components
-    from stlplan.planner.parts import build_part
+    import stlplan.planner.core.components as components
+    from stlplan.planner.core.parts import build_part
 
     seen: list[list[bool]] = []
 
@@ -128,7 +128,7 @@ def test_the_parts_not_proven_go_on_from_their_first_plans(monkeypatch: pytest.M
     monkeypatch.setattr(components, "_apart", first_plans)
     problem, clock, budget = detour_for_free(), Clock(0.0, None), Budget.of_seconds(60)
     parts = [build_part(problem, names, EXACT, clock, budget) for names in (("a", "b"), ("e",))]
-    assert components._first_plan(problem, parts, EXACT, clock, budget) is None
+    assert components._first_plan(problem, parts, EXACT, clock, budget, FirstPlan()) is None
     assert seen == [[True, True, True]]  # every loop stopped at its first plan
     assert [p.solver.watch.first for p in parts] == [False, False]
     assert parts[0].step1 is None  # (a, b) goes on towards its proof
@@ -141,11 +141,12 @@ def test_a_loop_looking_for_its_first_plan_solves_its_rounds_to_a_looser_gap(
 ) -> None:
     # the repair's gap; the repair by elements' looser one while it is on (it takes a round's
     # choices, not its optimum)
-    from stlplan.planner.parts import build_part
+    from stlplan.planner.core.parts import build_part
 
     config = EXACT if by_elements else EXACT.with_overrides({"repair.by_elements": None})
     problem, clock, budget = detour_for_free(), Clock(0.0, None), Budget.of_seconds(60)
-    solver = build_part(problem, ("a", "b"), config, clock, budget).solver
+    policy = policy_of(config)
+    solver = build_part(problem, ("a", "b"), config, clock, budget, policy=policy).solver
     settings = solver.session.solver.config
     solver.stop_at_first_plan(True)
     assert solver.watch is not None and solver.watch.first
@@ -157,18 +158,18 @@ def test_a_loop_looking_for_its_first_plan_solves_its_rounds_to_a_looser_gap(
     # a run asked for its first plan starts its loops at the repair by elements' gap, or at
     # its own
     quick = config.with_overrides({"solver.first_plan": True})
-    first = build_part(problem, ("a", "b"), quick, clock, budget).solver
+    first = build_part(problem, ("a", "b"), quick, clock, budget, policy=policy).solver
     own = config.repair.by_elements_gap if by_elements else config.solver.gap
     assert first.session.solver.config.rel_gap == own
 
 
 def test_a_round_solved_to_a_looser_gap_is_not_optimal() -> None:
-    from stlplan.planner.lazy import _within
+    from stlplan.planner.run.outcome import within
 
     loose = ended(PlanStatus.OPTIMAL, 2.0, 2.01)
-    assert _within(loose, GAP).status is PlanStatus.FEASIBLE
-    assert _within(loose, 0.01).status is PlanStatus.OPTIMAL
-    assert _within(ended(PlanStatus.OPTIMAL, 2.0, 2.0), GAP).status is PlanStatus.OPTIMAL
+    assert within(loose, GAP).status is PlanStatus.FEASIBLE
+    assert within(loose, 0.01).status is PlanStatus.OPTIMAL
+    assert within(ended(PlanStatus.OPTIMAL, 2.0, 2.0), GAP).status is PlanStatus.OPTIMAL
 
 
 @pytest.mark.slow

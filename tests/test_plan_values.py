@@ -6,11 +6,11 @@ import math
 
 import pytest
 
+from stlplan.planner.backend.values import load_values, model_values, plan_of, trajectory_values
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.outcome import Plan
+from stlplan.planner.run.outcome import Plan
 from stlplan.planner.solve import plan
-from stlplan.planner.values import load_values, model_values, plan_of, trajectory_values
 from stlplan.result import PlanStatus
 from tests.helpers.missions import detour_for_free, swap_problem
 

@@ -10,12 +10,12 @@ import pytest
 from stlplan import crowd
 from stlplan.mission.loader import load_problem, problem_from_text
 from stlplan.pipeline import plan
-from stlplan.planner import prioritized, repairs
-from stlplan.planner.budget import Budget
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.first_plan import hooks, prioritized
+from stlplan.planner.first_plan.prioritized import plan_in_order, raised
 from stlplan.planner.overrides import Overrides
-from stlplan.planner.prioritized import plan_in_order, raised
-from stlplan.planner.repair_policy import RepairPolicy
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.strategy import policy_of
 from tests.helpers.paths import MISSIONS
 
 ROOM = crowd.Room(side=4.0, radius=1.6, pillar_offset=0.6, pillar_half=0.25, horizon=12, hold=2)
@@ -91,27 +91,27 @@ def test_each_turn_may_use_what_is_left_of_the_order_time() -> None:
 
 
 def _merge_repairs(config: PlannerConfig) -> list[str]:
-    return [r.describe() for r, _ in RepairPolicy.of(config).merge_repairs(9)]
+    return [r.describe() for r, _ in policy_of(config).merge_repairs(9)]
 
 
 def test_crowd_merges_try_the_prioritized_repair_first_unless_switched_off() -> None:
     names = _merge_repairs
     assert names(PlannerConfig()) == ["prioritized", "in turn", "held"]
     assert names(PlannerConfig().with_overrides({"repair.orders": 0})) == ["in turn", "held"]
-    assert [r.describe() for r, _ in RepairPolicy.of(PlannerConfig()).merge_repairs(2)] == ["held"]
+    assert [r.describe() for r, _ in policy_of(PlannerConfig()).merge_repairs(2)] == ["held"]
 
 
 def test_a_colliding_crowd_gets_its_plan_from_the_prioritized_repair(
     small_crowd: Any, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     found: list[Any] = []
-    real = repairs.prioritized
+    real = hooks.prioritized
 
     def spy(*args: Any) -> Any:
         found.append(real(*args))
         return found[-1]
 
-    monkeypatch.setattr(repairs, "prioritized", spy)
+    monkeypatch.setattr(hooks, "prioritized", spy)
     overrides = Overrides(
         time_limit=120,
         threads=1,
@@ -125,7 +125,7 @@ def test_a_colliding_crowd_gets_its_plan_from_the_prioritized_repair(
 
 def test_merges_of_larger_parts_skip_the_prioritized_repair() -> None:
     def names(config: PlannerConfig, largest: int) -> list[str]:
-        return [r.describe() for r, _ in RepairPolicy.of(config).merge_repairs(9, largest)]
+        return [r.describe() for r, _ in policy_of(config).merge_repairs(9, largest)]
 
     default = PlannerConfig()
     assert names(default, default.repair.part_agents) == ["prioritized", "in turn", "held"]
@@ -220,7 +220,7 @@ def test_a_team_merged_into_one_part_needs_no_assembly(
 ) -> None:
     # the merged part's model is a model of the whole problem: its plan is the run's (the
     # assembly solve took 8 s of crowd-64's 60)
-    from stlplan.planner import components
+    from stlplan.planner.core import components
 
     assembled: list[Any] = []
     monkeypatch.setattr(components, "_assembled", lambda *args: assembled.append(args))
@@ -243,7 +243,7 @@ def test_a_part_without_a_plan_around_no_other_part_ends_the_orders(
     # name it (the repair by elements then starts its synchronous run later)
     from types import SimpleNamespace
 
-    from stlplan.planner.reached import Reached
+    from stlplan.planner.run.reached import Reached
 
     turns = [_Turn("a", 0.0), _Turn("b", 1.0, fails=99), _Turn("c", 2.0)]
     for turn in turns:

@@ -9,19 +9,21 @@ import pytest
 from pyomo.environ import Block, ConstraintList, VarList
 
 from stlplan.mission.problem import Problem
-from stlplan.planner.budget import Budget
-from stlplan.planner.clock import Clock
-from stlplan.planner.components import solve_parts
+from stlplan.planner.backend.session import HighsSession
+from stlplan.planner.backend.values import ColumnKeys
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.core.components import solve_parts
+from stlplan.planner.core.in_turn import InTurn, _broken, agents_of
+from stlplan.planner.core.policy import RepairPolicy
+from stlplan.planner.core.team_split import sub_problem
+from stlplan.planner.core.watch import pending_violations, trajectory_states
 from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.in_turn import InTurn, _broken, agents_of
-from stlplan.planner.published import Published
-from stlplan.planner.session import HighsSession
+from stlplan.planner.first_plan.hooks import FirstPlan
+from stlplan.planner.first_plan.published import Published
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock
 from stlplan.planner.solve import plan
-from stlplan.planner.team_split import sub_problem
-from stlplan.planner.values import ColumnKeys
-from stlplan.planner.watch import pending_violations, trajectory_states
 from tests.helpers.configs import paper_model
 from tests.helpers.missions import crossing_problem
 from tests.helpers.solving import accepted
@@ -120,7 +122,9 @@ def test_while_looking_for_a_first_plan_a_part_plans_around_those_done(around: b
         "parts.plan_around_published": around, "repair.orders": 0,
     })  # fmt: skip
     clock = Clock(0.0, None)
-    found = solve_parts(problem, options, clock, Budget.of_seconds(60))
+    hooks = FirstPlan()
+    policy = RepairPolicy.of(options, hooks)
+    found = solve_parts(problem, options, clock, Budget.of_seconds(60), policy, hooks=hooks)
     assert found is not None and found[1].status.has_plan
     assert (clock.reached.merges == 0) is around  # the second part's plan meets the first's
     result = plan(problem, options)

@@ -8,13 +8,13 @@ import time
 import pytest
 
 from stlplan.mission.loader import load_problem
-from stlplan.planner.budget import Budget
-from stlplan.planner.clock import Clock
-from stlplan.planner.completion import added_in_time
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.core.completion import added_in_time
 from stlplan.planner.encoding.model import build_model
-from stlplan.planner.outcome import Outcome
-from stlplan.planner.reached import Reached, agent_names
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock
+from stlplan.planner.run.outcome import Outcome
+from stlplan.planner.run.reached import Reached, agent_names
 from stlplan.planner.solve import step1_message
 from stlplan.result import PlanStatus
 from tests.helpers.paths import MISSIONS

@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from stlplan.planner.budget import Budget
-from stlplan.planner.clock import Clock
-from stlplan.planner.collisions import crossing_requirements
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.core.collisions import crossing_requirements
+from stlplan.planner.core.parts import Part, build_part
+from stlplan.planner.core.watch import pending_violations, trajectory_states
 from stlplan.planner.encoding.model import PlanModel, build_model
-from stlplan.planner.parts import Part, build_part
-from stlplan.planner.published import Published
-from stlplan.planner.replan_around import replanned_around
-from stlplan.planner.watch import pending_violations, trajectory_states
+from stlplan.planner.first_plan.published import Published
+from stlplan.planner.first_plan.replan_around import replanned_around
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock
 from tests.helpers.missions import crossing_problem
 
 

@@ -8,8 +8,8 @@ from collections.abc import Callable
 
 import pytest
 
-from stlplan.planner.budget import Budget
-from stlplan.planner.side_by_side import in_shares
+from stlplan.planner.core.side_by_side import in_shares
+from stlplan.planner.run.budget import Budget
 
 
 def _budget(seconds: float) -> Budget:

@@ -13,10 +13,10 @@ import pytest
 from stlplan.formula.boundary import EPSILON
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
-from stlplan.planner.budget import Budget
-from stlplan.planner.clock import Progress
 from stlplan.planner.config import ConfigError, PlannerConfig
 from stlplan.planner.overrides import Overrides
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Progress
 from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model
@@ -275,10 +275,10 @@ def test_plans_pass_the_monitor(encoding: str, effort: str, two_step: bool) -> N
 
 def test_fixed_decisions_enforce_exactly_the_chosen_disjunct() -> None:
     # reach at k=2 is the optimal decision: the Goal's half-planes at k=2 are the ones enforced
-    from stlplan.planner.clock import Clock
+    from stlplan.planner.backend.session import solve_once
+    from stlplan.planner.core.finish import enforced_predicates, fix_decisions
     from stlplan.planner.encoding.model import build_model
-    from stlplan.planner.finish import enforced_predicates, fix_decisions
-    from stlplan.planner.session import solve_once
+    from stlplan.planner.run.clock import Clock
 
     pm = build_model(
         reach_problem(),
@@ -334,9 +334,9 @@ def test_the_strict_until_needs_no_left_where_right_holds(op: str, status: PlanS
 
 
 def test_a_failed_completion_is_not_called_completed() -> None:
-    from stlplan.planner.clock import Clock
-    from stlplan.planner.finish import Finish
-    from stlplan.planner.outcome import Outcome
+    from stlplan.planner.core.finish import Finish
+    from stlplan.planner.run.clock import Clock
+    from stlplan.planner.run.outcome import Outcome
     from stlplan.planner.solve import run_events, step1_message
 
     config, clock = PlannerConfig(), Clock(0.0, None)
@@ -363,11 +363,11 @@ def test_a_continuous_stage_out_of_time_keeps_the_step_1_plan_without_its_solve(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     # a large team's continuous model takes seconds to build: past the grace, no solve follows
-    from stlplan.planner import finish as finishing
-    from stlplan.planner.clock import Clock
+    from stlplan.planner.core import finish as finishing
+    from stlplan.planner.backend.session import solve_once
+    from stlplan.planner.backend.values import model_values
     from stlplan.planner.encoding.model import build_model
-    from stlplan.planner.session import solve_once
-    from stlplan.planner.values import model_values
+    from stlplan.planner.run.clock import Clock
 
     pm = build_model(reach_problem(), paper_model())
     options, clock = PlannerConfig().with_overrides({"solver.time_limit": 30.0}), Clock(0.0, None)

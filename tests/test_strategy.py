@@ -8,22 +8,23 @@ from collections.abc import Callable
 import pytest
 
 from stlplan.mission.problem import Problem
-from stlplan.planner.budget import Budget
-from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.repair_policy import RepairPolicy
+from stlplan.planner.core.policy import RepairPolicy
+from stlplan.planner.first_plan.hooks import FirstPlan
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock
 from stlplan.planner.solve import STAGES, plan
-from stlplan.planner.strategy import Direct, LazyRounds, Parts, build_strategy, describe
+from stlplan.planner.strategy import Direct, LazyRounds, Parts, build_strategy, describe, policy_of
 from stlplan.result import PlanStatus
 from tests.helpers.missions import detour_for_free, swap_problem
 from tests.helpers.solving import accepted, up_front_optimum
 
 EXACT = PlannerConfig().with_overrides({"solver.time_limit": 60.0, "solver.gap": 1e-6})
-POLICY = RepairPolicy.of(EXACT)
+POLICY = policy_of(EXACT)
 
 
 def test_the_configuration_composes_the_strategy() -> None:
-    assert build_strategy(EXACT) == Parts(LazyRounds(POLICY), 10, improve=True)
+    assert build_strategy(EXACT) == Parts(LazyRounds(POLICY), 10, FirstPlan.of(EXACT))
     assert build_strategy(EXACT.with_overrides({"parts.enabled": False})) == LazyRounds(POLICY)
     assert build_strategy(EXACT.with_overrides({"lazy.enabled": False})) == Direct()
     line = describe(EXACT)
@@ -86,7 +87,7 @@ def test_a_strict_retry_out_of_time_keeps_the_first_plan(
     import dataclasses
 
     import stlplan.planner.solve as solve_module
-    from stlplan.planner.finish import Finish
+    from stlplan.planner.core.finish import Finish
 
     problem = swap_problem(separation=0.5)
     real = build_strategy(EXACT)
@@ -116,15 +117,11 @@ def test_a_strict_retry_out_of_time_keeps_the_first_plan(
 
 
 def test_the_policy_names_the_repairs_and_their_shares() -> None:
-    from stlplan.planner.by_elements import ElementsRepair
-    from stlplan.planner.repairs import (
-        HeldRepair,
-        InTurnRepair,
-        PrioritizedRepair,
-        TasksKeptRepair,
-    )
+    from stlplan.planner.core.repairs import HeldRepair, InTurnRepair, TasksKeptRepair
+    from stlplan.planner.first_plan.by_elements import ElementsRepair
+    from stlplan.planner.first_plan.hooks import PrioritizedRepair
 
-    policy = RepairPolicy.of(EXACT)
+    policy = policy_of(EXACT)
     assert policy.round_repairs(10.0, 1) == ((InTurnRepair(), EXACT.repair.share),)
     assert policy.round_repairs(1.0, 1) == ()
     # a loop that looks for its first plan only repairs every round naming two agents or more,
@@ -136,11 +133,11 @@ def test_the_policy_names_the_repairs_and_their_shares() -> None:
     assert elements is not None
     by_elements = ((ElementsRepair(), elements), (InTurnRepair(), share))
     assert policy.round_repairs(1.0, 2, first=True) == by_elements
-    alone = RepairPolicy.of(EXACT.with_overrides({"repair.by_elements": None}))
+    alone = policy_of(EXACT.with_overrides({"repair.by_elements": None}))
     assert alone.round_repairs(1.0, 2, first=True) == ((InTurnRepair(), share),)
     assert policy.round_repairs(10.0, 1, first=True) == ((InTurnRepair(), share),)
     assert policy.round_repairs(1.0, 1, first=True) == ()  # (one agent: the next round)
-    as_others = RepairPolicy.of(EXACT.with_overrides({"repair.first_plan_rounds": False}))
+    as_others = policy_of(EXACT.with_overrides({"repair.first_plan_rounds": False}))
     assert as_others.round_repairs(1.0, 2, first=True) == ()
     # once a plan meets every requirement, a long round's plan with its task decisions kept
     kept = EXACT.repair.tasks_kept_seconds
@@ -149,7 +146,7 @@ def test_the_policy_names_the_repairs_and_their_shares() -> None:
     assert policy.round_repairs(kept, 1, proving=True) == tasks_kept
     assert policy.round_repairs(kept - 0.1, 9, proving=True) == ()  # (a crowd: not in a proof)
     assert policy.round_repairs(100.0, 2, first=True, proving=True) == ()
-    off = RepairPolicy.of(EXACT.with_overrides({"repair.tasks_kept_seconds": None}))
+    off = policy_of(EXACT.with_overrides({"repair.tasks_kept_seconds": None}))
     assert off.round_repairs(100.0, 9, proving=True) == ()
     crowd = EXACT.repair.crowd_agents
     assert crowd is not None

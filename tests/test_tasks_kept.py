@@ -1,4 +1,4 @@
-"""A lazy round's plan repaired with its task decisions kept (stlplan.planner.repairs): every
+"""A lazy round's plan repaired with its task decisions kept (stlplan.planner.core.repairs): every
 binary but the lazy requirements' held at the round's value during the repair, released after
 it; the repaired plan meets every requirement; a full run with the repair reaches the
 up-front optimum."""
@@ -10,15 +10,15 @@ from typing import Any
 from pyomo.environ import Var
 
 from stlplan.mission.loader import load_problem
-from stlplan.planner.budget import Budget
-from stlplan.planner.clock import Clock
+from stlplan.planner.backend.values import load_values
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.core.lazy import LazySolver
+from stlplan.planner.core.repairs import Broken, TasksKeptRepair
+from stlplan.planner.core.watch import pending_violations
 from stlplan.planner.encoding.model import PlanModel, build_model
-from stlplan.planner.lazy import LazySolver
-from stlplan.planner.outcome import Outcome
-from stlplan.planner.repairs import Broken, TasksKeptRepair
-from stlplan.planner.values import load_values
-from stlplan.planner.watch import pending_violations
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock
+from stlplan.planner.run.outcome import Outcome
 from tests.helpers.missions import swap_problem
 from tests.helpers.paths import MISSIONS
 from tests.helpers.solving import accepted, solve, up_front_optimum

@@ -1,4 +1,4 @@
-"""Every plan of step 1 credited to the stage that found it (stlplan.planner.trace): the record,
+"""Every plan of step 1 credited to the stage that found it (stlplan.planner.run.trace): the record,
 and on solved missions that the credits are the run's own."""
 
 from __future__ import annotations
@@ -13,11 +13,11 @@ from typer.testing import CliRunner
 
 from stlplan.cli import app
 from stlplan.mission.problem import Problem
-from stlplan.planner.clock import Clock
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.reached import STAGES
+from stlplan.planner.run.clock import Clock
+from stlplan.planner.run.reached import STAGES
+from stlplan.planner.run.trace import Incumbent, Trace
 from stlplan.planner.solve import plan
-from stlplan.planner.trace import Incumbent, Trace
 from stlplan.result import PlanStatus
 from tests.helpers.missions import crossing_problem, sync_and_errand
 from tests.helpers.paths import MISSIONS

@@ -8,9 +8,9 @@ import threading
 
 import pyomo.contrib.solver.solvers.highs as pyomo_highs
 
-from stlplan.planner import uncaptured
-from stlplan.planner.clock import Progress
+from stlplan.planner.backend import uncaptured
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.run.clock import Progress
 from stlplan.planner.solve import plan
 from tests.helpers.missions import swap_problem
 

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from stlplan.formula.normal import lower
 from stlplan.formula.parser import parse
 from stlplan.monitor.robustness import robustness
-from stlplan.planner.witness import witness
+from stlplan.planner.first_plan.witness import witness
 
 BOX = [[1, 0], [-1, 0], [0, 1], [0, -1]]
 REGIONS = {  # [0,1] x [0,1], [2,3] x [0,1] and [0,3] x [0,1]

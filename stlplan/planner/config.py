@@ -40,7 +40,7 @@ class SolverConfig(_Section):
 
     time_limit: float = Field(default=300.0, gt=0)
     """Wall-clock limit of the whole run, s: building, step 1, step 2, confirmations and the
-    diagnosis of an infeasible mission share it (:class:`stlplan.planner.budget.Budget`)."""
+    diagnosis of an infeasible mission share it (:class:`stlplan.planner.run.budget.Budget`)."""
     gap: float = Field(default=1e-4, ge=0)
     """Relative optimality gap at which step 1 stops."""
     threads: int | None = Field(default=None, ge=1)
@@ -169,7 +169,7 @@ class ContinuousConfig(_Section):
     near_sides: float | None = Field(default=0.2, ge=0)
     """The continuous model starts with the kept sides of the lazy requirements step 1 left
     out that step 1's plan meets with at most this much to spare (in the units of the map),
-    and adds the others its plan breaks (:mod:`stlplan.planner.kept_sides`); None: every side
+    and adds the others its plan breaks (:mod:`stlplan.planner.core.kept_sides`); None: every side
     from the start. Measured: docs/measurements.md#the-continuous-stage-of-a-large-team."""
 
 

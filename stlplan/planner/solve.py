@@ -1,14 +1,14 @@
 """Solving the planning MILP with HiGHS (through Pyomo), in one or two steps (DESIGN 2.3).
 
 Step 1 solves problem (step1) of :mod:`stlplan.planner.encoding.model`; by default obstacle and collision
-avoidance enter it lazily (:mod:`stlplan.planner.lazy`), which proves the same optimum. Step 2 fixes every
+avoidance enter it lazily (:mod:`stlplan.planner.core.lazy`), which proves the same optimum. Step 2 fixes every
 binary of step 1 (groups, time windows, obstacle sides) and every ``rho_s^l``, then minimizes the
 mission's effort norm: ``l2`` is ``sum u^2`` (a convex QP), ``l1`` is ``sum |u|`` and ``linf`` is
 ``sum_p max |u_p|`` (LPs). In one-step mode the same fixing is followed by a continuous re-solve of
 the step-1 objective, which moves the plan to an exact vertex: integrality tolerances cannot then
 leak into the predicates the monitor checks.
 
-Both continuous solves (:mod:`stlplan.planner.finish`) run on a small model
+Both continuous solves (:mod:`stlplan.planner.core.finish`) run on a small model
 (:mod:`stlplan.planner.encoding.continuous`): an LP over the
 step-1 model first finds the predicates the fixed decisions enforce, then only those, the
 dynamics (states eliminated) and the effort remain. HiGHS's QP solver stalls on the full model,
@@ -26,17 +26,17 @@ from typing import Any
 from pyomo.environ import ConcreteModel, Constraint, Var
 
 from stlplan.mission.problem import Problem
-from stlplan.planner.budget import Budget
-from stlplan.planner.clock import Clock, ProgressCallback
+from stlplan.planner.backend.values import load_values, plan_of
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.core.finish import Finish, finish
+from stlplan.planner.core.lazy import added_by_kind
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.readout import plan_result
-from stlplan.planner.finish import Finish, finish
-from stlplan.planner.lazy import added_by_kind
-from stlplan.planner.outcome import Outcome, Plan, gap_words
-from stlplan.planner.reached import Reached
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock, ProgressCallback
+from stlplan.planner.run.outcome import Outcome, Plan, gap_words
+from stlplan.planner.run.reached import Reached
 from stlplan.planner.strategy import build_strategy
-from stlplan.planner.values import load_values, plan_of
 from stlplan.result import Fallback, ModelSize, PlanResult, PlanStatus
 from stlplan.runtime import signals
 

@@ -5,18 +5,19 @@ Three strategies, each wrapping the one before:
 * :class:`Direct`: build the MILP with every requirement and solve it once;
 * :class:`LazyRounds`: build it with the step requirements of constraints and separation left
   out, and solve in rounds, adding what each round's plan violates
-  (:mod:`stlplan.planner.lazy`); while no plan meets every requirement, a round's plan may be
-  repaired agent by agent, as the :class:`~stlplan.planner.repair_policy.RepairPolicy` says;
+  (:mod:`stlplan.planner.core.lazy`); while no plan meets every requirement, a round's plan may be
+  repaired agent by agent, as the :class:`~stlplan.planner.core.policy.RepairPolicy` says;
 * :class:`Parts`: solve the independent parts of the team apart, each by the strategy inside,
   merging parts whose plans collide (a merge repaired by the same policy) and assembling the
-  parts' plans in one model (:mod:`stlplan.planner.components`); a plan of the whole team to
+  parts' plans in one model (:mod:`stlplan.planner.core.components`); a plan of the whole team to
   start from (a replan's) starts each part; when the parts' plans do not assemble into a plan
   of the whole (a part's plan that met its decisions only within HiGHS's integrality
   tolerance), the team is solved whole by the strategy inside. With a large part, a first plan
-  of the whole team comes before the parts' proofs (:mod:`stlplan.planner.plan_first`).
+  of the whole team comes before the parts' proofs (:mod:`stlplan.planner.first_plan.hooks`),
+  the only first-plan heuristics' object, built here.
 
 Each strategy takes the problem, the configuration, the run's clock and a budget, and returns
-the model with the plan loaded and the :class:`~stlplan.planner.outcome.Outcome`. Each describes
+the model with the plan loaded and the :class:`~stlplan.planner.run.outcome.Outcome`. Each describes
 itself; ``summary.json`` records the line (``strategy``).
 """
 
@@ -26,14 +27,16 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from stlplan.mission.problem import Problem
-from stlplan.planner.budget import Budget
-from stlplan.planner.clock import Clock
-from stlplan.planner.components import solve_parts
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.core.components import solve_parts
+from stlplan.planner.core.hooks import FirstPlanHooks
+from stlplan.planner.core.lazy import solve_step1
+from stlplan.planner.core.policy import RepairPolicy
 from stlplan.planner.encoding.model import PlanModel, build_model
-from stlplan.planner.lazy import solve_step1
-from stlplan.planner.outcome import ASSEMBLY_FAILED, Outcome, Plan
-from stlplan.planner.repair_policy import RepairPolicy
+from stlplan.planner.first_plan.hooks import FirstPlan
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock
+from stlplan.planner.run.outcome import ASSEMBLY_FAILED, Outcome, Plan
 
 
 class Strategy(Protocol):
@@ -113,7 +116,7 @@ class Parts:
 
     inner: LazyRounds
     plan_first: int | None = None
-    improve: bool = False
+    hooks: FirstPlanHooks | None = None
 
     def solve(
         self,
@@ -124,7 +127,7 @@ class Parts:
         start: Plan | None = None,
     ) -> tuple[PlanModel, Outcome]:
         by_parts = solve_parts(
-            problem, config, clock, budget, self.inner.policy, start, self.plan_first
+            problem, config, clock, budget, self.inner.policy, start, self.plan_first, self.hooks
         )
         if by_parts is not None and by_parts[1].stop == ASSEMBLY_FAILED and not budget.expired():
             return self.inner.solve(problem, config, clock, budget, start)  # no plan of the whole
@@ -138,7 +141,8 @@ class Parts:
         team = "" if policy.crowd_team is None else f" of a team >= {policy.crowd_team}"
         merge = f"{first}in turn if >= {crowd} agents{team}, held" if crowd is not None else "held"
         early = "" if self.plan_first is None else f"; plan first if >= {self.plan_first} agents"
-        early += ", improved by elements" if early and self.improve else ""
+        after = "" if self.hooks is None else self.hooks.describe()
+        early += f", {after}" if early and after else ""
         return f"parts({self.inner.describe()}; merge: {merge}{early})"
 
 
@@ -146,10 +150,15 @@ def build_strategy(config: PlannerConfig) -> Strategy:
     """Step 1's strategy as ``config`` composes it (module docstring)."""
     if not config.lazy.enabled:
         return Direct()
-    rounds = LazyRounds(RepairPolicy.of(config))
-    improve = config.parts.improve_share is not None
-    parts = Parts(rounds, config.parts.plan_first_agents, improve)
+    hooks = FirstPlan.of(config)
+    rounds = LazyRounds(RepairPolicy.of(config, hooks))
+    parts = Parts(rounds, config.parts.plan_first_agents, hooks)
     return parts if config.parts.enabled else rounds
+
+
+def policy_of(config: PlannerConfig) -> RepairPolicy:
+    """The repair policy of ``config``, with the first-plan heuristics as its hooks."""
+    return RepairPolicy.of(config, FirstPlan.of(config))
 
 
 def _by_elements(policy: RepairPolicy) -> str:

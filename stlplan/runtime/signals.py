@@ -2,7 +2,7 @@
 
 A signal handler that raised ``KeyboardInterrupt`` inside HiGHS would unwind through C++ and lose
 the incumbent. While planning in the main thread, :func:`stop_on_signals` installs handlers that
-only record the request when a solve is running; every :class:`stlplan.planner.session.HighsSession`
+only record the request when a solve is running; every :class:`stlplan.planner.backend.session.HighsSession`
 polls :func:`should_interrupt` from HiGHS's callbacks and interrupts. The planner then keeps the
 best plan found so far (verified by the monitor like any other) with status ``interrupted``.
 

@@ -6,8 +6,15 @@ import math
 import time
 from typing import Any
 
+from stlplan.planner.backend.confirm import (
+    Settings,
+    applied,
+    confirm,
+    option,
+    says_infeasible,
+    verdict,
+)
 from stlplan.planner.config import BudgetConfig
-from stlplan.planner.confirm import Settings, applied, confirm, option, says_infeasible, verdict
 from stlplan.result import Confirmation
 
 

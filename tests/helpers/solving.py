@@ -6,8 +6,8 @@ from typing import Any
 
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check
-from stlplan.planner.clock import Progress
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.run.clock import Progress
 from stlplan.planner.solve import plan
 from stlplan.result import PlanResult
 from tests.helpers.configs import UP_FRONT

@@ -1,5 +1,5 @@
 """One requirement's half-planes in one agent's position, term by term (the plain form of
-:func:`stlplan.planner.guide.readable_planes`)."""
+:func:`stlplan.planner.first_plan.guide.readable_planes`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from stlplan.planner.encoding.deferred import Requirement
-from stlplan.planner.guide import CLEARANCE, HalfPlanes
+from stlplan.planner.first_plan.guide import CLEARANCE, HalfPlanes
 
 
 def half_planes(

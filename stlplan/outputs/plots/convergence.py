@@ -1,5 +1,5 @@
 """The convergence figure (``convergence.png``): the whole problem's incumbent and bound over
-step 1, as ``summary.json``'s ``convergence`` records them (:mod:`stlplan.planner.convergence`
+step 1, as ``summary.json``'s ``convergence`` records them (:mod:`stlplan.planner.run.convergence`
 says which figures count)."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from matplotlib.figure import Figure
 
 from stlplan.mission.problem import Problem
 from stlplan.outputs.plots.common import _LEGEND, DPI, _titles, save_figure
-from stlplan.planner.outcome import relative_gap
+from stlplan.planner.run.outcome import relative_gap
 from stlplan.result import ConvergencePoint, PlanResult
 
 _INCUMBENT: dict[str, Any] = dict(color="#2ca02c", linestyle="-", linewidth=2.0)

@@ -7,7 +7,7 @@ step, each a disjunction of half-planes:
 
 with ``alpha_i`` linear in the states of the bound agents and ``r`` the spatial margin. Most of them
 never bind: an agent rarely comes near the obstacle or another agent. The lazy loop
-(:mod:`stlplan.planner.lazy`) solves without them, finds those the plan violates with numpy, adds exactly
+(:mod:`stlplan.planner.core.lazy`) solves without them, finds those the plan violates with numpy, adds exactly
 those (encoded as if they had been there from the start), and solves again. When a plan violates
 none, it satisfies every requirement of the full problem and its objective bound came from a
 relaxation of that problem, so it is the full problem's optimum.

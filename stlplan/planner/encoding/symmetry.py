@@ -30,7 +30,7 @@ mission order, that the class can serve and whose elements are chosen by binarie
 every element is required gives every class member the same ``s_T``, by the symmetry above).
 
 The rows are written on element selections (:mod:`stlplan.planner.encoding.selection`); the
-group encoding gets none. A part of the team (:mod:`stlplan.planner.parts`) holds whole classes
+group encoding gets none. A part of the team (:mod:`stlplan.planner.core.parts`) holds whole classes
 (a class serves the same tasks), so a part's chains are the full problem's. A solve that holds
 some agents at their plans (a repair) keeps the rows: what it finds is a plan of the full problem,
 though the rows may leave it fewer plans than it would have without them.

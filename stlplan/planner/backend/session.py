@@ -1,0 +1,322 @@
+"""HiGHS through Pyomo: a model kept loaded across solves.
+
+The run's clock and progress reports are in :mod:`stlplan.planner.run.clock`; every
+infeasible verdict a solve returns is first confirmed (:mod:`stlplan.planner.backend.confirm`).
+
+A :class:`HighsSession` loads a Pyomo model into one ``highspy.Highs`` object once; later solves
+of the same model send HiGHS only what changed (Pyomo's persistent interface detects added rows
+and variables, and changed bounds), which the lazy loop of :mod:`stlplan.planner.core.lazy` relies on.
+
+Progress: HiGHS callbacks (improving solution, MIP interrupt) are registered on the
+``highspy.Highs`` object inside Pyomo's solver. Pyomo's capture of the process's output around
+a solve is off for the planner's solves (:mod:`stlplan.planner.backend.uncaptured`), so what a progress
+callback prints meanwhile goes where it would otherwise.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import math
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any
+
+import highspy
+import numpy as np
+from highspy import cb
+from pyomo.contrib.solver.common.results import Results, SolutionStatus, TerminationCondition
+from pyomo.contrib.solver.solvers.highs import Highs
+from pyomo.environ import ConcreteModel
+
+from stlplan.planner.backend import confirm, uncaptured
+from stlplan.planner.backend.values import ColumnKeys
+from stlplan.planner.config import PlannerConfig
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock, Phase
+from stlplan.planner.run.outcome import Plan, of_solve
+from stlplan.result import PlanStatus
+from stlplan.runtime import signals
+
+_STATUS: dict[TerminationCondition, tuple[PlanStatus, PlanStatus]] = {
+    # termination condition: (status with a plan, status without one)
+    TerminationCondition.convergenceCriteriaSatisfied: (PlanStatus.OPTIMAL, PlanStatus.ERROR),
+    TerminationCondition.maxTimeLimit: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
+    TerminationCondition.iterationLimit: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
+    TerminationCondition.objectiveLimit: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
+    TerminationCondition.interrupted: (PlanStatus.FEASIBLE, PlanStatus.NO_PLAN),
+    TerminationCondition.provenInfeasible: (PlanStatus.INFEASIBLE, PlanStatus.INFEASIBLE),
+    TerminationCondition.infeasibleOrUnbounded: (PlanStatus.INFEASIBLE, PlanStatus.INFEASIBLE),
+}
+
+
+def plan_status(results: Results, stopped: bool = False) -> PlanStatus:
+    """The :class:`PlanStatus` of a HiGHS result (one table, :data:`_STATUS`).
+
+    ``stopped``: the user asked to stop, so a solve cut short is "interrupted".
+    """
+    with_plan, without = _STATUS.get(
+        results.termination_condition, (PlanStatus.ERROR, PlanStatus.ERROR)
+    )
+    return of_solve(has_solution(results), stopped, with_plan, without)
+
+
+def has_solution(results: Results) -> bool:
+    """Whether HiGHS returned a primal feasible point."""
+    return results.solution_status in (SolutionStatus.optimal, SolutionStatus.feasible)
+
+
+def _watch(highs: Any, clock: Clock, phase: Phase) -> None:
+    """Report HiGHS's MIP progress to ``clock`` (callbacks on the ``highspy.Highs`` object)."""
+    if highs is None or clock.progress is None or not hasattr(highs, "cbMipInterrupt"):
+        return
+    last = [0.0]
+
+    def on_event(event: Any) -> None:
+        now = time.perf_counter()
+        improving = event.callback_type == cb.HighsCallbackType.kCallbackMipImprovingSolution
+        if improving or now - last[0] >= 0.5:
+            last[0] = now
+            out = event.data_out
+            found = abs(out.mip_primal_bound) < 1e30
+            incumbent = out.objective_function_value if found else None
+            clock.report(phase, incumbent, out.mip_dual_bound, out.mip_gap if found else None)
+        if clock.error is not None:
+            event.interrupt()  # the callback failed: stop HiGHS, re-raise after the solve
+
+    highs.cbMipImprovingSolution += on_event
+    highs.cbMipInterrupt += on_event
+
+
+_SCHEDULER: dict[str, int | None] = {}
+
+
+def use_threads(threads: int | None) -> None:
+    """Restart HiGHS's process-wide thread pool when the thread count changes.
+
+    HiGHS sizes one global scheduler at its first solve and fails later solves that ask for a
+    different ``threads``; a planning run in the same process must not inherit that.
+    """
+    if _SCHEDULER.get("threads", threads) != threads:
+        highspy.Highs.resetGlobalScheduler(True)
+    _SCHEDULER["threads"] = threads
+
+
+@dataclass(frozen=True)
+class Solved:
+    """One HiGHS solve: its results (solution loaded when there is one), wall time, MIP gap."""
+
+    results: Results
+    seconds: float
+    gap: float | None
+    stopped: bool = False
+    """Whether the user asked to stop (:mod:`stlplan.runtime.signals`): the solve was cut short."""
+    nodes: int | None = None
+    """Branch-and-bound nodes HiGHS explored (None for an LP or without HiGHS's figures)."""
+
+
+class HighsSession:
+    """A Pyomo model loaded into HiGHS once and solved as often as needed.
+
+    Parameters
+    ----------
+    model
+        The model; rows and variables added to it later reach HiGHS at the next solve.
+    config
+        The run's configuration: ``solver`` (time limit, gap, threads, seed, extra HiGHS
+        options) and ``budget`` (the least time of a solve and of a confirmation).
+    clock
+        Progress reporting.
+    phase
+        Phase named in progress reports.
+    mip
+        Apply the relative gap (a MILP).
+    """
+
+    def __init__(
+        self,
+        model: ConcreteModel,
+        config: PlannerConfig,
+        clock: Clock,
+        phase: Phase,
+        mip: bool = True,
+    ) -> None:
+        self.model, self.config, self.clock, self.phase, self.mip = (
+            model, config, clock, phase, mip
+        )  # fmt: skip
+        self._nodes: int | None = None  # branch-and-bound nodes of the solve under way
+        self.solver = Highs()
+        settings = self.solver.config
+        settings.load_solutions = False
+        settings.raise_exception_on_nonoptimal_result = False
+        settings.threads = config.solver.threads
+        settings.solver_options = {
+            "random_seed": config.solver.seed,
+            "output_flag": False,
+            **config.solver.highs_options,
+        }
+        if mip:
+            settings.rel_gap = config.solver.gap
+        clock.report(phase)
+        # Pyomo warns on HiGHS's "interrupted" status; every interrupt here is on purpose (the
+        # lazy loop's, a stop request) and mapped by plan_status.
+        logging.getLogger("pyomo.contrib.solver.solvers.highs").setLevel(logging.ERROR)
+        use_threads(config.solver.threads)
+        with clock.building(), uncaptured.solves():
+            self.solver.set_instance(model)
+        self.highs: Any = getattr(self.solver, "_solver_model", None)
+        self._fresh = True
+        self.verdict = ""
+        """HiGHS's model status of the last solve, by name."""
+        self.trial = False
+        """Whether an infeasible verdict is taken as it is (a trial solve, whose verdict decides
+        nothing about the mission)."""
+        self._start: tuple[np.ndarray, np.ndarray] | None = None
+        self.keys = ColumnKeys(model, self.columns)
+        """The key of each HiGHS column (plans are values by key)."""
+        if self.highs is not None and hasattr(self.highs, "cbMipInterrupt"):
+            self.highs.cbMipUserSolution += self._give_start
+            self.highs.cbMipInterrupt += self._clear_stale_interrupt
+            for name in ("cbMipInterrupt", "cbSimplexInterrupt", "cbIpmInterrupt"):
+                callbacks = getattr(self.highs, name)
+                callbacks += self._stop_if_asked
+        _watch(self.highs, clock, phase)
+
+    def _stop_if_asked(self, event: Any) -> None:
+        """Interrupt HiGHS when the user asked to stop (:mod:`stlplan.runtime.signals`)."""
+        if signals.should_interrupt():
+            event.interrupt()
+
+    def _clear_stale_interrupt(self, event: Any) -> None:
+        """HiGHS keeps an interrupt flag set by an earlier solve; clear it once per solve."""
+        if self._fresh and event.data_in is not None:
+            event.interrupt(False)
+            self._fresh = False
+
+    def start_from(self, plan: Plan) -> None:
+        """Give the next solve ``plan`` to start from; HiGHS completes the variables it does
+        not give (columns added since it was found, or a start of states and inputs only), or
+        drops it."""
+        self._start = self.keys.start(plan.values)
+
+    def _give_start(self, event: Any) -> None:
+        start, self._start = self._start, None
+        if start is None or event.data_in is None or len(start[0]) == 0:
+            return
+        columns, values = start
+        event.data_in.setSolution(columns, values)
+        if len(columns) < self.highs.getNumCol():
+            event.data_in.repairSolution()
+
+    @contextlib.contextmanager
+    def looking_for_a_plan(self, gap: float) -> Iterator[None]:
+        """Within the block, solves stop at the relative gap ``gap`` (or the run's, when looser)
+        and are trials: a repair looks for a plan, and its bound and verdicts prove nothing."""
+        settings, usual, trial = self.solver.config, self.solver.config.rel_gap, self.trial
+        settings.rel_gap, self.trial = max(gap, usual or 0.0), True
+        try:
+            yield
+        finally:
+            settings.rel_gap, self.trial = usual, trial
+
+    def load_changes(self) -> None:
+        """Send HiGHS what changed in the model since the last solve (rows and variables
+        added, bounds changed) now rather than at the next solve, counted as building: a solve's
+        time limit does not bound it."""
+        with self.clock.building():
+            self.solver.update()
+
+    def columns(self) -> dict[int, int]:
+        """HiGHS column of each Pyomo variable in the model, by ``id`` (fixed ones have none)."""
+        return dict(self.solver._pyomo_var_to_solver_var_map)
+
+    def solve(self, budget: Budget) -> Solved:
+        """Solve (again) within ``budget`` (at least one least solve).
+
+        An infeasible verdict is confirmed (:mod:`stlplan.planner.backend.confirm`) before it is returned; when
+        a confirmation solve finds a plan, that solve is the one returned.
+        """
+        tick = time.perf_counter()
+        self._nodes = None
+        results = self._run(budget.remaining())
+        infeasible = results.termination_condition in (
+            TerminationCondition.provenInfeasible,
+            TerminationCondition.infeasibleOrUnbounded,
+        )
+        if infeasible and not self.trial and not signals.should_interrupt():
+            first = (self.verdict, time.perf_counter() - tick)
+            results = self._confirmed(results, first, budget)
+        seconds = time.perf_counter() - tick
+        gap, nodes = None, self._nodes
+        if self.mip and self.highs is not None and has_solution(results):
+            gap = float(self.highs.getInfo().mip_gap)  # HiGHS reports inf without an integer
+            if not math.isfinite(gap):
+                optimal = (
+                    results.termination_condition
+                    == TerminationCondition.convergenceCriteriaSatisfied
+                )
+                gap = 0.0 if optimal else None
+        if has_solution(results):
+            results.solution_loader.load_vars()
+        return Solved(results, seconds, gap, signals.should_interrupt(), nodes)
+
+    def _run(self, seconds: float, settings: confirm.Settings | None = None) -> Results:
+        """One HiGHS solve through Pyomo within ``seconds`` (at least
+        ``budget.min_solve_seconds``), with extra options."""
+        config = self.solver.config
+        config.time_limit = max(self.config.budget.min_solve_seconds, seconds)
+        self._fresh = True
+        use_threads(self.config.solver.threads)
+        usual = config.solver_options
+        config.solver_options = {**usual, **(settings or {})}
+        try:
+            with signals.solving(), uncaptured.solves():
+                results = self.solver.solve(self.model)
+        finally:
+            config.solver_options = usual
+        self.verdict = confirm.verdict(self.highs)
+        if self.mip and self.highs is not None:  # (HiGHS says -1 for a model without integers)
+            nodes = int(self.highs.getInfo().mip_node_count)
+            if nodes >= 0:  # every run of a solve, confirmations included
+                self._nodes = (self._nodes or 0) + nodes
+        signals.raise_if_hard()
+        if self.clock.error is not None:
+            raise self.clock.error
+        return results
+
+    def _confirmed(self, results: Results, first: tuple[str, float], budget: Budget) -> Results:
+        """The results after confirming an infeasible verdict (recorded on the clock)."""
+        last = [results]
+
+        def run(settings: confirm.Settings, limit: float) -> None:
+            last[0] = self._run(limit, settings)
+
+        where: str = self.phase
+        if self.phase == "step1" and self.clock.round is not None:
+            where += f" round {self.clock.round}"
+        confirmation = confirm.confirm(
+            self.highs,
+            first,
+            run,
+            self.config.solver.seed,
+            budget.remaining,
+            where,
+            self.config.budget.min_check_seconds,
+        )
+        self.clock.confirmations.append(confirmation)
+        return last[0]
+
+
+def solve_once(
+    model: ConcreteModel,
+    config: PlannerConfig,
+    clock: Clock,
+    phase: Phase,
+    budget: Budget,
+    mip: bool = True,
+) -> tuple[Results, float, float | None]:
+    """One HiGHS solve of ``model`` within ``budget``; returns the results, its wall time and
+    HiGHS's MIP gap."""
+    solved = HighsSession(model, config, clock, phase, mip).solve(budget)
+    return solved.results, solved.seconds, solved.gap

@@ -1,0 +1,192 @@
+"""Repairs: ways to turn a plan that breaks requirements into one that meets them all.
+
+A repair is a plug-in: the lazy loop and the parts call the repairs the
+:class:`~stlplan.planner.core.policy.RepairPolicy` names, each within its share of the time
+left, and take the plan it returns (a :class:`~stlplan.planner.run.outcome.Plan` that meets every
+requirement, or None). Two repairs here, and two of the first-plan heuristics
+(:mod:`stlplan.planner.core.hooks`: the prioritized repair and the repair by elements):
+
+* :class:`InTurnRepair`: the agents the broken requirements name are solved again one at a
+  time around the others, as prioritized planners do (:mod:`stlplan.planner.core.in_turn`);
+* :class:`HeldRepair`: the model of a merged part solved with every agent but those the
+  collisions name held near the parts' plans (``repair.hold``), a small problem: to the run's
+  gap first, then, without a plan, to the repair's gap (``repair.gap``: its bound bounds only
+  the held problem).
+
+Once a plan meets every requirement, a long round's plan (its relaxation's optimum) is
+repaired with its task decisions kept (:class:`TasksKeptRepair`): a plan near the round's bound
+that meets every requirement may close the gap without another round.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+from stlplan.planner.backend.values import load_values, model_values
+from stlplan.planner.config import PlannerConfig
+from stlplan.planner.core.assembly import hold_plans
+from stlplan.planner.core.completion import hold_decisions
+from stlplan.planner.core.in_turn import Held, InTurn, release
+from stlplan.planner.core.watch import loaded_plan
+from stlplan.planner.encoding.deferred import neighbours
+from stlplan.planner.encoding.model import PlanModel, add_requirements
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.outcome import Plan
+
+
+@dataclass(frozen=True, eq=False)
+class Broken:
+    """What a repair starts from.
+
+    Attributes
+    ----------
+    solver
+        The lazy solver of the model, with a plan loaded that violates ``bad`` (its ``pm``,
+        ``session`` and ``run``).
+    bad
+        The lazy requirements the loaded plan violates.
+    parts
+        For a merged part: the models of the parts it comes from, with their plans.
+    free
+        For a merged part: the agents the collisions name.
+    solvers
+        For a merged part: the lazy solvers of the parts it comes from (of ``parts``).
+    """
+
+    solver: Any
+    bad: Sequence[int]
+    parts: Sequence[PlanModel] = ()
+    free: frozenset[str] = field(default_factory=frozenset)
+    solvers: Sequence[Any] = ()
+
+
+class Repair(Protocol):
+    """A way to repair a broken plan."""
+
+    def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
+        """A plan that meets every requirement, found within ``budget`` (None: none)."""
+        ...
+
+    def describe(self) -> str:
+        """The repair in words."""
+        ...
+
+
+@dataclass(frozen=True)
+class InTurnRepair:
+    """Agent by agent, each around the agents already repaired (prioritized planning)."""
+
+    def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
+        solver = broken.solver
+        reached = solver.clock.reached
+        stop = solver.watch.done if solver.watch is not None else lambda: False
+        with reached.within("repair in turn"):
+            plan = _around_published(broken, config, budget, stop)
+            if plan is None and not (budget.expired() or stop()):
+                plan = InTurn(solver.pm, solver.session, config, stop=stop).run(broken.bad, budget)
+            if plan is None and stop():  # the loop's watch took a plan on the way
+                return solver.watch.best
+            if plan is None:
+                reached.failed("repair in turn")
+        return plan
+
+    def describe(self) -> str:
+        return "in turn"
+
+
+def _around_published(
+    broken: Broken, config: PlannerConfig, budget: Budget, stop: Callable[[], bool]
+) -> Plan | None:
+    """The repair in turn around the first plans other parts published (its agents that break
+    requirements with them take turns too); None without such plans or without a plan (the
+    broken plan then loaded again, for the repair that follows)."""
+    solver = broken.solver
+    if solver.published is None or solver.watch is None:
+        return None
+    with solver.published.around(solver.pm) as outside:
+        if outside is None:
+            return None
+        watch, saved = solver.watch, model_values(solver.pm.model)
+        watch.also = lambda states: not outside.broken(states, states)  # its plans meet them
+        try:
+            repair = InTurn(solver.pm, solver.session, config, outside=outside, stop=stop)
+            plan = repair.run(broken.bad, budget)
+        finally:
+            watch.also = None
+        if plan is None:
+            load_values(solver.pm.model, saved)
+        return plan
+
+
+@dataclass(frozen=True)
+class HeldRepair:
+    """With every agent the collisions do not name held near its part's plan: solved to the
+    run's gap within ``repair.held_exact_share`` of the time, then (without a plan, or with
+    ``solver.first_plan`` at once) to the repair's gap."""
+
+    def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
+        solver = broken.solver
+        reached = solver.clock.reached
+        held = hold_plans(solver.pm, broken.parts, config.repair.hold, broken.free)
+        with reached.within("held repair"):
+            try:
+                found = _held_runs(solver, config, budget)
+            finally:
+                release(held)
+            plan = None if found.objective is None else loaded_plan(solver.pm)
+            if plan is None:
+                reached.failed("held repair")
+        return plan
+
+    def describe(self) -> str:
+        return "held"
+
+
+def _held_runs(solver: Any, config: PlannerConfig, budget: Budget) -> Any:
+    """The held model's lazy runs (:class:`HeldRepair`); the last one's outcome. A repair's
+    bound bounds only the held problem: the second run looks for a plan, not for a proof."""
+    exact = config.repair.held_exact_share
+    if exact > 0 and not config.solver.first_plan:
+        found = solver.run(budget.share(exact), trial=True)
+        if found.objective is not None or budget.expired():
+            return found
+    with solver.session.looking_for_a_plan(config.repair.gap):
+        return solver.run(budget, trial=True)
+
+
+@dataclass(frozen=True)
+class TasksKeptRepair:
+    """The round's plan with its task decisions kept: every binary but those of the lazy
+    requirements held at the plan's value, the requirements it violates added, and the model
+    solved in a trial of the loop to ``repair.tasks_kept_gap`` (the kept problem's optimum, not
+    a plan within the run's gap of its own bound); the watch keeps the plans that meet every
+    requirement. Each agent's path, and the side of every requirement, may change."""
+
+    def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
+        solver = broken.solver
+        pm, watch, session = solver.pm, solver.watch, solver.session
+        before = watch.best
+        add_requirements(pm, neighbours(pm.deferral.lazy, broken.bad, config.lazy.window))
+        held = _hold_task_decisions(pm)
+        settings, gaps = session.solver.config, (watch.gap, session.solver.config.rel_gap)
+        trials = solver.trial, session.trial
+        watch.gap = settings.rel_gap = config.repair.tasks_kept_gap
+        with solver.clock.reached.within("tasks kept"):
+            try:
+                solver.run(budget, trial=True)
+            finally:
+                release(held)
+                watch.gap, settings.rel_gap = gaps
+                solver.trial, session.trial = trials
+        return watch.best if watch.best is not before else None
+
+    def describe(self) -> str:
+        return "tasks kept"
+
+
+def _hold_task_decisions(pm: PlanModel) -> Held:
+    """Hold every binary of ``pm`` with a loaded value at it, but the lazy requirements'."""
+    lazy = {id(v) for part in pm.parts.values() for v in (*part.binaries, *part.indicators)}
+    return hold_decisions(pm, model_values(pm.model), frozenset(lazy))

@@ -1,0 +1,1 @@
+"""What only looks for a large team's first plan: plans published and planned around, the prioritized repair and its guide, the repair and the improvement by elements, the first plan before the proofs."""
