@@ -69,6 +69,7 @@ FORMULATIONS: dict[str, dict[str, Any]] = {
     "lazy-only": {"parts.enabled": False, "model.floors": False},
     "pair-window": {"lazy.window": None},
     "window1": {"lazy.window": 1},
+    "deterministic": {"solver.deterministic": True},
     "log": {"model.encoding": "log"},
     "groups": {"model.tasks": "groups"},
     "standard": {"model.encoding": "standard"},

@@ -157,6 +157,14 @@ FirstPlanOption = Annotated[
         help="Stop at the first plan that meets every requirement (its gap is printed beside it).",
     ),
 ]
+DeterministicOption = Annotated[
+    bool,
+    typer.Option(
+        "--deterministic",
+        help="Take every decision on the solver's work, not the clock (one thread): two runs "
+        "decide alike whatever the machine's load, to compare versions of the code.",
+    ),
+]
 RobustToOption = Annotated[
     float | None,
     typer.Option(
@@ -197,6 +205,7 @@ def solve(
     inter_sample: InterSampleOption = None,
     degrade: DegradeOption = False,
     first_plan: FirstPlanOption = False,
+    deterministic: DeterministicOption = False,
     robust_to: RobustToOption = None,
     no_animation: NoAnimationOption = False,
     no_html: NoHtmlOption = False,
@@ -222,6 +231,7 @@ def solve(
         two_step=False if one_step else None,
         degrade=True if degrade else None,
         first_plan=True if first_plan else None,
+        deterministic=True if deterministic else None,
         robust_to=robust_to,
         inter_sample=inter_sample,
     )

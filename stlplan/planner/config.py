@@ -55,6 +55,16 @@ class SolverConfig(_Section):
     strict_integrality: float = Field(default=1e-9, gt=0)
     """HiGHS's integrality (and MIP feasibility) tolerance when step 1 is solved again strictly,
     because its decisions, taken exactly, left the continuous stage without a plan."""
+    deterministic: bool = False
+    """Decisions read the solver's work, not the clock: one thread (HiGHS's, and one part at a
+    time), and a lazy round's length, which decides its repairs, is its simplex iterations at
+    :data:`~stlplan.planner.backend.session.WORK_RATE` a second. Two runs then take the same
+    decisions whatever the machine's load, as long as no solve reaches its time limit (for
+    comparing code, not machines)."""
+
+    def used_threads(self) -> int | None:
+        """The threads HiGHS may use: one when :attr:`deterministic`, else :attr:`threads`."""
+        return 1 if self.deterministic else self.threads
 
 
 class ModelConfig(_Section):

@@ -19,6 +19,7 @@ _NAMED = {
     "two_step": "continuous.two_step",
     "degrade": "diagnosis.degrade",
     "first_plan": "solver.first_plan",
+    "deterministic": "solver.deterministic",
     "robust_to": "model.robust_to",
 }
 """The planner settings a run may change by their command-line names."""
@@ -31,7 +32,8 @@ class Overrides:
 
     Attributes
     ----------
-    time_limit, gap, threads, seed, encoding, tasks, two_step, degrade, first_plan, robust_to
+    time_limit, gap, threads, seed, encoding, tasks, two_step, degrade, first_plan,
+    deterministic, robust_to
         The :class:`PlannerConfig` knobs ``_NAMED`` maps them to (``solver.time_limit``,
         ``diagnosis.degrade``, ``model.robust_to``, ...).
     inter_sample
@@ -50,6 +52,7 @@ class Overrides:
     two_step: bool | None = None
     degrade: bool | None = None
     first_plan: bool | None = None
+    deterministic: bool | None = None
     robust_to: float | None = None
     inter_sample: bool | None = None
     config: Mapping[str, Any] = field(default_factory=dict)

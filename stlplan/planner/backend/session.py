@@ -103,6 +103,12 @@ def use_threads(threads: int | None) -> None:
     _SCHEDULER["threads"] = threads
 
 
+WORK_RATE = 10_000.0
+"""Simplex iterations a second, for a deterministic run's lengths (``solver.deterministic``):
+about what one HiGHS thread makes on the farm's lazy rounds here (4,600 to 13,600, most near
+9,000)."""
+
+
 @dataclass(frozen=True)
 class Solved:
     """One HiGHS solve: its results (solution loaded when there is one), wall time, MIP gap."""
@@ -114,6 +120,15 @@ class Solved:
     """Whether the user asked to stop (:mod:`stlplan.runtime.signals`): the solve was cut short."""
     nodes: int | None = None
     """Branch-and-bound nodes HiGHS explored (None for an LP or without HiGHS's figures)."""
+    iterations: int | None = None
+    """Simplex iterations HiGHS made, in every node (None without HiGHS's figures)."""
+
+    def length(self, deterministic: bool) -> float:
+        """How long the solve took, s: its wall time, or with ``deterministic`` its work (its
+        simplex iterations at :data:`WORK_RATE` a second)."""
+        if deterministic and self.iterations is not None:
+            return self.iterations / WORK_RATE
+        return self.seconds
 
 
 class HighsSession:
@@ -146,11 +161,12 @@ class HighsSession:
             model, config, clock, phase, mip
         )  # fmt: skip
         self._nodes: int | None = None  # branch-and-bound nodes of the solve under way
+        self._iterations: int | None = None  # simplex iterations of the solve under way
         self.solver = Highs()
         settings = self.solver.config
         settings.load_solutions = False
         settings.raise_exception_on_nonoptimal_result = False
-        settings.threads = config.solver.threads
+        settings.threads = config.solver.used_threads()
         settings.solver_options = {
             "random_seed": config.solver.seed,
             "output_flag": False,
@@ -162,7 +178,7 @@ class HighsSession:
         # Pyomo warns on HiGHS's "interrupted" status; every interrupt here is on purpose (the
         # lazy loop's, a stop request) and mapped by plan_status.
         logging.getLogger("pyomo.contrib.solver.solvers.highs").setLevel(logging.ERROR)
-        use_threads(config.solver.threads)
+        use_threads(config.solver.used_threads())
         with clock.building(), uncaptured.solves():
             self.solver.set_instance(model)
         self.highs: Any = getattr(self.solver, "_solver_model", None)
@@ -238,7 +254,7 @@ class HighsSession:
         a confirmation solve finds a plan, that solve is the one returned.
         """
         tick = time.perf_counter()
-        self._nodes = None
+        self._nodes = self._iterations = None
         results = self._run(budget.remaining())
         infeasible = results.termination_condition in (
             TerminationCondition.provenInfeasible,
@@ -259,7 +275,8 @@ class HighsSession:
                 gap = 0.0 if optimal else None
         if has_solution(results):
             results.solution_loader.load_vars()
-        return Solved(results, seconds, gap, signals.should_interrupt(), nodes)
+        stopped = signals.should_interrupt()
+        return Solved(results, seconds, gap, stopped, nodes, self._iterations)
 
     def _run(self, seconds: float, settings: confirm.Settings | None = None) -> Results:
         """One HiGHS solve through Pyomo within ``seconds`` (at least
@@ -267,7 +284,7 @@ class HighsSession:
         config = self.solver.config
         config.time_limit = max(self.config.budget.min_solve_seconds, seconds)
         self._fresh = True
-        use_threads(self.config.solver.threads)
+        use_threads(self.config.solver.used_threads())
         usual = config.solver_options
         config.solver_options = {**usual, **(settings or {})}
         try:
@@ -276,9 +293,11 @@ class HighsSession:
         finally:
             config.solver_options = usual
         self.verdict = confirm.verdict(self.highs)
-        if self.mip and self.highs is not None:  # (HiGHS says -1 for a model without integers)
-            nodes = int(self.highs.getInfo().mip_node_count)
-            if nodes >= 0:  # every run of a solve, confirmations included
+        if self.highs is not None:  # every run of a solve, confirmations included
+            info = self.highs.getInfo()
+            self._iterations = (self._iterations or 0) + max(0, int(info.simplex_iteration_count))
+            nodes = int(info.mip_node_count)  # (HiGHS says -1 for a model without integers)
+            if self.mip and nodes >= 0:
                 self._nodes = (self._nodes or 0) + nodes
         signals.raise_if_hard()
         if self.clock.error is not None:

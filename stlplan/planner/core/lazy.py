@@ -224,7 +224,8 @@ class LazySolver:
             out_of_time = not (converged or watch.stopped) or left < needed
             if solved.stopped or out_of_time:
                 return self._last(solved, tick, rounds, budget)
-            self._repair_between_rounds(bad, budget, solved.seconds)
+            length = solved.length(self.config.solver.deterministic)
+            self._repair_between_rounds(bad, budget, length)
             if watch.closed(watch.ceiling):
                 return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
             if watch.done():  # a repair found the first plan

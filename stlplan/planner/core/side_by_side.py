@@ -27,7 +27,10 @@ Job = TypeVar("Job")
 
 
 def part_workers(config: PlannerConfig) -> int:
-    """Parts solved at the same time: ``parts.side_by_side``, else the solver's threads."""
+    """Parts solved at the same time: ``parts.side_by_side``, else the solver's threads (one in
+    a deterministic run)."""
+    if config.solver.deterministic:
+        return 1
     return config.parts.side_by_side or config.solver.threads or 1
 
 
