@@ -38,7 +38,7 @@ def test_the_configuration_plans_first_from_ten_agents_in_a_part() -> None:
     assert build_strategy(EXACT) == Parts(LazyRounds(policy), 10, FirstPlan.of(EXACT))
     assert "plan first if >= 10 agents" in build_strategy(EXACT).describe()
     never = EXACT.with_overrides({"parts.plan_first_agents": None})
-    assert build_strategy(never) == Parts(LazyRounds(policy), hooks=FirstPlan.of(EXACT))
+    assert build_strategy(never) == Parts(LazyRounds(policy_of(never)), hooks=FirstPlan.of(EXACT))
     assert "plan first" not in build_strategy(never).describe()
 
 

@@ -363,9 +363,9 @@ def test_a_continuous_stage_out_of_time_keeps_the_step_1_plan_without_its_solve(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     # a large team's continuous model takes seconds to build: past the grace, no solve follows
-    from stlplan.planner.core import finish as finishing
     from stlplan.planner.backend.session import solve_once
     from stlplan.planner.backend.values import model_values
+    from stlplan.planner.core import finish as finishing
     from stlplan.planner.encoding.model import build_model
     from stlplan.planner.run.clock import Clock
 

@@ -4,6 +4,7 @@ and every one reaches the up-front optimum, accepted by the monitor."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import pytest
 
@@ -25,7 +26,8 @@ POLICY = policy_of(EXACT)
 
 def test_the_configuration_composes_the_strategy() -> None:
     assert build_strategy(EXACT) == Parts(LazyRounds(POLICY), 10, FirstPlan.of(EXACT))
-    assert build_strategy(EXACT.with_overrides({"parts.enabled": False})) == LazyRounds(POLICY)
+    alone = EXACT.with_overrides({"parts.enabled": False})
+    assert build_strategy(alone) == LazyRounds(policy_of(alone))
     assert build_strategy(EXACT.with_overrides({"lazy.enabled": False})) == Direct()
     line = describe(EXACT)
     assert build_strategy(EXACT).describe() in line and line.startswith("model(standard")
@@ -35,19 +37,24 @@ def test_the_stages_run_in_order() -> None:
     assert [name for name, _ in STAGES] == ["step 1", "continuous", "strict retry"]
 
 
+def _policy(**repair: Any) -> RepairPolicy:
+    """The policy of the defaults with ``repair`` knobs set."""
+    return RepairPolicy.of(EXACT.with_overrides({f"repair.{k}": v for k, v in repair.items()}))
+
+
 def test_the_repair_policy_decides_both_triggers() -> None:
-    policy = RepairPolicy(after_round_seconds=8.0, crowd_agents=7)
+    policy = _policy(after_round_seconds=8.0, crowd_agents=7, crowd_team=None)
     assert policy.after_round(8.0, 1) and policy.after_round(0.1, 7)
     assert not policy.after_round(7.9, 6)
     assert policy.on_merge(7) and not policy.on_merge(6)
-    teams = RepairPolicy(8.0, crowd_agents=7, crowd_team=10)
+    teams = _policy(after_round_seconds=8.0, crowd_agents=7, crowd_team=10)
     assert teams.on_merge(7, 10) and not teams.on_merge(7, 9) and not teams.on_merge(6, 64)
     assert teams.after_round(0.1, 7)  # a round's crowd is one in any team
     # before a first plan a merge of a large team is repaired in turn from two agents named
-    first = RepairPolicy(8.0, crowd_agents=7, crowd_team=10, first_plan_rounds=True)
+    first = _policy(crowd_agents=7, crowd_team=10, first_plan_rounds=True)
     assert first.on_merge(2, 24, first=True) and not first.on_merge(2, 24)
     assert not first.on_merge(1, 24, first=True) and not first.on_merge(2, 9, first=True)
-    never = RepairPolicy(None, None)
+    never = _policy(after_round_seconds=None, crowd_agents=None, first_plan_rounds=False)
     assert not never.after_round(1e6, 100) and not never.on_merge(100) and never.describe() == ""
 
 

@@ -103,7 +103,7 @@ class LazyRounds:
         return pm, solve_step1(pm, config, clock, budget, self.policy, start)
 
     def describe(self) -> str:
-        triggers, kept = self.policy.describe(), self.policy.tasks_kept_seconds
+        triggers, kept = self.policy.describe(), self.policy.repair.tasks_kept_seconds
         in_turn = f", repair in turn if {triggers}" if triggers else ""
         tasks = "" if kept is None else f", tasks kept if round >= {kept:g} s with a plan"
         return f"lazy rounds(direct{_by_elements(self.policy)}{in_turn}{tasks})"
@@ -134,11 +134,11 @@ class Parts:
         return by_parts or self.inner.solve(problem, config, clock, budget, start)
 
     def describe(self) -> str:
-        policy = self.inner.policy
-        ordered = ["prioritized"] if policy.orders else []
-        ordered += [] if policy.by_elements is None else ["by elements before a first plan"]
-        crowd, first = policy.crowd_agents, "".join(f"{w}, " for w in [" or ".join(ordered)] if w)
-        team = "" if policy.crowd_team is None else f" of a team >= {policy.crowd_team}"
+        repair = self.inner.policy.repair
+        ordered = ["prioritized"] if repair.orders else []
+        ordered += [] if repair.by_elements is None else ["by elements before a first plan"]
+        crowd, first = repair.crowd_agents, "".join(f"{w}, " for w in [" or ".join(ordered)] if w)
+        team = "" if repair.crowd_team is None else f" of a team >= {repair.crowd_team}"
         merge = f"{first}in turn if >= {crowd} agents{team}, held" if crowd is not None else "held"
         early = "" if self.plan_first is None else f"; plan first if >= {self.plan_first} agents"
         after = "" if self.hooks is None else self.hooks.describe()
@@ -163,7 +163,7 @@ def policy_of(config: PlannerConfig) -> RepairPolicy:
 
 def _by_elements(policy: RepairPolicy) -> str:
     """The repair by elements in the strategy line (empty when it is off)."""
-    return "" if policy.by_elements is None else ", by elements before a first plan"
+    return "" if policy.repair.by_elements is None else ", by elements before a first plan"
 
 
 def describe(config: PlannerConfig) -> str:

@@ -36,7 +36,8 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from stlplan.mission.problem import Problem
-from stlplan.planner.config import PlannerConfig
+from stlplan.planner.config import PartsConfig, PlannerConfig
+from stlplan.planner.config_repair import RepairConfig
 from stlplan.planner.core.repairs import HeldRepair, InTurnRepair, Repair, TasksKeptRepair
 
 Planned = tuple[tuple[Repair, float], ...]
@@ -61,40 +62,27 @@ class FirstPlanRepairs(Protocol):
 
 @dataclass(frozen=True)
 class RepairPolicy:
-    """When to repair in turn (None: never on that count)."""
+    """When to repair, and with what share of the time: the ``repair`` and ``parts`` sections
+    of the run's configuration, read as they are (None: never on that count), and the
+    first-plan heuristics' repairs (None: none)."""
 
-    after_round_seconds: float | None
-    crowd_agents: int | None
-    crowd_team: int | None = None
-    first_plan_rounds: bool = False
-    round_share: float = 0.25
-    crowd_share: float = 0.75
-    held_share: float = 0.25
-    orders: int = 3
-    part_agents: int = 4
-    first_plan_share: float = 0.75
-    tasks_kept_seconds: float | None = None
-    by_elements: float | None = None
+    repair: RepairConfig
+    parts: PartsConfig
     first_plan: FirstPlanRepairs | None = None
 
     @classmethod
     def of(cls, config: PlannerConfig, first_plan: FirstPlanRepairs | None = None) -> RepairPolicy:
-        """The policy of ``config``'s ``repair`` and ``parts`` sections, with the first-plan
-        heuristics of ``first_plan`` (None: none)."""
-        repair, parts = config.repair, config.parts
-        return cls(
-            repair.after_round_seconds, repair.crowd_agents, repair.crowd_team,
-            repair.first_plan_rounds, repair.share, parts.crowd_repair_share,
-            parts.held_repair_share, repair.orders, repair.part_agents, repair.first_plan_share,
-            repair.tasks_kept_seconds, repair.by_elements, first_plan,
-        )  # fmt: skip
+        """The policy of ``config``, with the first-plan heuristics of ``first_plan``."""
+        return cls(config.repair, config.parts, first_plan)
 
     def first_gap(self, problem: Problem, gap: float, by_elements_gap: float) -> float:
         """The gap of the rounds of a loop that looks for its first plan: ``gap``, or the looser
         ``by_elements_gap`` where the repair by elements may run (it takes the round's choices,
         not its optimum)."""
         hooks = self.first_plan
-        chooses = self.by_elements is not None and hooks is not None and hooks.chooses(problem)
+        chooses = (
+            self.repair.by_elements is not None and hooks is not None and hooks.chooses(problem)
+        )
         return max(gap, by_elements_gap if chooses else 0.0)
 
     def round_repairs(
@@ -106,22 +94,22 @@ class RepairPolicy:
         left); once a plan meets every requirement (``proving``), :meth:`proof_repairs`."""
         if proving:
             return self.proof_repairs(seconds, first)
-        before_plan = first and self.first_plan_rounds and agents >= 2
+        before_plan = first and self.repair.first_plan_rounds and agents >= 2
         repaired = self.after_round(seconds, agents) or before_plan
-        share = self.first_plan_share if first else self.round_share
+        share = self.repair.first_plan_share if first else self.repair.share
         if not repaired:
             return ()
         hooks = self.first_plan
-        if before_plan and self.by_elements is not None and hooks is not None:
-            return (hooks.by_elements(), self.by_elements), (InTurnRepair(), share)
+        if before_plan and self.repair.by_elements is not None and hooks is not None:
+            return (hooks.by_elements(), self.repair.by_elements), (InTurnRepair(), share)
         return ((InTurnRepair(), share),)
 
     def proof_repairs(self, seconds: float, first: bool) -> Planned:
         """The repairs of a lazy round of ``seconds`` once a plan meets every requirement (none
         in a loop that looks for its first plan only)."""
-        limit = self.tasks_kept_seconds
+        limit = self.repair.tasks_kept_seconds
         kept = not first and limit is not None and seconds >= limit
-        return ((TasksKeptRepair(), self.round_share),) if kept else ()
+        return ((TasksKeptRepair(), self.repair.share),) if kept else ()
 
     def merge_repairs(
         self, agents: int, largest: int = 1, team: int | None = None, first: bool = False
@@ -129,45 +117,48 @@ class RepairPolicy:
         """The repairs of a merged part of a team of ``team`` agents (None: a team large enough)
         whose collisions name ``agents`` agents, from parts of at most ``largest`` agents, while
         looking for a first plan only when ``first``."""
-        held: Planned = ((HeldRepair(), self.held_share),)
+        held: Planned = ((HeldRepair(), self.parts.held_repair_share),)
         if not self.on_merge(agents, team, first):
             return held
         ordered, hooks = self.ordered(largest), self.first_plan
         ahead: Planned = ()
         if hooks is not None and ordered:  # its last solve: any time left
-            ahead = ((hooks.prioritized(self.crowd_share), 1.0),)
-        elif hooks is not None and first and self.by_elements is not None:
-            ahead = ((hooks.by_elements(), self.by_elements),)
-        return (*ahead, (InTurnRepair(), self.crowd_share), *held)
+            ahead = ((hooks.prioritized(self.parts.crowd_repair_share), 1.0),)
+        elif hooks is not None and first and self.repair.by_elements is not None:
+            ahead = ((hooks.by_elements(), self.repair.by_elements),)
+        return (*ahead, (InTurnRepair(), self.parts.crowd_repair_share), *held)
 
     def ordered(self, largest: int) -> bool:
         """Whether a merge of parts of at most ``largest`` agents is repaired part by part."""
-        return bool(self.orders) and largest <= self.part_agents
+        return bool(self.repair.orders) and largest <= self.repair.part_agents
 
     def after_round(self, seconds: float, agents: int) -> bool:
         """Whether a round of ``seconds`` whose violations name ``agents`` agents is repaired."""
-        if self.after_round_seconds is not None and seconds >= self.after_round_seconds:
+        if (
+            self.repair.after_round_seconds is not None
+            and seconds >= self.repair.after_round_seconds
+        ):
             return True
         return self.crowd(agents)
 
     def crowd(self, agents: int) -> bool:
         """Whether violations naming ``agents`` agents name a crowd."""
-        return self.crowd_agents is not None and agents >= self.crowd_agents
+        return self.repair.crowd_agents is not None and agents >= self.repair.crowd_agents
 
     def on_merge(self, agents: int, team: int | None = None, first: bool = False) -> bool:
         """Whether a merged part of a team of ``team`` agents (None: a team large enough)
         whose collisions name ``agents`` agents is repaired in turn."""
-        large = self.crowd_team is None or team is None or team >= self.crowd_team
-        before_plan = first and self.first_plan_rounds and agents >= 2
+        large = self.repair.crowd_team is None or team is None or team >= self.repair.crowd_team
+        before_plan = first and self.repair.first_plan_rounds and agents >= 2
         return large and (self.crowd(agents) or before_plan)
 
     def describe(self) -> str:
         """The triggers in words (empty when there are none)."""
         triggers = []
-        if self.after_round_seconds is not None:
-            triggers.append(f"round >= {self.after_round_seconds:g} s")
-        if self.crowd_agents is not None:
-            triggers.append(f">= {self.crowd_agents} agents")
-        if self.first_plan_rounds:
+        if self.repair.after_round_seconds is not None:
+            triggers.append(f"round >= {self.repair.after_round_seconds:g} s")
+        if self.repair.crowd_agents is not None:
+            triggers.append(f">= {self.repair.crowd_agents} agents")
+        if self.repair.first_plan_rounds:
             triggers.append("before a first plan")
         return " or ".join(triggers)

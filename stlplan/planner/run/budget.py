@@ -25,7 +25,7 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
-from stlplan.planner.config import PlannerConfig
+from stlplan.planner.config import BudgetConfig, PlannerConfig
 
 
 @dataclass(frozen=True)
@@ -46,7 +46,7 @@ class Budget:
 
     deadline: float
     grace_end: float
-    min_solve: float = 1.0
+    min_solve: float = BudgetConfig().min_solve_seconds
     ledger: dict[str, float] = field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
