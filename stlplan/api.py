@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -191,34 +191,36 @@ def solve(
     if config.model.tasks == "groups":
         check_enumerable(problem)
     check_size(problem, config)
-    written = _written(out, overrides, animation, viewer)
-    return written(lambda: plan(problem, overrides, progress=progress))[1]
+    with _plan_folder(out, overrides, animation, viewer) as write:
+        planned, result = plan(problem, overrides, progress=progress)
+        write(planned, result)
+    return result
 
 
-def _written(
+@contextlib.contextmanager
+def _plan_folder(
     out: str | Path | None, overrides: Overrides | None, animation: bool, viewer: bool
-) -> Callable[[Callable[[], tuple[Problem, PlanResult]]], tuple[Problem, PlanResult]]:
-    """Run a planning call and (with ``out``) write its plan directory, all or nothing: the
-    folder is prepared first, and one made for the run is removed again on Ctrl-C."""
+) -> Iterator[Callable[[Problem, PlanResult], None]]:
+    """The block plans and writes its plan directory (with ``out``) by the function it is
+    given, all or nothing: the folder is prepared first, a signal while writing writes nothing,
+    and a folder made for the run is removed again on Ctrl-C."""
+    created = out is not None and not Path(out).exists()
+    if out is not None:
+        prepare_directory(Path(out))
 
-    def run(planned: Callable[[], tuple[Problem, PlanResult]]) -> tuple[Problem, PlanResult]:
-        created = out is not None and not Path(out).exists()
+    def write(problem: Problem, result: PlanResult) -> None:
         if out is not None:
-            prepare_directory(Path(out))
-        try:
-            with signals.stop_on_signals():  # a signal while writing: nothing is written
-                problem, result = planned()
-                if out is not None:
-                    given = (overrides or Overrides()).given()
-                    write_plan(problem, result, out, given, animation=animation, viewer=viewer)
-        except KeyboardInterrupt:
-            if created and out is not None:
-                with contextlib.suppress(OSError):
-                    Path(out).rmdir()  # only when still empty
-            raise
-        return problem, result
+            given = (overrides or Overrides()).given()
+            write_plan(problem, result, out, given, animation=animation, viewer=viewer)
 
-    return run
+    try:
+        with signals.stop_on_signals():
+            yield write
+    except KeyboardInterrupt:
+        if created and out is not None:
+            with contextlib.suppress(OSError):
+                Path(out).rmdir()  # only when still empty
+        raise
 
 
 def replan(
@@ -260,10 +262,12 @@ def replan(
     start = None
     with contextlib.suppress(StlplanError):  # later rows incomplete: no start from them
         start = trajectory_start(again, read_trajectory_csv(problem, executed), at)
-    written = _written(out, overrides, animation, viewer)
-    return written(
-        lambda: replan_problem(problem, past, at, lost, closed, overrides, progress, start)
-    )
+    with _plan_folder(out, overrides, animation, viewer) as write:
+        planned, result = replan_problem(
+            problem, past, at, lost, closed, overrides, progress, start
+        )
+        write(planned, result)
+    return planned, result
 
 
 def sweep(

@@ -206,7 +206,7 @@ def _apart(
     has no plan); the parts and their combined outcome. With the first-plan ``hooks``, the parts
     publish their plans and colliding parts are repaired around each other's before a merge."""
     published = None if hooks is None else hooks.publisher(full, config)
-    solve = publishing(published, _solve_part)
+    solve = _solve_part if published is None else publishing(published, _solve_part)
     while True:
         solve_in_shares(parts, config, budget, solve)
         done = _combined(parts, config, clock, tick)

@@ -163,15 +163,14 @@ class LazySolver:
                 self.watch.abs_gap, self.watch.gap = abs_gap, 0.0
         if self.watch is None:  # every requirement in the model: one solve
             self.clock.reached.enter("up front")
-            solved = self._solve(budget)
+            self.clock.next_round()
+            solved = self._recorded_round(self.session.solve(budget))
             return _ended(solved, time.perf_counter() - tick, 1, 0)
         return self._capped(self._rounds(budget, tick))
 
-    def _solve(self, budget: Budget) -> Solved:
-        """One round: a solve within ``budget``, recorded on the clock."""
+    def _recorded_round(self, solved: Solved) -> Solved:
+        """``solved``, a round just solved, recorded on the clock."""
         pm, clock, watch = self.pm, self.clock, self.watch
-        clock.next_round()
-        solved = self.session.solve(budget)
         results = solved.results
         if watch is not None:
             best = None if watch.best is None else watch.best.objective
@@ -198,7 +197,8 @@ class LazySolver:
             watch.stopped = False  # (the session clears HiGHS's stale interrupt flag)
             if watch.best is not None:
                 self.session.start_from(watch.best)
-            solved = self._solve(budget)
+            self.clock.next_round()
+            solved = self._recorded_round(self.session.solve(budget))
             rounds, seconds = len(clock.round_log) - first, time.perf_counter() - tick
             results = solved.results
             bound = results.objective_bound
