@@ -115,7 +115,7 @@ def test_a_false_verdict_in_a_lazy_round_is_overturned_and_the_loop_goes_on(
 
     from stlplan.planner.backend.session import HighsSession
 
-    usual = HighsSession._run
+    usual = HighsSession.solve_once
     spoiled = []
 
     def spoil_first(self, seconds, settings=None):  # type: ignore[no-untyped-def]
@@ -133,7 +133,7 @@ def test_a_false_verdict_in_a_lazy_round_is_overturned_and_the_loop_goes_on(
 
     _, reference = api.plan(MISSIONS / "reach-avoid.yaml", overrides=EXACT)
     assert reference.confirmations == ()
-    monkeypatch.setattr(HighsSession, "_run", spoil_first)
+    monkeypatch.setattr(HighsSession, "solve_once", spoil_first)
     _, result = api.plan(MISSIONS / "reach-avoid.yaml", overrides=EXACT)
     assert spoiled and result.status.value == "optimal"
     assert result.report is not None and result.report.satisfied

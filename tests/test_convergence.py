@@ -114,7 +114,7 @@ def guarded(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[str]]:
     assembly of the parts runs (none may be)."""
     running: list[str] = []
     leaks: list[str] = []
-    solve, assemble, rounds = HighsSession._run, components_module.assemble, LazySolver.run
+    solve, assemble, rounds = HighsSession.solve_once, components_module.assemble, LazySolver.run
 
     def spy_run(self: HighsSession, *args: Any, **kwargs: Any) -> Any:
         running.append("trial" if self.trial else "")
@@ -144,7 +144,7 @@ def guarded(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[str]]:
             leaks.append(f"bound {bound} in a {[r for r in running if r][-1]}")
         bound_found(self, bound, force)
 
-    monkeypatch.setattr(HighsSession, "_run", spy_run)
+    monkeypatch.setattr(HighsSession, "solve_once", spy_run)
     monkeypatch.setattr(LazySolver, "run", spy_rounds)
     monkeypatch.setattr(components_module, "assemble", spy_assemble)
     monkeypatch.setattr(Clock, "bound_found", spy_bound)

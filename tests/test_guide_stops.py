@@ -20,7 +20,9 @@ def _everywhere(hps: list, grid: guide.Grid, t: int, shifts: np.ndarray) -> np.n
     """Each requirement examined alone at every cell of the grid."""
     out = np.zeros((len(shifts), *grid.shape), dtype=bool)
     for hp in hps:
-        out |= guide_stops._fails(hp.a[None], hp.c[None], grid, t, shifts, 0, 0, grid.shape)[0]
+        out |= guide_stops.moves_failed(hp.a[None], hp.c[None], grid, t, shifts, 0, 0, grid.shape)[
+            0
+        ]
     return out
 
 

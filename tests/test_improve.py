@@ -117,7 +117,7 @@ def test_the_parts_in_a_moved_parts_way_are_planned_again_after_it() -> None:
     team = improve.Team.of([a, b, c, d])
     # a's part with its run earlier: no plan around b; alone, in the way of b and c
     moved = _Part("a", blocked_by=("b",), in_way=("b", "c"))
-    assert improve._moved(team, [moved, b, c, d], Budget.of_seconds(30))
+    assert improve.chain_moved(team, [moved, b, c, d], Budget.of_seconds(30))
     assert team.turns == [moved, b, c, d]
     assert team.plans[0] == {"a": "a around c"}  # c taken back: only b is in its way
     assert team.plans[1] == {"b": "b around a,c,d"}  # after it, around its plan
@@ -132,7 +132,7 @@ def test_a_move_whose_chain_breaks_leaves_the_team_as_it_was() -> None:
     a, b, c = _Part("a"), _Part("b"), _Part("c", blocked_by=("a",))
     team = improve.Team.of([a, b, c])
     moved = _Part("a", blocked_by=("b", "c"), in_way=("b", "c"))
-    assert not improve._moved(team, [moved, b, c], Budget.of_seconds(30))
+    assert not improve.chain_moved(team, [moved, b, c], Budget.of_seconds(30))
     assert b.fixed and c.fixed  # both planned again after it, c found none
     assert team.turns == [a, b, c]
     assert team.plans == [{"a": "a as planned"}, {"b": "b as planned"}, {"c": "c as planned"}]
@@ -154,13 +154,13 @@ def test_the_better_of_the_joined_plans_is_kept_loaded(monkeypatch: pytest.Monke
     monkeypatch.setattr(improve, "LazySolver", lambda *_: "a fresh solver")
     monkeypatch.setattr(improve, "load_plan", lambda pm, values, added: loaded.append(values))
     whole = type("Whole", (), {"pm": "the team's model", "clock": None, "policy": None})()
-    best = improve._joined(whole, [moved, swept], QUICK, Budget.of_seconds(30))
+    best = improve.joined(whole, [moved, swept], QUICK, Budget.of_seconds(30))
     assert best is not None and best.objective == 2.0
     assert joined == [whole, "a fresh solver"]  # a joined plan is the watch's best: fresh
     assert loaded == []  # the last joined is the one loaded
     objectives[id(swept.turns[0])] = 0.5
     joined.clear()
-    best = improve._joined(whole, [moved, swept], QUICK, Budget.of_seconds(30))
+    best = improve.joined(whole, [moved, swept], QUICK, Budget.of_seconds(30))
     assert best is not None and best.objective == 1.0 and loaded == [{("n",): 1.0}]
 
 

@@ -81,7 +81,7 @@ def test_one_agent_serving_two_far_tasks_tightens_the_relaxation(
     # two agents at the origin, three tasks far apart: one agent serves two of them
     problem = tasks_apart([0.0, 0.5], [[-3.0, 1.0], [2.0, 1.0], [-0.5, -3.0]], late=5)
     with_cuts = lp_bound(problem)
-    monkeypatch.setattr(floors, "_service_floors", lambda *args: (0, set()))
+    monkeypatch.setattr(floors, "service_floors", lambda *args: (0, set()))
     without = lp_bound(problem)
     assert with_cuts < without - 1.0  # a maximization: the bound is lower by the way between
     exact = up_front_optimum(problem)

@@ -125,3 +125,36 @@ def test_the_api_loads_no_solver() -> None:
     code = "import sys, stlplan.api; print(sorted({'pyomo', 'highspy'} & set(sys.modules)))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def _private_uses(path: Path) -> Iterator[str]:
+    """The project's private names a test file imports, reads or patches by name."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    project = {alias.asname or alias.name.split(".")[-1] for node in ast.walk(tree)
+               if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("stlplan")
+               for alias in node.names}  # fmt: skip
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("stlplan"):
+            yield from (a.name for a in node.names if _private(a.name))
+        elif isinstance(node, ast.Attribute) and _private(node.attr):
+            root = node.value
+            while isinstance(root, ast.Attribute):
+                root = root.value
+            if isinstance(root, ast.Name) and root.id in project:
+                yield f"{root.id}...{node.attr}"
+        elif isinstance(node, ast.Call) and getattr(node.func, "attr", "") == "setattr":
+            name = node.args[1] if len(node.args) > 1 else None
+            if isinstance(name, ast.Constant) and isinstance(name.value, str):
+                yield from [name.value] if _private(name.value) else []
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not name.startswith("__")
+
+
+def test_no_test_reaches_into_private_names() -> None:
+    found = {
+        path.name: sorted(set(_private_uses(path)))
+        for path in sorted((ROOT / "tests").glob("test_*.py"))
+    }
+    assert not {name: uses for name, uses in found.items() if uses}

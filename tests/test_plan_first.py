@@ -125,10 +125,10 @@ def test_the_parts_not_proven_go_on_from_their_first_plans(monkeypatch: pytest.M
             part.step1 = ended(PlanStatus.OPTIMAL if proven else PlanStatus.FEASIBLE, 0.0, 1.0)
         return parts, ended(PlanStatus.NO_PLAN, None, None)
 
-    monkeypatch.setattr(components, "_apart", first_plans)
+    monkeypatch.setattr(components, "solve_apart", first_plans)
     problem, clock, budget = detour_for_free(), Clock(0.0, None), Budget.of_seconds(60)
     parts = [build_part(problem, names, EXACT, clock, budget) for names in (("a", "b"), ("e",))]
-    assert components._first_plan(problem, parts, EXACT, clock, budget, FirstPlan()) is None
+    assert components.first_plan_of_parts(problem, parts, EXACT, clock, budget, FirstPlan()) is None
     assert seen == [[True, True, True]]  # every loop stopped at its first plan
     assert [p.solver.watch.first for p in parts] == [False, False]
     assert parts[0].step1 is None  # (a, b) goes on towards its proof

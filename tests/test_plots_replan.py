@@ -18,7 +18,7 @@ from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check
 from stlplan.outputs.plots import PlanAnimation, plan_figure, polygon_area, timeline_figure
-from stlplan.outputs.plots.animation import _MARGINS, ANIMATION_DPI, MAP_INCHES, frame_times
+from stlplan.outputs.plots.animation import ANIMATION_DPI, MAP_INCHES, MARGINS, frame_times
 from stlplan.outputs.viewer import hover_texts, viewer_figure
 from stlplan.result import MonitorReport, PlanResult, PlanStatus, Replan, Trajectory
 from tests.helpers.paths import FARM
@@ -151,7 +151,7 @@ def _pixels(problem: Problem, frame: Image.Image, box: tuple[float, float, float
     """The frame's pixels over the map's rectangle ``box`` = ``(x0, x1, y0, y1)``."""
     (xl, xh), (yl, yh) = ((0.0, 7.0), (0.0, 5.0))  # the farm's workspace
     per_unit = MAP_INCHES / max(xh - xl, yh - yl) * ANIMATION_DPI
-    left, bottom = _MARGINS[0] * ANIMATION_DPI, _MARGINS[1] * ANIMATION_DPI
+    left, bottom = MARGINS[0] * ANIMATION_DPI, MARGINS[1] * ANIMATION_DPI
     image = np.asarray(frame.convert("RGB")).astype(int)
     x0, x1, y0, y1 = box
     rows = slice(

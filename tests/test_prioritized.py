@@ -137,13 +137,13 @@ def test_merges_of_larger_parts_skip_the_prioritized_repair() -> None:
 def _guided_turns(small_crowd: Any, monkeypatch: pytest.MonkeyPatch, config: dict) -> Any:
     """The plan of the small crowd by the prioritized repair, and the guided turns' results."""
     sided: list[Any] = []
-    real = prioritized.Turn._sided
+    real = prioritized.Turn.sided
 
     def spy(self: Any, *args: Any) -> Any:
         sided.append(real(self, *args))
         return sided[-1]
 
-    monkeypatch.setattr(prioritized.Turn, "_sided", spy)
+    monkeypatch.setattr(prioritized.Turn, "sided", spy)
     overrides = Overrides(
         time_limit=120, threads=1, first_plan=True,
         config={"repair.crowd_agents": 2, "repair.crowd_team": None, **config},
@@ -223,7 +223,7 @@ def test_a_team_merged_into_one_part_needs_no_assembly(
     from stlplan.planner.core import components
 
     assembled: list[Any] = []
-    monkeypatch.setattr(components, "_assembled", lambda *args: assembled.append(args))
+    monkeypatch.setattr(components, "assembled_objective", lambda *args: assembled.append(args))
     overrides = Overrides(
         time_limit=120,
         threads=1,
@@ -258,7 +258,7 @@ def test_a_part_without_a_plan_around_no_other_part_ends_the_orders(
     alone: list[int] = []
     budgets = (Budget.of_seconds(10), Budget.of_seconds(10))
     models = [SimpleNamespace(model=None)] * 3
-    found = prioritized._in_orders(merged, models, [None] * 3, PlannerConfig(), budgets, alone)
+    found = prioritized.in_orders(merged, models, [None] * 3, PlannerConfig(), budgets, alone)
     assert found is None
     assert alone == [1]
     # b failed after a in the first order, then first in the second: no third order

@@ -13,7 +13,7 @@ from stlplan.planner.backend.session import HighsSession
 from stlplan.planner.backend.values import ColumnKeys
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.core.components import solve_parts
-from stlplan.planner.core.in_turn import InTurn, _broken, agents_of
+from stlplan.planner.core.in_turn import InTurn, agents_of, broken_requirements
 from stlplan.planner.core.policy import RepairPolicy
 from stlplan.planner.core.team_split import sub_problem
 from stlplan.planner.core.watch import pending_violations, trajectory_states
@@ -171,5 +171,5 @@ def test_a_held_agent_breaking_a_requirement_with_a_published_plan_is_caught() -
     published.publish({"a": trajectory_states(pm)["d"].copy()})
     with published.around(pm) as outside:
         assert outside is not None
-        _, theirs = _broken(pm, outside, free={"c"}, done={"d"})  # d held, c free
+        _, theirs = broken_requirements(pm, outside, free={"c"}, done={"d"})  # d held, c free
         assert any("d" in outside.requirements[n].binding.values() for n in theirs)

@@ -66,7 +66,7 @@ TRAIL_STEPS = 3
 ANIMATION_DPI = 80
 MAP_INCHES = 6.4
 """The map's longer side; the shorter one follows the workspace's aspect."""
-_MARGINS = (0.5, 0.35, 0.7)
+MARGINS = (0.5, 0.35, 0.7)
 """Left, bottom and top margins around the map, inches."""
 _GHOST: dict[str, Any] = dict(linewidth=0.8, alpha=0.35, zorder=3)
 """The whole path of an agent, faint under the moving marker."""
@@ -206,7 +206,7 @@ def _figure(problem: Problem, title: str | None, legend: list[Artist]) -> tuple[
     (xl, xh), (yl, yh) = bounds
     scale = MAP_INCHES / max(xh - xl, yh - yl)
     width, height = scale * (xh - xl), scale * (yh - yl)
-    left, bottom, top = _MARGINS
+    left, bottom, top = MARGINS
     right = 0.8 + 0.07 * max(len(str(h.get_label())) for h in legend)  # ~ 8-point characters
     size = (left + width + right, bottom + height + top)
     fig = Figure(figsize=size, dpi=ANIMATION_DPI)

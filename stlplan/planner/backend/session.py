@@ -255,7 +255,7 @@ class HighsSession:
         """
         tick = time.perf_counter()
         self._nodes = self._iterations = None
-        results = self._run(budget.remaining())
+        results = self.solve_once(budget.remaining())
         infeasible = results.termination_condition in (
             TerminationCondition.provenInfeasible,
             TerminationCondition.infeasibleOrUnbounded,
@@ -278,7 +278,7 @@ class HighsSession:
         stopped = signals.should_interrupt()
         return Solved(results, seconds, gap, stopped, nodes, self._iterations)
 
-    def _run(self, seconds: float, settings: confirm.Settings | None = None) -> Results:
+    def solve_once(self, seconds: float, settings: confirm.Settings | None = None) -> Results:
         """One HiGHS solve through Pyomo within ``seconds`` (at least
         ``budget.min_solve_seconds``), with extra options."""
         config = self.solver.config
@@ -309,7 +309,7 @@ class HighsSession:
         last = [results]
 
         def run(settings: confirm.Settings, limit: float) -> None:
-            last[0] = self._run(limit, settings)
+            last[0] = self.solve_once(limit, settings)
 
         where: str = self.phase
         if self.phase == "step1" and self.clock.round is not None:

@@ -178,11 +178,11 @@ def solve_parts(
         and hooks is not None
         and hooks.plans_first(problem, config, plan_first)
     ):
-        found = _first_plan(problem, parts, config, clock, budget, hooks)
+        found = first_plan_of_parts(problem, parts, config, clock, budget, hooks)
         early = _improved(problem, found, config, clock, budget, hooks, policy)
         parts = followed(parts, clock)
     gap = config.solver.gap
-    parts, done = _apart(problem, full, parts, config, clock, budget, tick, hooks)
+    parts, done = solve_apart(problem, full, parts, config, clock, budget, tick, hooks)
     if not done.status.has_plan:
         return better(early, (full, done), gap)
     if not (signals.requested() or config.solver.first_plan):
@@ -192,7 +192,7 @@ def solve_parts(
     return better(early, (full, _whole(full, parts, config, clock, budget, tick)), gap)
 
 
-def _apart(
+def solve_apart(
     problem: Problem,
     full: PlanModel,
     parts: list[Part],
@@ -237,13 +237,13 @@ def _whole(
 ) -> Outcome:
     """The parts' plans assembled in ``full`` as the outcome of the whole problem."""
     done = _combined(parts, config, clock, tick)
-    objective = _assembled(full, parts, config, clock, budget)
+    objective = assembled_objective(full, parts, config, clock, budget)
     seconds = time.perf_counter() - tick
     stopped = signals.requested()
     return outcome.assembled(done, objective, config.solver.gap, stopped, seconds)
 
 
-def _first_plan(
+def first_plan_of_parts(
     problem: Problem,
     parts: list[Part],
     config: PlannerConfig,
@@ -262,7 +262,7 @@ def _first_plan(
         full = build_model(problem, config.with_overrides({"model.floors": False}))
     _stop_at_first_plans(parts, True)
     try:
-        merged, done = _apart(problem, full, parts, quick, clock, share, tick, hooks)
+        merged, done = solve_apart(problem, full, parts, quick, clock, share, tick, hooks)
         found = _whole(full, merged, quick, clock, share, tick) if done.status.has_plan else None
     finally:
         _stop_at_first_plans(parts, False)
@@ -322,7 +322,7 @@ def _stop_at_first_plans(parts: Sequence[Part], first: bool) -> None:
         part.solver.stop_at_first_plan(first)
 
 
-def _assembled(
+def assembled_objective(
     full: PlanModel, parts: Sequence[Part], config: PlannerConfig, clock: Clock, budget: Budget
 ) -> float | None:
     """The parts' plans assembled in ``full`` (:func:`assemble`, a finishing solve of the whole

@@ -294,7 +294,7 @@ def solve_free(
                 if _excused(outside, free, solved, budget):
                     continue  # again, its requirements with the agents outside left to a merge
                 break
-            mine, theirs = _broken(pm, outside, free, done)
+            mine, theirs = broken_requirements(pm, outside, free, done)
             _log.debug("turn of %s: %.1f s, %d violated, %d outside", sorted(free),
                        solved.seconds, len(mine), len(theirs))  # fmt: skip
             if not mine and not theirs:
@@ -310,7 +310,7 @@ def solve_free(
         release(held)
 
 
-def _broken(
+def broken_requirements(
     pm: PlanModel, outside: Around | None, free: set[str], done: set[str]
 ) -> tuple[list[int], list[int]]:
     """The requirements the loaded plan breaks among the agents ``free`` and ``done`` (lazy

@@ -181,7 +181,7 @@ def add_effort_floors(
                 count += 1
     for z in impossible.values():
         model.effort_floors.add(z <= 0)
-    added, exclusive = _service_floors(model, graph, ledger.services)
+    added, exclusive = service_floors(model, graph, ledger.services)
     own = {id(h): graph.floor(h) for _, h, _ in ledger.elements}
     solo = {
         (task, agent): list(zip(_weights(graph, agent, h), x, strict=True))
@@ -219,7 +219,7 @@ def _distinct(options: Iterable[frozenset[AgentPredicate]]) -> list[frozenset[Ag
     return sorted(set(options), key=lambda o: sorted(map(repr, o)))
 
 
-def _service_floors(
+def service_floors(
     model: ConcreteModel,
     graph: FloorGraph,
     services: Sequence[tuple[str, str, list[Any], list[Any]]],

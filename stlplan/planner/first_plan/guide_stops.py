@@ -72,7 +72,7 @@ def block(hp: Any, grid: Any, t: int, shifts: np.ndarray, out: np.ndarray, windo
     wx, wy = window
     if wx.start >= wx.stop or wy.start >= wy.stop:
         return
-    fails = _fails(hp.a[None], hp.c[None], grid, t, shifts, wx.start, wy.start,
+    fails = moves_failed(hp.a[None], hp.c[None], grid, t, shifts, wx.start, wy.start,
                    (wx.stop - wx.start, wy.stop - wy.start))  # fmt: skip
     out[:, wx, wy] |= fails[0]
 
@@ -116,12 +116,12 @@ def _batch(
     largest = (found[:, :, 1] - found[:, :, 0]).max(axis=0)
     size = (min(int(largest[0]), grid.shape[0]), min(int(largest[1]), grid.shape[1]))
     starts = [np.clip(found[:, i, 0], 0, grid.shape[i] - size[i]) for i in range(2)]
-    fails = _fails(a, c, grid, t, shifts, starts[0], starts[1], size)
+    fails = moves_failed(a, c, grid, t, shifts, starts[0], starts[1], size)
     for n, (x, y) in enumerate(zip(*starts, strict=True)):
         out[:, x : x + size[0], y : y + size[1]] |= fails[n]
 
 
-def _fails(
+def moves_failed(
     a: np.ndarray,
     c: np.ndarray,
     grid: Any,

@@ -133,10 +133,10 @@ def _improved(
         moved = config.parts.earlier_runs and earlier_runs(team, turns, within)
         swept = sweeps(team, within) or first
         teams = [team, before] if moved and first else [team] if moved or swept else []
-        return _joined(whole, teams, config, budget)
+        return joined(whole, teams, config, budget)
 
 
-def _joined(
+def joined(
     whole: LazySolver, teams: Sequence[Team], config: PlannerConfig, budget: Budget
 ) -> Plan | None:
     """The best of the plans of ``teams`` each joined in the whole team's model (loaded in
@@ -248,13 +248,13 @@ class Team:
 
 def earlier_runs(team: Team, turns: Turns, budget: Budget) -> bool:
     """Each synchronous task's run started a step earlier, and again, while the elements of its
-    run and the parts then in their way all find plans (:func:`_moved`); whether a run was."""
+    run and the parts then in their way all find plans (:func:`chain_moved`); whether a run was."""
     late: dict[str, int] = {}
     for sync in turns.full.synchronous:
         name, steps = sync.task.name, 1
         while not (budget.expired() or signals.requested()):
             elements = earlier(turns.problem, turns.full, name, steps, late)
-            if elements is None or not _moved(team, turns.of(elements, team.values()), budget):
+            if elements is None or not chain_moved(team, turns.of(elements, team.values()), budget):
                 break
             _log.debug("improvement: the run of %s starts %d step(s) earlier", name, steps)
             late[name], steps = -steps, steps + 1
@@ -275,7 +275,7 @@ def earlier(problem: Problem, full: PlanModel, name: str, steps: int, late: Late
     return element_problem(problem, [full], {**late, name: -steps})
 
 
-def _moved(team: Team, turns: Sequence[Any], budget: Budget) -> bool:
+def chain_moved(team: Team, turns: Sequence[Any], budget: Budget) -> bool:
     """The parts whose turns differ from the team's planned again in ``turns`` (:func:`_chain`);
     all taken when every one finds a plan, none otherwise."""
     changed = [i for i, turn in enumerate(turns) if turn is not team.turns[i]]

@@ -136,7 +136,7 @@ class Turn:
             if found.path is None:
                 self.blockers |= found.blockers
                 continue
-            states = self._sided(fixed, mine, wanted, {**fixed, agent.name: found.path}, budget)
+            states = self.sided(fixed, mine, wanted, {**fixed, agent.name: found.path}, budget)
             if states is not None or budget.expired():
                 return states
         _log.debug("prioritized: no guided plan for %s", agent.name)
@@ -161,7 +161,7 @@ class Turn:
         agents = self.pm.problem.agents
         return self.config.repair.guide and len(agents) == 1 and single_integrator(agents[0])
 
-    def _sided(
+    def sided(
         self,
         fixed: States,
         mine: Sequence[Requirement],
@@ -311,10 +311,10 @@ def prioritized(
         sessions = [lent.enter_context(part.lent(config.repair.gap)) for part in parts]
         models = [part.pm for part in parts]
         found = [] if alone is None else alone
-        return _in_orders(merged, models, sessions, config, (budget, last or budget), found)
+        return in_orders(merged, models, sessions, config, (budget, last or budget), found)
 
 
-def _in_orders(
+def in_orders(
     merged: Any,
     parts: Sequence[PlanModel],
     sessions: Sequence[HighsSession],
