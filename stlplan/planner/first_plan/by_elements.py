@@ -40,6 +40,7 @@ from stlplan.formula.tree import Always, Interval
 from stlplan.mission.problem import Problem, TaskModel
 from stlplan.planner.backend.values import load_values, model_values, trajectory_values
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.core.lazy import LazySolver
 from stlplan.planner.core.repairs import Broken
 from stlplan.planner.core.team_split import agent_parts, sub_problem
 from stlplan.planner.encoding.model import PlanModel, build_model
@@ -177,7 +178,7 @@ def run_of(name: str, synchronous: set[str]) -> str | None:
 def element_part(
     problem: Problem,
     agents: tuple[str, ...],
-    solver: Any,
+    solver: LazySolver,
     config: PlannerConfig,
     budget: Budget,
     states: Mapping[Any, float],

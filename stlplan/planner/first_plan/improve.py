@@ -207,7 +207,7 @@ class Team:
     spent: list[float]
 
     @classmethod
-    def of(cls, turns: Sequence[Any]) -> Team:
+    def of(cls, turns: Sequence[Turn]) -> Team:
         """The turns with the plans loaded in their models."""
         kept = [model_values(turn.pm.model) for turn in turns]
         return cls(
@@ -239,7 +239,7 @@ class Team:
             out.update(trajectory_values(kept))
         return out
 
-    def take(self, i: int, turn: Any, found: States) -> None:
+    def take(self, i: int, turn: Turn, found: States) -> None:
         """Part ``i``'s new plan ``found``, with the values ``turn``'s model holds (the plan's:
         the caller loads them)."""
         self.turns[i], self.plans[i] = turn, found
@@ -275,7 +275,7 @@ def earlier(problem: Problem, full: PlanModel, name: str, steps: int, late: Late
     return element_problem(problem, [full], {**late, name: -steps})
 
 
-def chain_moved(team: Team, turns: Sequence[Any], budget: Budget) -> bool:
+def chain_moved(team: Team, turns: Sequence[Turn], budget: Budget) -> bool:
     """The parts whose turns differ from the team's planned again in ``turns`` (:func:`_chain`);
     all taken when every one finds a plan, none otherwise."""
     changed = [i for i, turn in enumerate(turns) if turn is not team.turns[i]]
@@ -286,7 +286,7 @@ def chain_moved(team: Team, turns: Sequence[Any], budget: Budget) -> bool:
     return False
 
 
-def _chain(team: Team, turns: Sequence[Any], changed: Sequence[int], budget: Budget) -> bool:
+def _chain(team: Team, turns: Sequence[Turn], changed: Sequence[int], budget: Budget) -> bool:
     """The parts ``changed``, one after the other, each around the plans of every part not
     waiting for its turn; a part that finds none there finds one around some of them only
     (:func:`_displacing`), and the others wait for a turn of their own, after it (an ejection
@@ -314,7 +314,7 @@ def _chain(team: Team, turns: Sequence[Any], changed: Sequence[int], budget: Bud
 
 
 def _displacing(
-    turn: Any, settled: States, owner: dict[str, int], planned: set[int], budget: Budget
+    turn: Turn, settled: States, owner: dict[str, int], planned: set[int], budget: Budget
 ) -> tuple[Found, list[int]] | None:
     """``turn``'s part planned around the parts ``planned`` and as many other parts of
     ``settled`` as it can: the parts its plan around the planned ones only is in the way of
@@ -334,7 +334,7 @@ def _displacing(
     return found, sorted({owner[a] for a in turn.in_the_way(found[0], settled)} - planned)
 
 
-def _solved(turn: Any, fixed: States, budget: Budget) -> Found | None:
+def _solved(turn: Turn, fixed: States, budget: Budget) -> Found | None:
     """``turn``'s part planned around ``fixed``, or None (its model's values then stale)."""
     found = turn.solve(fixed, budget)
     turn.clear()

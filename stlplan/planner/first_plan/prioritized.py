@@ -39,6 +39,7 @@ from stlplan.planner.backend.session import HighsSession, has_solution
 from stlplan.planner.backend.values import load_values, model_values, trajectory_values
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.core.in_turn import hold_agents, release
+from stlplan.planner.core.lazy import LazySolver
 from stlplan.planner.core.watch import (
     VIOLATION_TOL,
     least_margin,
@@ -255,7 +256,7 @@ Planned = list[tuple[int, States]]
 
 
 def plan_in_order(
-    turns: Sequence[Any],
+    turns: Sequence[Turn],
     order: Sequence[int],
     budget: Budget,
     exact: bool = True,
@@ -295,8 +296,8 @@ def raised(
 
 
 def prioritized(
-    merged: Any,
-    parts: Sequence[Any],
+    merged: LazySolver,
+    parts: Sequence[LazySolver],
     config: PlannerConfig,
     budget: Budget,
     last: Budget | None = None,
@@ -315,7 +316,7 @@ def prioritized(
 
 
 def in_orders(
-    merged: Any,
+    merged: LazySolver,
     parts: Sequence[PlanModel],
     sessions: Sequence[HighsSession],
     config: PlannerConfig,
@@ -358,7 +359,7 @@ def in_orders(
 
 
 def held_plan(
-    merged: Any, turns: Sequence[Turn], config: PlannerConfig, budget: Budget
+    merged: LazySolver, turns: Sequence[Turn], config: PlannerConfig, budget: Budget
 ) -> Plan | None:
     """The merged model solved once with every agent held near the turns' plans."""
     pm, planned = merged.pm, dict[Any, float]()
