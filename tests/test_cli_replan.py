@@ -87,3 +87,32 @@ def test_an_executed_file_missing_a_step_before_k_is_refused(planned: Path, tmp_
     code, text = _run("replan", str(PAIR), str(short), "--at", "4", "--out", str(out))
     assert code == 3 and "no row for step(s) 2" in text
     assert not out.exists()
+
+
+@pytest.mark.parametrize("at", [4, 5])
+def test_a_replan_writes_no_coefficient_the_solver_drops(
+    planned: Path, tmp_path: Path, at: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the past's states on a predicate's boundary once gave big-M values of round-off, which
+    # HiGHS dropped with a warning on the terminal
+    from pyomo.environ import Constraint
+    from pyomo.repn import generate_standard_repn
+
+    from stlplan.planner.backend.session import HighsSession
+
+    solve, tiny = HighsSession.solve_once, []
+
+    def scanned(self: HighsSession, *args: object, **kwargs: object) -> object:
+        for row in self.model.component_data_objects(Constraint, active=True):
+            coefs = generate_standard_repn(row.body, quadratic=False).linear_coefs
+            tiny.extend(c for c in coefs if c != 0 and abs(c) <= 1e-9)
+        return solve(self, *args, **kwargs)
+
+    monkeypatch.setattr(HighsSession, "solve_once", scanned)
+    out = tmp_path / "again"
+    code, text = _run(
+        "replan", str(PAIR), str(planned), "--at", str(at), "--out", str(out),
+        "--no-animation", "--no-html",
+    )  # fmt: skip
+    assert code == 0, text
+    assert tiny == [] and "WARNING" not in text

@@ -43,6 +43,9 @@ from stlplan.planner.encoding.sos1 import sos1
 Boxes = Mapping[str, tuple[np.ndarray, np.ndarray]]
 """Agent name to ``(lo, hi)`` state bounds per step, each of shape (H+1, n)."""
 
+NEGLIGIBLE = 1e-9
+"""A big-M this small is round-off (HiGHS ignores matrix values at or below it)."""
+
 
 Enforced = tuple[Predicate, int, Mapping[str, str]]
 """A predicate at a step under a binding: ``alpha(x(k)) - r >= 0`` when enforced."""
@@ -213,9 +216,12 @@ def predicate_value(node: Predicate, k: int, ctx: StlContext) -> Any:
 
 
 def big_m_of(node: Predicate, k: int, ctx: StlContext) -> float:
-    """``M = r_max - alpha_lo`` of ``node`` at ``k`` (its value tightened as it is enforced)."""
+    """``M = r_max - alpha_lo`` of ``node`` at ``k`` (its value tightened as it is enforced);
+    0 when it is round-off (a state fixed by the executed past, on the predicate's boundary):
+    HiGHS drops such a coefficient anyway, and says so."""
     lo, _ = predicate_range(node, k, ctx.binding, ctx.boxes)
-    return max(0.0, ctx.margin_ceiling - lo + ctx.tightening(node, k))
+    big_m = ctx.margin_ceiling - lo + ctx.tightening(node, k)
+    return big_m if big_m > NEGLIGIBLE else 0.0
 
 
 def encode_predicate(node: Predicate, k: int, ctx: StlContext) -> Any:
