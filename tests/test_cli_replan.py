@@ -116,3 +116,20 @@ def test_a_replan_writes_no_coefficient_the_solver_drops(
     )  # fmt: skip
     assert code == 0, text
     assert tiny == [] and "WARNING" not in text
+
+
+@pytest.mark.parametrize("value", ["nan", "-1", "inf", "abc"])
+def test_a_bad_robust_to_is_refused_alike_by_every_command(
+    planned: Path, tmp_path: Path, value: str
+) -> None:
+    commands = {
+        "solve": ["solve", str(PAIR)],
+        "replan": ["replan", str(PAIR), str(planned), "--at", "3"],
+        "simulate": ["simulate", str(PAIR), "--runs", "1"],
+    }
+    for name, args in commands.items():
+        out = tmp_path / name
+        code, text = _run(*args, "--robust-to", value, "--out", str(out))
+        assert code == 3, (name, text)
+        assert f"--robust-to {value}: expected a" in text and "Value error" not in text
+        assert not out.exists()

@@ -141,3 +141,11 @@ def test_every_api_function_the_readme_and_docs_name_exists_as_described() -> No
     assert "tuple[Problem, PlanResult]" in str(inspect.signature(api.plan).return_annotation)
     assert "tolerance" in inspect.signature(api.check).parameters
     assert "Problem" in str(inspect.signature(api.solve).parameters["mission"].annotation)
+
+
+def test_an_example_to_stdout_with_json_is_the_mission_as_json() -> None:
+    found = CliRunner().invoke(app, ["example", "sync-pair", "--out", "-", "--json"])
+    assert found.exit_code == 0, found.output
+    document = json.loads(found.output)
+    assert document["example"] == "sync-pair"
+    assert document["mission"] == yaml.safe_load((MISSIONS / "sync-pair.yaml").read_text())

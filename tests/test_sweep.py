@@ -136,3 +136,23 @@ def test_resume_refuses_another_seed_or_time_limit(tmp_path: Path) -> None:
     )  # run 0 is on record: nothing is solved
     assert found.exit_code == 0, found.output
     assert found.stdout.startswith("sweep of 1 run over 1 mission in 1 local process: records")
+
+
+@pytest.mark.parametrize(("given", "used"), [([], None), (["--threads", "2"], 2)])
+def test_the_sweeps_threads_reach_every_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, given: list[str], used: int | None
+) -> None:
+    import stlplan.pipeline as pipeline
+
+    seen: list[int | None] = []
+    real = pipeline.plan
+
+    def spied(problem: object, overrides: Overrides) -> object:
+        seen.append(overrides.threads)
+        return real(problem, overrides)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(pipeline, "plan", spied)
+    args = ["sweep", str(PAIR), "--runs", "1", "--workers", "1", "--out", str(tmp_path / "s")]
+    found = CliRunner().invoke(app, [*args, "-q", *given])
+    assert found.exit_code == 0, found.output
+    assert seen == [used]

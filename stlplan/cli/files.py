@@ -236,6 +236,12 @@ def example(
                 name = f"{item.name:<{width}}"
                 output.line(f"[bold]{name}[/]  {escape(item.summary)}".rstrip(), markup=True)
         return
+    if out == "-" and as_json:  # the mission itself, as a JSON document
+        import yaml
+
+        mission = yaml.safe_load(examples.example_text(name))
+        output.document({"example": examples.example(name).name, "mission": mission})
+        return
     if out == "-":
         sys.stdout.write(examples.example_text(name))
         return

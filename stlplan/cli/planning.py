@@ -166,15 +166,25 @@ DeterministicOption = Annotated[
     ),
 ]
 RobustToOption = Annotated[
-    float | None,
+    str | None,
     typer.Option(
         "--robust-to",
         help="Plan margins one step of an additive disturbance bounded by W per state "
         "component cannot break (default: the mission's execution.disturbance).",
-        min=0.0,
         metavar="W",
+        show_default=False,
     ),
 ]
+
+
+def robust_bound(text: str | None) -> float | None:
+    """``--robust-to`` as a number (checked as ``simulate`` checks it: exit 3 when it is not a
+    finite number >= 0)."""
+    from stlplan.simulation.settings import bound
+
+    return None if text is None else bound(text, "--robust-to")
+
+
 NoAnimationOption = Annotated[
     bool,
     typer.Option(
@@ -232,7 +242,7 @@ def solve(
         degrade=True if degrade else None,
         first_plan=True if first_plan else None,
         deterministic=True if deterministic else None,
-        robust_to=robust_to,
+        robust_to=robust_bound(robust_to),
         inter_sample=inter_sample,
     )
     problem = api.validate(mission)
@@ -314,13 +324,15 @@ def sweep(
     scheduler: SchedulerOption = None,
     out: OutOption = "out/sweep",
     time_limit: SolveTimeOption = None,
+    threads: ThreadsOption = None,
     resume: ResumeOption = False,
     as_json: JsonOption = False,
     quiet: QuietOption = False,
 ) -> None:
     """Solve missions from random initial states; print and write the paper's Table 3.
 
-    With --json the document printed is the table: one object per mission.
+    Each run's HiGHS takes --threads (default: one when runs share the machine or go to a
+    cluster). With --json the document printed is the table: one object per mission.
     """
     from stlplan.sweep.progress import SweepProgress, print_table
 
@@ -342,7 +354,7 @@ def sweep(
             resume,
             on_record=bar.advance,
             on_start=bar.start,
-            overrides=api.Overrides(time_limit=time_limit),
+            overrides=api.Overrides(time_limit=time_limit, threads=threads),
         )
     folder = Path(out)
     if as_json:

@@ -20,6 +20,7 @@ from stlplan.cli.planning import (
     ThreadsOption,
     TimeLimitOption,
     finish,
+    robust_bound,
 )
 from stlplan.cli.shell import JsonOption, Output, QuietOption, VerboseOption, handled, solver_output
 
@@ -87,7 +88,7 @@ def replan(
         gap=gap,
         threads=threads,
         first_plan=True if first_plan else None,
-        robust_to=robust_to,
+        robust_to=robust_bound(robust_to),
     )
     problem = api.validate(mission)
     with (
