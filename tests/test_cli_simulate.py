@@ -120,3 +120,12 @@ def test_a_mission_without_a_plan_exits_as_solve_does(tmp_path: Path) -> None:
     assert found.exit_code == 4, found.output
     document = json.loads(found.stdout)
     assert document["runs"] == [] and document["message"].startswith("no plan to execute")
+
+
+def test_a_simulation_without_a_plan_to_execute_writes_nothing(tmp_path: Path) -> None:
+    # margins for a disturbance of 100 leave the pair no plan
+    out = tmp_path / "out"
+    code, stdout, stderr = _run("--runs", "1", *QUICK, "--robust-to", "100", "--out", str(out))
+    assert code == 4, stdout + stderr
+    assert "no plan to execute" in stdout + stderr
+    assert not out.exists()

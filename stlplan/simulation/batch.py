@@ -14,6 +14,7 @@ runs satisfied against the disturbance bound, one curve per policy (``OUT/robust
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import signal
 from collections.abc import Callable, Sequence
@@ -101,13 +102,17 @@ def simulate(
     workers, overrides = workers_and_settings(workers, scheduler, runs, overrides or Overrides())
     overrides = _robust(problem, overrides)
     folder = Path(out)
+    created = not folder.exists()
     prepare_directory(folder)
     specs = _specs(Path(mission), runs, seed, overrides, simulated)
     todo = pending(specs, folder, resume, what="simulation")
-    claim(folder, specs, resume, what="simulation")
     first = _first(problem, overrides) if todo else None
-    if first is not None and first.trajectory is None:
+    if first is not None and first.trajectory is None:  # nothing to execute: nothing written
+        if created:
+            with contextlib.suppress(OSError):
+                folder.rmdir()
         return Simulation((), first, folder)
+    claim(folder, specs, resume, what="simulation")
     todo = [dataclasses.replace(s, first=first) for s in todo]
     if on_start is not None:
         on_start(len(todo))
