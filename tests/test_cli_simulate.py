@@ -129,3 +129,11 @@ def test_a_simulation_without_a_plan_to_execute_writes_nothing(tmp_path: Path) -
     assert code == 4, stdout + stderr
     assert "no plan to execute" in stdout + stderr
     assert not out.exists()
+
+
+def test_a_disturbance_beyond_a_whole_state_range_is_refused(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    code, stdout, stderr = _run("--disturbance", "50", "--out", str(out))
+    assert code == 3, stdout + stderr
+    assert "--disturbance 50: larger than south's whole range of state component" in stderr
+    assert not out.exists()

@@ -79,6 +79,7 @@ class Simulated:
     def check(self, problem: Problem) -> None:
         """Raise unless every setting fits ``problem`` (module docstring)."""
         _check_bound(self.disturbance, "--disturbance")
+        _check_within_states(problem, self.disturbance)
         if self.policy not in POLICIES:
             raise SimulationError(f"--replan {self.policy}: expected one of {', '.join(POLICIES)}")
         _check_events(problem, self.events)
@@ -107,6 +108,20 @@ def bound(text: str, option: str) -> float:
         ) from None
     _check_bound(value, option)
     return value
+
+
+def _check_within_states(problem: Problem, disturbance: float) -> None:
+    """Raise when one step of ``disturbance`` can exceed an agent's whole state range (no plan
+    could stay within its bounds)."""
+    for agent in problem.agents:
+        widths = agent.state_hi - agent.state_lo
+        i = int(widths.argmin())
+        if disturbance > widths[i]:
+            raise SimulationError(
+                f"--disturbance {disturbance:g}: larger than {agent.name}'s whole range of state "
+                f"component {i} ({agent.state_lo[i]:g} to {agent.state_hi[i]:g}); expected at "
+                f"most {widths[i]:g}"
+            )
 
 
 def _check_bound(value: float, option: str) -> None:
