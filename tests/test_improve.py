@@ -15,7 +15,7 @@ from stlplan.monitor.verdicts import check
 from stlplan.planner.backend.values import model_values
 from stlplan.planner.core.in_turn import hold_agents, release
 from stlplan.planner.core.lazy import LazySolver
-from stlplan.planner.core.watch import VIOLATION_TOL, least_margin, trajectory_states
+from stlplan.planner.core.watch import least_margin, trajectory_states
 from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.deferred import best_side
 from stlplan.planner.encoding.model import add_requirements
@@ -24,6 +24,7 @@ from stlplan.planner.first_plan import improve
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
 from stlplan.planner.run.outcome import Outcome, Plan
+from stlplan.planner.tolerances import FEASIBILITY
 from stlplan.result import PlanStatus
 from tests.test_by_elements import QUICK, meeting, solved_part
 
@@ -200,7 +201,7 @@ def test_a_wasteful_first_plan_is_improved() -> None:
     optimum = float(value(pm.model.step1))
     name, added = _wasteful(solver)
     states = trajectory_states(pm)
-    assert not violated(pm.deferral.lazy, states, least_margin(pm), VIOLATION_TOL)
+    assert not violated(pm.deferral.lazy, states, least_margin(pm), FEASIBILITY)
     assert check(problem, trajectory(pm)).satisfied
     first = optimum - beta * added
     done = Outcome(PlanStatus.FEASIBLE, first, optimum + 1.0, None, 0.0, 1, len(pm.added), "test")

@@ -28,6 +28,7 @@ LAYERS = (
         "stlplan.planner.config",
         "stlplan.planner.config_repair",
         "stlplan.planner.run.budget",
+        "stlplan.planner.tolerances",
     ),
     ("stlplan.planner.encoding",),
     ("stlplan.planner.run",),

@@ -6,10 +6,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Protocol, TypeVar
 
-from stlplan.planner.core.watch import VIOLATION_TOL, least_margin, trajectory_states
+from stlplan.planner.core.watch import least_margin, trajectory_states
 from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.deferred import Requirement
 from stlplan.planner.encoding.model import PlanModel
+from stlplan.planner.tolerances import FEASIBILITY
 
 
 class Part(Protocol):
@@ -30,7 +31,7 @@ def crossing_requirements(full: PlanModel, parts: Sequence[Part]) -> list[Requir
     plan violates.
 
     A requirement within one part is that part's own: its plan meets it as HiGHS meets any row,
-    within the solver's tolerances, which may exceed :data:`VIOLATION_TOL`; merging could not
+    within the solver's tolerances, which may exceed :data:`FEASIBILITY`; merging could not
     change that, so such a requirement is not a crossing.
 
     Parameters
@@ -44,13 +45,13 @@ def crossing_requirements(full: PlanModel, parts: Sequence[Part]) -> list[Requir
     -------
     list[Requirement]
         The lazy requirements of ``full`` that the parts' plans together violate by more than
-        :data:`VIOLATION_TOL` and that name agents of at least two parts.
+        :data:`FEASIBILITY` and that name agents of at least two parts.
     """
     assert full.deferral is not None
     states, owner = {}, {a: i for i, part in enumerate(parts) for a in part.agents}
     for part in parts:
         states.update(trajectory_states(part.pm))
-    found = violated(full.deferral.lazy, states, least_margin(full), VIOLATION_TOL)
+    found = violated(full.deferral.lazy, states, least_margin(full), FEASIBILITY)
     bad = [full.deferral.lazy[n] for n in found]
     return [r for r in bad if len({owner[a] for a in r.binding.values()}) > 1]
 

@@ -48,7 +48,6 @@ from stlplan.planner.backend.values import plan_of
 from stlplan.planner.config import PlannerConfig, RepairConfig
 from stlplan.planner.core.around import Around
 from stlplan.planner.core.watch import (
-    VIOLATION_TOL,
     loaded_plan,
     pending_violations,
     trajectory_states,
@@ -59,6 +58,7 @@ from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.encoding.readout import partners
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.outcome import Plan
+from stlplan.planner.tolerances import FEASIBILITY
 
 _log = logging.getLogger(__name__)
 
@@ -117,7 +117,7 @@ def meets_its_own(pm: PlanModel, name: str, done: Collection[str]) -> bool:
     have to meet (the model's other rows the loaded plan meets, found by a solve)."""
     assert pm.deferral is not None
     lazy, around = pm.deferral.lazy, {name, *done}
-    found = violated(lazy, trajectory_states(pm), float(value(pm.margin)), VIOLATION_TOL)
+    found = violated(lazy, trajectory_states(pm), float(value(pm.margin)), FEASIBILITY)
     named = (set(lazy[n].binding.values()) for n in found)
     return not any(name in agents and (n in pm.added or agents <= around)
                    for n, agents in zip(found, named, strict=True))  # fmt: skip

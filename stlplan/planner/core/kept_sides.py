@@ -20,9 +20,7 @@ from stlplan.planner.encoding.alphas import best_sides, half_plane_values
 from stlplan.planner.encoding.deferred import Requirement
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.stl import Enforced
-
-BROKEN_BY = 1e-9
-"""How far below the margin a side left out may fall before it is added (round-off)."""
+from stlplan.planner.tolerances import ROUND_OFF
 
 
 @dataclass
@@ -77,8 +75,8 @@ class KeptSides:
         return self._hold(np.flatnonzero(self._slacks(states, margin) <= within))
 
     def broken(self, states: Mapping[str, np.ndarray], margin: float) -> list[Enforced]:
-        """Hold the sides not held yet that ``states`` break (``alpha - r < -BROKEN_BY``)."""
+        """Hold the sides not held yet that ``states`` break (``alpha - r < -ROUND_OFF``)."""
         if self.held.all():
             return []
-        loose = self._slacks(states, margin) < -BROKEN_BY
+        loose = self._slacks(states, margin) < -ROUND_OFF
         return self._hold(np.flatnonzero(loose & ~self.held))

@@ -17,12 +17,13 @@ from stlplan.planner.core.assembly import added_keys, plan_values
 from stlplan.planner.core.collisions import merge_groups
 from stlplan.planner.core.parts import Part, build_part, followed, tighten
 from stlplan.planner.core.repairs import Broken
-from stlplan.planner.core.watch import VIOLATION_TOL, least_margin, trajectory_states
+from stlplan.planner.core.watch import least_margin, trajectory_states
 from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.deferred import Deferral, Requirement, requirement_key
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
 from stlplan.planner.run.outcome import Outcome
+from stlplan.planner.tolerances import FEASIBILITY
 
 
 def merged_parts(
@@ -83,5 +84,5 @@ def _broken(part: Part) -> Broken:
     models = [p.pm for p in part.merged_from]
     for var, planned in plan_values(pm, models):
         var.set_value(planned, skip_validation=True)
-    bad = violated(pm.deferral.lazy, trajectory_states(pm), least_margin(pm), VIOLATION_TOL)
+    bad = violated(pm.deferral.lazy, trajectory_states(pm), least_margin(pm), FEASIBILITY)
     return Broken(part.solver, bad, models, part.free, [p.solver for p in part.merged_from])

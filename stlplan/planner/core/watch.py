@@ -20,9 +20,7 @@ from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.deferred import best_side
 from stlplan.planner.encoding.model import PlanModel, assign_side
 from stlplan.planner.run.outcome import Plan, lowest
-
-VIOLATION_TOL = 1e-7
-"""A requirement counts as violated when ``max_i alpha_i - r`` is below ``-VIOLATION_TOL``."""
+from stlplan.planner.tolerances import FEASIBILITY
 
 
 def trajectory_states(pm: PlanModel) -> dict[str, np.ndarray]:
@@ -42,7 +40,7 @@ def pending_violations(pm: PlanModel) -> list[int]:
     """Lazy requirements not in the model that the loaded plan violates (indices)."""
     assert pm.deferral is not None
     states = trajectory_states(pm)
-    found = violated(pm.deferral.lazy, states, float(value(pm.margin)), VIOLATION_TOL)
+    found = violated(pm.deferral.lazy, states, float(value(pm.margin)), FEASIBILITY)
     return [n for n in found if n not in pm.added]
 
 
@@ -119,7 +117,7 @@ class Watch:
             by_id = self.columns.columns()
             r = margin if isinstance(margin, float) else _value(margin, x, by_id)
             states = self.states(x)
-            bad = violated(self.pm.deferral.lazy, states, r, VIOLATION_TOL)
+            bad = violated(self.pm.deferral.lazy, states, r, FEASIBILITY)
             if all(n in self.pm.added for n in bad) and (self.also is None or self.also(states)):
                 values = self.columns.values(x)
                 self.offer(Plan(objective, values, frozenset(self.pm.added)))

@@ -27,11 +27,9 @@ from stlplan.analysis.reach import reachable_boxes
 from stlplan.formula.boundary import required_margin
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.stl import Enforced, alpha
+from stlplan.planner.tolerances import FEASIBILITY
 
 Stage = Literal["effort", "polish"]
-
-MARGIN_SLACK = 1e-7
-"""How far below the step-1 margin ``r`` the continuous stage may go (solver round-off)."""
 
 
 def effort_objective(model: ConcreteModel, agents: Sequence[str], norm: str) -> Any:
@@ -169,13 +167,13 @@ def plan_margin(model: ConcreteModel, pm: PlanModel) -> float:
 
 
 def _fixed_margin(pm: PlanModel) -> float:
-    """Step 1's margin ``r``; when maximized, less :data:`MARGIN_SLACK`, never below the
+    """Step 1's margin ``r``; when maximized, less :data:`FEASIBILITY`, never below the
     required margin."""
     margin = float(value(pm.margin))
     if isinstance(pm.margin, float):
         return margin
     floor = required_margin(pm.problem.mission.objective.margin.minimum)
-    return max(floor, margin - MARGIN_SLACK)
+    return max(floor, margin - FEASIBILITY)
 
 
 def continuous_model(pm: PlanModel, enforced: Sequence[Enforced], stage: Stage) -> ConcreteModel:

@@ -14,10 +14,9 @@ import numpy as np
 
 from stlplan.formula.tree import Predicate
 from stlplan.mission.problem import AgentModel
+from stlplan.planner.tolerances import FEASIBILITY
 
 INF = float("inf")
-FLOOR_TOL = 1e-7
-"""Floors below this are treated as 0 (no cut), and every floor is lowered by it (round-off)."""
 
 AgentPredicate = tuple[Predicate, int]
 """A predicate on one agent's state at step ``k``, its role bound to that agent."""
@@ -42,7 +41,7 @@ def add_dense_rows(highs: Any, matrix: np.ndarray, lo: np.ndarray, hi: np.ndarra
 
 def least_effort(highs: Any, base_rows: int, matrix: np.ndarray, lo: np.ndarray) -> float:
     """Solve ``highs`` with the rows ``matrix u >= lo`` added (then removed): its least effort,
-    lowered by :data:`FLOOR_TOL`; inf when infeasible, 0 (no cut) when unknown."""
+    lowered by :data:`FEASIBILITY`; inf when infeasible, 0 (no cut) when unknown."""
     add_dense_rows(highs, matrix, lo, np.full(len(lo), INF))
     highs.run()
     status = highs.getModelStatus()
@@ -53,7 +52,7 @@ def least_effort(highs: Any, base_rows: int, matrix: np.ndarray, lo: np.ndarray)
         return INF
     if status != highspy.HighsModelStatus.kOptimal:
         return 0.0
-    return max(0.0, float(value) - FLOOR_TOL)
+    return max(0.0, float(value) - FEASIBILITY)
 
 
 class EffortLp:

@@ -62,9 +62,10 @@ from pyomo.environ import ConcreteModel, ConstraintList, Var
 
 from stlplan.mission.problem import Problem
 from stlplan.planner.config import ModelConfig
-from stlplan.planner.encoding.effort_lp import FLOOR_TOL, INF, AgentPredicate, EffortLp
+from stlplan.planner.encoding.effort_lp import INF, AgentPredicate, EffortLp
 from stlplan.planner.encoding.stl import Ledger, conjunction_leaves
 from stlplan.planner.encoding.team_floors import add_team_floors
+from stlplan.planner.tolerances import FEASIBILITY
 
 Floor = dict[str, float]
 """Agent name to a lower bound of its effort."""
@@ -165,7 +166,7 @@ def add_effort_floors(
         for p, e in graph.floor(z).items():
             if e == INF:
                 impossible[id(z)] = z
-            elif e > FLOOR_TOL:
+            elif e > FEASIBILITY:
                 model.effort_floors.add(model.e[p] >= e * z)
                 count += 1
     for _, children, chosen in ledger.choices:
@@ -175,7 +176,7 @@ def add_effort_floors(
                 impossible[id(child)] = child
         for p in sorted(set(itertools.chain.from_iterable(parts))):
             terms = [(part.get(p, 0.0), w) for part, w in zip(parts, chosen, strict=True)]
-            terms = [(e, w) for e, w in terms if FLOOR_TOL < e < INF]
+            terms = [(e, w) for e, w in terms if FEASIBILITY < e < INF]
             if terms:
                 model.effort_floors.add(model.e[p] >= sum(e * w for e, w in terms))
                 count += 1
@@ -234,7 +235,7 @@ def service_floors(
     for agent, mine in by_agent.items():
         for (t1, _, h1, x1), (t2, _, h2, x2) in itertools.combinations(mine, 2):
             joint = _joint_floor(graph, agent, h1, h2)
-            if joint <= FLOOR_TOL:
+            if joint <= FEASIBILITY:
                 continue
             both = sum(x1) + sum(x2)
             if joint == INF:
@@ -249,7 +250,7 @@ def service_floors(
                 (tuple(_capped(f1, joint - max(f2))), tuple(f2)),
             }
             for w1, w2 in cuts:
-                terms = [w * x for w, x in zip(w1 + w2, x1 + x2, strict=True) if w > FLOOR_TOL]
+                terms = [w * x for w, x in zip(w1 + w2, x1 + x2, strict=True) if w > FEASIBILITY]
                 if terms:
                     model.effort_floors.add(model.e[agent] >= sum(terms))
                     count += 1

@@ -39,12 +39,10 @@ from stlplan.formula.tree import (
 )
 from stlplan.planner.config import Encoding
 from stlplan.planner.encoding.sos1 import sos1
+from stlplan.planner.tolerances import ROUND_OFF
 
 Boxes = Mapping[str, tuple[np.ndarray, np.ndarray]]
 """Agent name to ``(lo, hi)`` state bounds per step, each of shape (H+1, n)."""
-
-NEGLIGIBLE = 1e-9
-"""A big-M this small is round-off (HiGHS ignores matrix values at or below it)."""
 
 
 Enforced = tuple[Predicate, int, Mapping[str, str]]
@@ -221,7 +219,7 @@ def big_m_of(node: Predicate, k: int, ctx: StlContext) -> float:
     HiGHS drops such a coefficient anyway, and says so."""
     lo, _ = predicate_range(node, k, ctx.binding, ctx.boxes)
     big_m = ctx.margin_ceiling - lo + ctx.tightening(node, k)
-    return big_m if big_m > NEGLIGIBLE else 0.0
+    return big_m if big_m > ROUND_OFF else 0.0
 
 
 def encode_predicate(node: Predicate, k: int, ctx: StlContext) -> Any:

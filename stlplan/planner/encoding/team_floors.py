@@ -53,13 +53,13 @@ from pyomo.environ import ConcreteModel, VarList
 from stlplan.formula.tree import Predicate
 from stlplan.planner.config import ModelConfig
 from stlplan.planner.encoding.effort_lp import (
-    FLOOR_TOL,
     INF,
     EffortLp,
     add_dense_rows,
     least_effort,
 )
 from stlplan.planner.encoding.stl import Ledger, conjunction_leaves
+from stlplan.planner.tolerances import FEASIBILITY
 
 TeamPredicate = tuple[Predicate, int, tuple[tuple[str, str], ...]]
 """A predicate at step ``k`` with its roles bound to agents (sorted ``(role, agent)`` pairs)."""
@@ -214,7 +214,7 @@ def add_team_floors(
         alone = own.get(id(h_e), {})
         if joint == INF:
             model.effort_floors.add(x <= 0)
-        elif joint <= sum(alone.values()) + FLOOR_TOL:
+        elif joint <= sum(alone.values()) + FEASIBILITY:
             continue
         elif id(x) in task_of:
             for p, share in _element_shares(model, x, joint, agents, alone).items():
@@ -240,7 +240,7 @@ def _element_shares(
     mine = {p: model.team_shares.add() for p in agents}
     model.effort_floors.add(sum(mine.values()) >= joint * x)
     for p, share in mine.items():
-        if FLOOR_TOL < alone.get(p, 0.0) < INF:
+        if FEASIBILITY < alone.get(p, 0.0) < INF:
             model.effort_floors.add(share >= alone[p] * x)
     return mine
 

@@ -62,6 +62,7 @@ from stlplan.planner.first_plan.prioritized import Turn, held_plan, requirements
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
 from stlplan.planner.run.outcome import Outcome, Plan, relative_gap
+from stlplan.planner.tolerances import MONITOR
 from stlplan.runtime import signals
 
 _log = logging.getLogger(__name__)
@@ -356,7 +357,7 @@ def sweeps(team: Team, budget: Budget) -> bool:
             found = turn.solve(team.around(i), budget)
             turn.clear()
             now = effort(turn.pm.model) if found is not None else None
-            if found is not None and now is not None and now < spent - EFFORT_TOL:
+            if found is not None and now is not None and now < spent - MONITOR:
                 gained += spent - now
                 team.take(i, turn, found)
             else:
@@ -370,6 +371,3 @@ def sweeps(team: Team, budget: Budget) -> bool:
 SWEEPS_SHARE = 0.75
 """Share of the improvement's time the earlier runs and the sweeps may take; the solve that
 joins their plans may take the rest."""
-
-EFFORT_TOL = 1e-6
-"""A part's new plan is kept when it spends less effort than its plan by more than this."""

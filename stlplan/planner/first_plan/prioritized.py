@@ -41,7 +41,6 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.core.in_turn import hold_agents, release
 from stlplan.planner.core.lazy import LazySolver
 from stlplan.planner.core.watch import (
-    VIOLATION_TOL,
     least_margin,
     loaded_plan,
     pending_violations,
@@ -54,6 +53,7 @@ from stlplan.planner.first_plan.guide import guide_path, single_integrator, task
 from stlplan.planner.first_plan.overlay import States, overlay_context
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.outcome import Plan
+from stlplan.planner.tolerances import FEASIBILITY
 
 _log = logging.getLogger(__name__)
 
@@ -106,7 +106,7 @@ class Turn:
             near = -self.config.repair.near  # and those met by less than repair.near
             found = violated([lazy[n] for n in mine], states, least_margin(self.pm), near)
             if not own and not violated(
-                [lazy[mine[i]] for i in found], states, least_margin(self.pm), VIOLATION_TOL
+                [lazy[mine[i]] for i in found], states, least_margin(self.pm), FEASIBILITY
             ):
                 return {a: states[a] for a in self.agents}
             window = self.config.repair.window
@@ -148,7 +148,7 @@ class Turn:
         ``found``."""
         lazy = self._lazy()
         mine = [lazy[n] for n in self._crossing_with(others)]
-        broken = violated(mine, {**others, **found}, least_margin(self.pm), VIOLATION_TOL)
+        broken = violated(mine, {**others, **found}, least_margin(self.pm), FEASIBILITY)
         return {a for i in broken for a in mine[i].binding.values()} - self.agents
 
     def _crossing_with(self, others: States) -> list[int]:
@@ -190,10 +190,10 @@ class Turn:
                 _log.debug("prioritized: a guided solve ended %s", self.session.verdict)
                 return None
             found = {**fixed, **trajectory_states(self.pm)}
-            pending = [n for n in violated(wanted, found, margin, VIOLATION_TOL) if n not in held]
+            pending = [n for n in violated(wanted, found, margin, FEASIBILITY) if n not in held]
             if not pending:
                 break
-        if pending or pending_violations(self.pm) or violated(mine, found, margin, VIOLATION_TOL):
+        if pending or pending_violations(self.pm) or violated(mine, found, margin, FEASIBILITY):
             _log.debug("prioritized: a guided plan breaks a requirement")
             return None
         return {a: found[a] for a in self.agents}

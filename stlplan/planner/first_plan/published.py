@@ -28,11 +28,12 @@ import numpy as np
 from pyomo.common.modeling import unique_component_name
 
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.core.watch import VIOLATION_TOL, least_margin
+from stlplan.planner.core.watch import least_margin
 from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.deferred import Requirement, neighbours
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.first_plan.overlay import States, overlay_context
+from stlplan.planner.tolerances import FEASIBILITY
 
 
 class Outside:
@@ -70,7 +71,7 @@ class Outside:
         mine = self.naming(agents)
         plans = {**self.fixed, **states}
         found = violated([self.requirements[n] for n in mine], plans, least_margin(self.pm),
-                         VIOLATION_TOL)  # fmt: skip
+                         FEASIBILITY)  # fmt: skip
         return [mine[i] for i in found]
 
     def named(self, states: Mapping[str, np.ndarray]) -> list[str]:

@@ -19,9 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from stlplan.formula.tree import Always, And, Eventually, Formula, Or, Predicate, Until
-
-HOLDS = -1e-6
-"""A predicate the plan meets within this of its bound counts as kept (the solver's tolerance)."""
+from stlplan.planner.tolerances import MONITOR
 
 
 @dataclass(frozen=True)
@@ -52,7 +50,7 @@ class _Witness:
 
     def _find(self, node: Formula, k: int) -> tuple[Kept, ...] | None:
         if isinstance(node, Predicate):
-            return (Kept(node, k),) if self.value(node, k) >= HOLDS else None
+            return (Kept(node, k),) if self.value(node, k) >= -MONITOR else None
         if isinstance(node, And):
             return self._all([(c, k) for c in node.children])
         if isinstance(node, Always):

@@ -58,6 +58,7 @@ import math
 from dataclasses import dataclass, field
 from typing import TypeGuard
 
+from stlplan.planner.tolerances import ROUND_OFF
 from stlplan.result import ConvergencePoint
 
 THIN_SECONDS = 0.5
@@ -65,9 +66,6 @@ THIN_SECONDS = 0.5
 
 LARGEST = 1e30
 """HiGHS's figures at or beyond this size are infinite (no incumbent or bound yet)."""
-
-ROUND_OFF = 1e-9
-"""A figure better by at most this much (relative, absolute below 1) adds no point."""
 
 
 def known(value: float | None) -> TypeGuard[float]:

@@ -25,13 +25,11 @@ import math
 from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass
 
+from stlplan.planner.tolerances import ROUND_OFF
 from stlplan.result import PlanStatus
 
 ASSEMBLY_FAILED = "assembly failed"
 """The ``stop`` of an outcome whose parts' plans did not assemble into a plan of the whole."""
-
-SLACK = 1 + 1e-9
-"""A gap within ``gap * SLACK`` counts as within the gap (round-off of sums of objectives)."""
 
 
 @dataclass(frozen=True)
@@ -219,7 +217,7 @@ def combined(
     objective, bound = totals(done)
     found = relative_gap(objective, bound)
     optimal = all(s.status is PlanStatus.OPTIMAL for s in done)
-    optimal = optimal and found is not None and found <= gap * SLACK
+    optimal = optimal and found is not None and found <= gap * (1 + ROUND_OFF)
     status = PlanStatus.OPTIMAL if optimal else PlanStatus.FEASIBLE
     if stopped and not optimal:
         status = PlanStatus.INTERRUPTED
@@ -280,7 +278,7 @@ def assembled(
         return dataclasses.replace(done, status=PlanStatus.ERROR, stop=ASSEMBLY_FAILED)
     found = relative_gap(objective, done.bound)
     status = done.status
-    if status is PlanStatus.OPTIMAL and (found is None or found > gap * SLACK):
+    if status is PlanStatus.OPTIMAL and (found is None or found > gap * (1 + ROUND_OFF)):
         status = PlanStatus.INTERRUPTED if stopped else PlanStatus.FEASIBLE
     return dataclasses.replace(done, status=status, objective=objective, gap=found, seconds=seconds)
 
@@ -308,7 +306,7 @@ def better(
     chosen = second if kept else first
     found = relative_gap(chosen.objective, bound)
     status = chosen.status
-    if found is not None and found <= gap * SLACK:
+    if found is not None and found <= gap * (1 + ROUND_OFF):
         status = PlanStatus.OPTIMAL
     elif not kept:
         status = kept_status(stopped)
@@ -319,7 +317,7 @@ def within(done: Outcome, gap: float) -> Outcome:
     """``done``, feasible rather than optimal when its plan is not within ``gap`` of its bound
     (a round solved to a looser gap)."""
     found = relative_gap(done.objective, done.bound)
-    if done.status is PlanStatus.OPTIMAL and (found is None or found > gap * SLACK):
+    if done.status is PlanStatus.OPTIMAL and (found is None or found > gap * (1 + ROUND_OFF)):
         return dataclasses.replace(done, status=PlanStatus.FEASIBLE)
     return done
 

@@ -1,0 +1,15 @@
+"""The planner's numerical tolerances: what counts as round-off, as met by the solver, and as met
+by the monitor. Every comparison of a plan's figures in the planner uses one of them."""
+
+ROUND_OFF = 1e-9
+"""Float round-off: a figure better by at most this much (relative, absolute below 1) is no
+better; a gap within ``(1 + ROUND_OFF)`` of another is within it; a big-M or a broken side this
+small is none (HiGHS drops matrix values at or below it)."""
+
+FEASIBILITY = 1e-7
+"""HiGHS's feasibility tolerance: a lazy requirement a plan breaks by more is violated; a
+continuous stage's margins and an effort floor are lowered by it."""
+
+MONITOR = 1e-6
+"""The monitor's tolerance (its dynamics check): a predicate value above ``-MONITOR`` holds for
+a witness, and an effort lower by at most this much is no lower."""
