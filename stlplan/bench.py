@@ -22,10 +22,12 @@ from __future__ import annotations
 
 import argparse
 import csv
+import hashlib
+import json
 import shlex
 import sys
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -164,6 +166,7 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
         first_plan_s=None
         if result.first_plan_seconds is None
         else round(result.first_plan_seconds, 2),
+        decisions=decisions(result.round_log),
         first_plan_stage=result.trace.get("first_plan"),
         final_plan_stage=result.trace.get("final_plan"),
         rounds=result.rounds,
@@ -182,6 +185,15 @@ def solve_job(job: Job, seed: int, threads: int | None) -> dict[str, Any]:
         message=result.message,
     )
     return row
+
+
+def decisions(round_log: Sequence[Mapping[str, Any]]) -> str:
+    """A digest of a run's decisions: each lazy round's part, stage, termination, nodes and
+    requirements held. Two versions of the code that should change no result give the same
+    digest on a deterministic run (``--formulations deterministic``)."""
+    keys = ("part", "stage", "ended", "nodes", "held")
+    taken = [{k: r.get(k) for k in keys} for r in round_log]
+    return hashlib.sha1(json.dumps(taken, sort_keys=True).encode()).hexdigest()[:12]
 
 
 def plan_jobs(args: argparse.Namespace) -> Iterator[Job]:

@@ -15,9 +15,10 @@ GAP = 1e-4
 
 COLUMNS = (
     "case", "seed", "run", "formulation", "variables", "binaries", "constraints", "build_s",
-    "solve_s", "wall_s", "cpu_s", "first_plan_s", "first_plan_stage", "final_plan_stage",
-    "rounds", "requirements_added", "requirements_candidates", "requirements_unneeded", "status",
-    "accepted", "gap", "rho_s", "objective", "bound", "effort", "message",
+    "solve_s", "wall_s", "cpu_s", "first_plan_s", "decisions", "first_plan_stage",
+    "final_plan_stage", "rounds", "requirements_added", "requirements_candidates",
+    "requirements_unneeded", "status", "accepted", "gap", "rho_s", "objective", "bound",
+    "effort", "message",
 )  # fmt: skip
 
 

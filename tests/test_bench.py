@@ -109,3 +109,14 @@ def test_a_solve_row_records_step_1_objective_and_the_bound_it_ended_with() -> N
     assert isinstance(bound, float) and isinstance(objective, float)
     assert bound >= objective - 1e-9
     assert bound - objective <= bench_report.GAP * max(1.0, abs(objective)) + 1e-6
+
+
+def test_a_deterministic_row_names_its_decisions_alike_run_after_run() -> None:
+    job = bench.Job("stl/either-or", 0, "deterministic", 60.0)
+    first, second = (bench.solve_job(job, seed=0, threads=2) for _ in range(2))
+    assert first["status"] == "optimal" and first["rounds"] >= 1
+    assert first["decisions"] == second["decisions"] and len(first["decisions"]) == 12
+    assert first["objective"] == second["objective"]
+    log = [{"part": "a", "stage": "lazy rounds", "ended": "ok", "nodes": 3, "held": {}}]
+    other = [{**log[0], "nodes": 4}]
+    assert bench.decisions(log) != bench.decisions(other)  # a digest of what was decided
