@@ -16,7 +16,7 @@ from tests.reference.half_planes import half_planes
 ROOM = crowd.Room(side=4.0, radius=1.6, pillar_offset=0.6, pillar_half=0.25, horizon=12, hold=2)
 
 
-def _everywhere(hps: list, grid: guide.Grid, t: int, shifts: np.ndarray) -> np.ndarray:
+def _everywhere(hps: list, grid: guide_stops.Grid, t: int, shifts: np.ndarray) -> np.ndarray:
     """Each requirement examined alone at every cell of the grid."""
     out = np.zeros((len(shifts), *grid.shape), dtype=bool)
     for hp in hps:

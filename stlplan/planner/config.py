@@ -20,6 +20,7 @@ from typing import Annotated, Any, Literal
 from pydantic import Field, ValidationError, field_validator
 
 from stlplan.errors import StlplanError
+from stlplan.mission.schema import Mission
 from stlplan.planner.config_repair import RepairConfig
 from stlplan.planner.config_repair import Section as _Section
 
@@ -220,7 +221,7 @@ class PlannerConfig(_Section):
 
     @classmethod
     def from_mission(
-        cls, mission: Any, overrides: Mapping[str, Any] | None = None
+        cls, mission: Mission, overrides: Mapping[str, Any] | None = None
     ) -> PlannerConfig:
         """The mission's ``solver`` and ``objective`` settings, then dotted ``overrides``."""
         settings, objective = mission.solver, mission.objective

@@ -8,7 +8,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from stlplan.planner.encoding.deferred import Requirement
-from stlplan.planner.first_plan.guide import CLEARANCE, HalfPlanes
+from stlplan.planner.first_plan.guide import CLEARANCE
+from stlplan.planner.first_plan.guide_stops import HalfPlanes
 
 
 def half_planes(

@@ -47,29 +47,29 @@ def attempts(seed: int) -> tuple[Settings, ...]:
     )
 
 
-def says_infeasible(highs: Any) -> bool:
+def says_infeasible(highs: highspy.Highs) -> bool:
     """Whether the last solve of ``highs`` ended with an infeasible verdict."""
     return highs.getModelStatus() in _INFEASIBLE
 
 
-def has_plan(highs: Any) -> bool:
+def has_plan(highs: highspy.Highs) -> bool:
     """Whether the last solve of ``highs`` left a primal feasible point."""
     return int(highs.getInfo().primal_solution_status) == 2
 
 
-def verdict(highs: Any) -> str:
+def verdict(highs: highspy.Highs) -> str:
     """HiGHS's name of its last model status."""
     return str(highs.modelStatusToString(highs.getModelStatus()))
 
 
-def option(highs: Any, name: str) -> Any:
+def option(highs: highspy.Highs, name: str) -> Any:
     """The value of HiGHS option ``name`` (highspy returns ``(status, value)`` or the value)."""
     found = highs.getOptionValue(name)
     return found[1] if isinstance(found, tuple) else found
 
 
 @contextlib.contextmanager
-def applied(highs: Any, settings: Settings) -> Iterator[None]:
+def applied(highs: highspy.Highs, settings: Settings) -> Iterator[None]:
     """HiGHS options ``settings`` set on ``highs`` for the block, the earlier values restored."""
     saved = {name: option(highs, name) for name in settings}
     try:
@@ -82,7 +82,7 @@ def applied(highs: Any, settings: Settings) -> Iterator[None]:
 
 
 def confirm(
-    highs: Any,
+    highs: highspy.Highs,
     first: tuple[str, float],
     run: Callable[[Settings, float], None],
     seed: int,

@@ -4,18 +4,19 @@ record (:mod:`stlplan.planner.run.convergence` says which figures count)."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
-from highspy import cb
+from highspy import Highs, HighsCallbackEvent, cb
+
+from stlplan.planner.run.clock import Clock
 
 
-def follow(highs: Any, trial: Callable[[], bool], recorder: Any, plans: bool) -> None:
+def follow(highs: Highs, trial: Callable[[], bool], recorder: Clock, plans: bool) -> None:
     """Record the whole problem's figures HiGHS reports while it solves the whole team's model.
 
     Parameters
     ----------
     highs
-        The ``highspy.Highs`` object of the whole team's model (None: nothing is followed).
+        The ``highspy.Highs`` object of the whole team's model.
     trial
         Whether the solve running is a trial (its figures are then ignored).
     recorder
@@ -24,11 +25,9 @@ def follow(highs: Any, trial: Callable[[], bool], recorder: Any, plans: bool) ->
         Whether HiGHS's improving plans are plans of the whole problem (a model holding every
         requirement).
     """
-    if highs is None or not hasattr(highs, "cbMipInterrupt"):
-        return
     improving = cb.HighsCallbackType.kCallbackMipImprovingSolution
 
-    def on_event(event: Any) -> None:
+    def on_event(event: HighsCallbackEvent) -> None:
         if trial():
             return
         out = event.data_out
@@ -36,5 +35,5 @@ def follow(highs: Any, trial: Callable[[], bool], recorder: Any, plans: bool) ->
             recorder.plan_found(float(out.objective_function_value))
         recorder.bound_found(float(out.mip_dual_bound))
 
-    highs.cbMipImprovingSolution += on_event
-    highs.cbMipInterrupt += on_event
+    highs.cbMipImprovingSolution.subscribe(on_event)
+    highs.cbMipInterrupt.subscribe(on_event)

@@ -19,9 +19,8 @@ import contextlib
 import logging
 import math
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Any
 
 import highspy
 import numpy as np
@@ -38,6 +37,12 @@ from stlplan.planner.run.clock import Clock, Phase
 from stlplan.planner.run.outcome import Plan, of_solve
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
+
+SolverEvent = highspy.HighsCallbackEvent
+"""What HiGHS reports during a search: its figures (``data_out``) and a way to stop it."""
+
+Listener = Callable[[SolverEvent], None]
+"""What HiGHS calls during a MIP search, with the event."""
 
 _STATUS: dict[TerminationCondition, tuple[PlanStatus, PlanStatus]] = {
     # termination condition: (status with a plan, status without one)
@@ -67,13 +72,13 @@ def has_solution(results: Results) -> bool:
     return results.solution_status in (SolutionStatus.optimal, SolutionStatus.feasible)
 
 
-def _watch(highs: Any, clock: Clock, phase: Phase) -> None:
+def _watch(highs: highspy.Highs, clock: Clock, phase: Phase) -> None:
     """Report HiGHS's MIP progress to ``clock`` (callbacks on the ``highspy.Highs`` object)."""
-    if highs is None or clock.progress is None or not hasattr(highs, "cbMipInterrupt"):
+    if clock.progress is None:
         return
     last = [0.0]
 
-    def on_event(event: Any) -> None:
+    def on_event(event: highspy.HighsCallbackEvent) -> None:
         now = time.perf_counter()
         improving = event.callback_type == cb.HighsCallbackType.kCallbackMipImprovingSolution
         if improving or now - last[0] >= 0.5:
@@ -85,8 +90,8 @@ def _watch(highs: Any, clock: Clock, phase: Phase) -> None:
         if clock.error is not None:
             event.interrupt()  # the callback failed: stop HiGHS, re-raise after the solve
 
-    highs.cbMipImprovingSolution += on_event
-    highs.cbMipInterrupt += on_event
+    highs.cbMipImprovingSolution.subscribe(on_event)
+    highs.cbMipInterrupt.subscribe(on_event)
 
 
 _SCHEDULER: dict[str, int | None] = {}
@@ -181,7 +186,7 @@ class HighsSession:
         use_threads(config.solver.used_threads())
         with clock.building(), uncaptured.solves():
             self.solver.set_instance(model)
-        self.highs: Any = getattr(self.solver, "_solver_model", None)
+        self.highs: highspy.Highs = self.solver._solver_model
         self._fresh = True
         self.verdict = ""
         """HiGHS's model status of the last solve, by name."""
@@ -191,20 +196,33 @@ class HighsSession:
         self._start: tuple[np.ndarray, np.ndarray] | None = None
         self.keys = ColumnKeys(model, self.columns)
         """The key of each HiGHS column (plans are values by key)."""
-        if self.highs is not None and hasattr(self.highs, "cbMipInterrupt"):
-            self.highs.cbMipUserSolution += self._give_start
-            self.highs.cbMipInterrupt += self._clear_stale_interrupt
-            for name in ("cbMipInterrupt", "cbSimplexInterrupt", "cbIpmInterrupt"):
-                callbacks = getattr(self.highs, name)
-                callbacks += self._stop_if_asked
+        self.highs.cbMipUserSolution.subscribe(self._give_start)
+        self.highs.cbMipInterrupt.subscribe(self._clear_stale_interrupt)
+        for callbacks in (
+            self.highs.cbMipInterrupt,
+            self.highs.cbSimplexInterrupt,
+            self.highs.cbIpmInterrupt,
+        ):
+            callbacks.subscribe(self._stop_if_asked)
         _watch(self.highs, clock, phase)
 
-    def _stop_if_asked(self, event: Any) -> None:
+    def listen(self, on_plan: Listener, on_progress: Listener) -> None:
+        """Call ``on_plan`` at every improving plan of HiGHS's MIP search and ``on_progress``
+        at its regular interrupt checks (until :meth:`unlisten`)."""
+        self.highs.cbMipImprovingSolution.subscribe(on_plan)
+        self.highs.cbMipInterrupt.subscribe(on_progress)
+
+    def unlisten(self, on_plan: Listener, on_progress: Listener) -> None:
+        """Stop calling what :meth:`listen` gave."""
+        self.highs.cbMipImprovingSolution.unsubscribe(on_plan)
+        self.highs.cbMipInterrupt.unsubscribe(on_progress)
+
+    def _stop_if_asked(self, event: highspy.HighsCallbackEvent) -> None:
         """Interrupt HiGHS when the user asked to stop (:mod:`stlplan.runtime.signals`)."""
         if signals.should_interrupt():
             event.interrupt()
 
-    def _clear_stale_interrupt(self, event: Any) -> None:
+    def _clear_stale_interrupt(self, event: highspy.HighsCallbackEvent) -> None:
         """HiGHS keeps an interrupt flag set by an earlier solve; clear it once per solve."""
         if self._fresh and event.data_in is not None:
             event.interrupt(False)
@@ -216,7 +234,7 @@ class HighsSession:
         drops it."""
         self._start = self.keys.start(plan.values)
 
-    def _give_start(self, event: Any) -> None:
+    def _give_start(self, event: highspy.HighsCallbackEvent) -> None:
         start, self._start = self._start, None
         if start is None or event.data_in is None or len(start[0]) == 0:
             return

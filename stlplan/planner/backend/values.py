@@ -10,16 +10,17 @@ keys name the same variables: a numbered component's index may stand for another
 
 from __future__ import annotations
 
-from collections.abc import Collection, Hashable, Iterable, Mapping
-from typing import Any
+from collections.abc import Callable, Collection, Hashable, Iterable, Mapping
 
 import numpy as np
+from pyomo.core.base.objective import ObjectiveData
+from pyomo.core.base.var import VarData
 from pyomo.environ import ConcreteModel, Var, value
 
 from stlplan.planner.run.outcome import Plan, VarKey
 
 
-def var_key(var: Any) -> VarKey:
+def var_key(var: VarData) -> VarKey:
     """The key of a Pyomo variable: its component's name and its index."""
     index: Hashable = var.index()
     return (var.parent_component().name, index)
@@ -69,7 +70,7 @@ class ColumnKeys:
         A callable returning HiGHS's column of each variable, by ``id``.
     """
 
-    def __init__(self, model: ConcreteModel, columns: Any) -> None:
+    def __init__(self, model: ConcreteModel, columns: Callable[[], Mapping[int, int]]) -> None:
         self.model, self.columns = model, columns
         self._keys: list[VarKey | None] = []
         self._by_id: dict[int, int] = {}
@@ -100,7 +101,10 @@ class ColumnKeys:
 
 
 def plan_of(
-    model: ConcreteModel, objective: Any, added: Iterable[int] = (), meets_all: bool = True
+    model: ConcreteModel,
+    objective: ObjectiveData,
+    added: Iterable[int] = (),
+    meets_all: bool = True,
 ) -> Plan:
     """The plan loaded in ``model`` as a value, with the objective's value."""
     return Plan(float(value(objective)), model_values(model), frozenset(added), meets_all)

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from pyomo.contrib.solver.common.results import TerminationCondition
-from pyomo.environ import Objective, Reals, Var, minimize, value
+from pyomo.environ import ConcreteModel, Objective, Reals, Var, minimize, value
 
 from stlplan.planner.backend.session import HighsSession, Solved, solve_once
 from stlplan.planner.config import PlannerConfig
@@ -149,11 +149,9 @@ def _held_rows(pm: PlanModel, enforced: list[Enforced], config: PlannerConfig) -
     return _Rows(pm, enforced + near, sides)
 
 
-def _target(session: HighsSession, model: Any) -> dict[Any, float] | None:
+def _target(session: HighsSession, model: ConcreteModel) -> dict[Any, float] | None:
     """The inputs of the point HiGHS ended at, by key of ``model.u`` (None without one)."""
     highs = session.highs
-    if highs is None:
-        return None
     columns = session.columns()
     point = highs.getSolution().col_value
     if len(point) == 0 or any(id(u) not in columns for u in model.u.values()):

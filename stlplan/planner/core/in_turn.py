@@ -41,9 +41,10 @@ from collections.abc import Callable, Collection, Iterable, Sequence
 from functools import partial
 from typing import Any
 
+from pyomo.core.base.var import VarData
 from pyomo.environ import value
 
-from stlplan.planner.backend.session import HighsSession, has_solution
+from stlplan.planner.backend.session import HighsSession, Solved, has_solution
 from stlplan.planner.backend.values import plan_of
 from stlplan.planner.config import PlannerConfig, RepairConfig
 from stlplan.planner.core.around import Around
@@ -71,7 +72,7 @@ every other agent held, around the agents ``done``; no agents when that found a 
 ``free`` and the agents in their way, in the order they are to be freed (:func:`solve_free`)."""
 
 
-def hold_near(var: Any, value: float, held: Held, width: float) -> None:
+def hold_near(var: VarData, value: float, held: Held, width: float) -> None:
     """Bound ``var`` to within ``width`` of ``value`` (inside its own bounds); record the old
     bounds in ``held``.
 
@@ -322,7 +323,7 @@ def broken_requirements(
     return mine, theirs
 
 
-def _excused(outside: Around | None, free: set[str], solved: Any, budget: Budget) -> bool:
+def _excused(outside: Around | None, free: set[str], solved: Solved, budget: Budget) -> bool:
     """Whether a turn without a plan had rows against the agents ``outside`` (now removed) and
     time left to solve again without them."""
     if outside is None or solved.stopped or budget.expired():

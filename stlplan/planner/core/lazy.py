@@ -87,8 +87,7 @@ class LazySolver:
             self.watch.first = config.solver.first_plan
             if config.solver.first_plan:
                 self.session.solver.config.rel_gap = self._first_gap(config.solver.gap)
-            self.session.highs.cbMipImprovingSolution += self.watch.on_plan
-            self.session.highs.cbMipInterrupt += self.watch.maybe_stop
+            self.session.listen(self.watch.on_plan, self.watch.maybe_stop)
             self.watch.found = self._kept
         elif config.solver.first_plan:  # every requirement in the model: HiGHS's first plan
             options = self.session.solver.config.solver_options
@@ -135,17 +134,15 @@ class LazySolver:
         """The session, for other solves of the model (a prioritized turn's) within the block:
         without the loop's watch, a trial, at the relative gap ``gap`` (or the run's, when
         looser)."""
-        highs, watch = self.session.highs, self.watch
+        watch = self.watch
         if watch is not None:
-            highs.cbMipImprovingSolution -= watch.on_plan
-            highs.cbMipInterrupt -= watch.maybe_stop
+            self.session.unlisten(watch.on_plan, watch.maybe_stop)
         try:
             with self.session.looking_for_a_plan(gap):
                 yield self.session
         finally:
             if watch is not None:
-                highs.cbMipImprovingSolution += watch.on_plan
-                highs.cbMipInterrupt += watch.maybe_stop
+                self.session.listen(watch.on_plan, watch.maybe_stop)
 
     def run(self, budget: Budget, abs_gap: float | None = None, trial: bool = False) -> Outcome:
         """Solve within ``budget``, to the relative gap (or to ``abs_gap`` alone).

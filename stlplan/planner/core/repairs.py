@@ -21,19 +21,48 @@ that meets every requirement may close the gap without another round.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Protocol
 
+from stlplan.planner.backend.session import HighsSession
 from stlplan.planner.backend.values import load_values, model_values
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.core.around import Publisher
 from stlplan.planner.core.assembly import hold_plans
 from stlplan.planner.core.completion import hold_decisions
 from stlplan.planner.core.in_turn import Held, InTurn, release
-from stlplan.planner.core.watch import loaded_plan
+from stlplan.planner.core.watch import Watch, loaded_plan
 from stlplan.planner.encoding.deferred import neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.run.budget import Budget
-from stlplan.planner.run.outcome import Plan
+from stlplan.planner.run.clock import Clock
+from stlplan.planner.run.outcome import Outcome, Plan
+
+
+class Rounds(Protocol):
+    """The lazy loop a repair works on (:class:`~stlplan.planner.core.lazy.LazySolver`): its
+    model, session, clock and watch, its rounds, and its session lent to other solves."""
+
+    pm: PlanModel
+    session: HighsSession
+    clock: Clock
+    config: PlannerConfig
+    watch: Watch | None
+    published: Publisher | None
+    trial: bool
+
+    def run(self, budget: Budget, abs_gap: float | None = None, trial: bool = False) -> Outcome:
+        """Rounds within ``budget`` until a plan meets every requirement or time is up."""
+        ...
+
+    def lent(self, gap: float) -> AbstractContextManager[HighsSession]:
+        """The session for other solves within the block, at the relative gap ``gap``."""
+        ...
+
+    def sibling(self, pm: PlanModel) -> Rounds:
+        """A lazy loop of another model with this loop's configuration, clock and policy."""
+        ...
 
 
 @dataclass(frozen=True, eq=False)
@@ -55,11 +84,11 @@ class Broken:
         For a merged part: the lazy solvers of the parts it comes from (of ``parts``).
     """
 
-    solver: Any
+    solver: Rounds
     bad: Sequence[int]
     parts: Sequence[PlanModel] = ()
     free: frozenset[str] = field(default_factory=frozenset)
-    solvers: Sequence[Any] = ()
+    solvers: Sequence[Rounds] = ()
 
 
 class Repair(Protocol):
@@ -86,8 +115,8 @@ class InTurnRepair:
             plan = _around_published(broken, config, budget, stop)
             if plan is None and not (budget.expired() or stop()):
                 plan = InTurn(solver.pm, solver.session, config, stop=stop).run(broken.bad, budget)
-            if plan is None and stop():  # the loop's watch took a plan on the way
-                return solver.watch.best
+            if plan is None and solver.watch is not None and stop():
+                return solver.watch.best  # the loop's watch took a plan on the way
             if plan is None:
                 reached.failed("repair in turn")
         return plan
@@ -144,7 +173,7 @@ class HeldRepair:
         return "held"
 
 
-def _held_runs(solver: Any, config: PlannerConfig, budget: Budget) -> Any:
+def _held_runs(solver: Rounds, config: PlannerConfig, budget: Budget) -> Outcome:
     """The held model's lazy runs (:class:`HeldRepair`); the last one's outcome. A repair's
     bound bounds only the held problem: the second run looks for a plan, not for a proof."""
     exact = config.repair.held_exact_share
@@ -167,6 +196,7 @@ class TasksKeptRepair:
     def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
         solver = broken.solver
         pm, watch, session = solver.pm, solver.watch, solver.session
+        assert watch is not None and pm.deferral is not None  # a lazy loop's plan
         before = watch.best
         add_requirements(pm, neighbours(pm.deferral.lazy, broken.bad, config.lazy.window))
         held = _hold_task_decisions(pm)

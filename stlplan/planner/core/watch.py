@@ -8,18 +8,19 @@ plan's trajectory with numpy (:func:`stlplan.planner.encoding.deferred.violated`
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
+from pyomo.core.base.var import VarData
 from pyomo.environ import value
 
+from stlplan.planner.backend.session import SolverEvent
 from stlplan.planner.backend.values import ColumnKeys, load_values, plan_of
 from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.deferred import best_side
 from stlplan.planner.encoding.model import PlanModel, assign_side
-from stlplan.planner.run.outcome import Plan, lowest
+from stlplan.planner.run.outcome import Plan, VarKey, lowest
 from stlplan.planner.tolerances import FEASIBILITY
 
 
@@ -44,7 +45,7 @@ def pending_violations(pm: PlanModel) -> list[int]:
     return [n for n in found if n not in pm.added]
 
 
-def load_plan(pm: PlanModel, values: Any, added_then: Any) -> None:
+def load_plan(pm: PlanModel, values: Mapping[VarKey, float], added_then: Collection[int]) -> None:
     """Load ``values``, a plan found while ``pm`` held the requirements ``added_then``; those
     added since take the side the plan meets best, so every decision agrees with it."""
     assert pm.deferral is not None
@@ -107,7 +108,7 @@ class Watch:
             out[agent.name] = np.array(rows)
         return out
 
-    def on_plan(self, event: Any) -> None:
+    def on_plan(self, event: SolverEvent) -> None:
         """An improving plan: keep it when it violates no requirement left out of the model."""
         assert self.pm.deferral is not None
         objective = float(event.data_out.objective_function_value)
@@ -142,7 +143,7 @@ class Watch:
         """Whether the first plan is all that is asked for, and found."""
         return self.first and self.best is not None
 
-    def maybe_stop(self, event: Any) -> None:
+    def maybe_stop(self, event: SolverEvent) -> None:
         """Interrupt the round once the best full plan is within the gap of its bound."""
         bound = float(event.data_out.mip_dual_bound)
         self.stopped = self.stopped or self.closed(bound) or self.done()
@@ -150,7 +151,7 @@ class Watch:
             event.interrupt()
 
 
-def _value(var: Any, x: np.ndarray, by_id: dict[int, int]) -> float:
+def _value(var: VarData, x: np.ndarray, by_id: Mapping[int, int]) -> float:
     """``var``'s value in HiGHS's column vector ``x`` (its own value when it has no column)."""
     column = by_id.get(id(var))
     return float(var.value) if column is None else float(x[column])

@@ -32,22 +32,20 @@ past steps) is left to the other repairs.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 from stlplan.formula.tree import Always, Interval
 from stlplan.mission.problem import Problem, TaskModel
 from stlplan.planner.backend.values import load_values, model_values, trajectory_values
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.core.lazy import LazySolver
-from stlplan.planner.core.repairs import Broken
+from stlplan.planner.core.repairs import Broken, Rounds
 from stlplan.planner.core.team_split import agent_parts, sub_problem
 from stlplan.planner.encoding.model import PlanModel, build_model
 from stlplan.planner.encoding.readout import chosen, chosen_run
 from stlplan.planner.first_plan.prioritized import prioritized
 from stlplan.planner.run.budget import Budget
-from stlplan.planner.run.outcome import Plan
+from stlplan.planner.run.outcome import Plan, VarKey
 
 RUN = "_run_e"
 """Between a synchronous task's name and an element's index in the name of the element's task
@@ -131,7 +129,11 @@ class ElementsRepair:
 
 
 def _by_elements(
-    broken: Broken, config: PlannerConfig, budget: Budget, share: float, loaded: Mapping[Any, float]
+    broken: Broken,
+    config: PlannerConfig,
+    budget: Budget,
+    share: float,
+    loaded: Mapping[VarKey, float],
 ) -> Plan | None:
     """The repair's orders (:class:`ElementsRepair`) from the broken plan's ``loaded`` values,
     a synchronous run started later for each part that holds one and finds no plan alone."""
@@ -140,7 +142,7 @@ def _by_elements(
     states = trajectory_values(loaded)
     names = {s.task.name for pm in models for s in pm.synchronous}
     late: dict[str, int] = {}
-    built: dict[Any, Any] = {}
+    built: dict[Hashable, Rounds] = {}
     while not budget.expired():
         problem = element_problem(solver.pm.problem, models, late)
         if problem is None:
@@ -178,12 +180,12 @@ def run_of(name: str, synchronous: set[str]) -> str | None:
 def element_part(
     problem: Problem,
     agents: tuple[str, ...],
-    solver: LazySolver,
+    solver: Rounds,
     config: PlannerConfig,
     budget: Budget,
-    states: Mapping[Any, float],
-    built: dict[Any, Any],
-) -> Any:
+    states: Mapping[VarKey, float],
+    built: dict[Hashable, Rounds],
+) -> Rounds:
     """The lazy loop of the part of ``agents`` of ``problem`` (a sibling of ``solver``'s), with
     the plan's ``states`` loaded (the reference of a guided turn); built once for the same
     agents and tasks."""

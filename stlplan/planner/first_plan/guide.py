@@ -34,7 +34,7 @@ import numpy as np
 from stlplan.mission.problem import AgentModel, Problem
 from stlplan.planner.encoding.alphas import in_position
 from stlplan.planner.encoding.deferred import Requirement
-from stlplan.planner.first_plan.guide_stops import reached, stopped
+from stlplan.planner.first_plan.guide_stops import Grid, HalfPlanes, reached, stopped
 from stlplan.planner.first_plan.witness import witness
 
 CELLS_PER_MOVE = 3
@@ -45,42 +45,6 @@ MOVE_COST = 0.1
 """Cost of a move per unit of length, against 1 per unit of distance from the reference."""
 CLEARANCE = 1e-3
 """How far past ``c(t) + r`` the path keeps each half-plane (room for the plan to move)."""
-
-
-@dataclass(frozen=True)
-class Grid:
-    """Positions ``reference(t) + h * (i - n)``, ``i`` in ``0..2n`` along each axis, at each step."""
-
-    reference: np.ndarray  # (H+1, 2)
-    h: np.ndarray
-    n: np.ndarray
-    low: np.ndarray  # the shortest and longest displacement of one step along each axis
-    high: np.ndarray
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return int(2 * self.n[0] + 1), int(2 * self.n[1] + 1)
-
-    def origin(self, t: int) -> np.ndarray:
-        """The position of cell ``(0, 0)`` at step ``t``."""
-        return self.reference[t] - self.h * self.n
-
-    def points(self, t: int) -> tuple[np.ndarray, np.ndarray]:
-        """The x and y coordinates of the cells at step ``t``, each of ``shape``."""
-        o = self.origin(t)
-        ix = o[0] + self.h[0] * np.arange(self.shape[0])
-        iy = o[1] + self.h[1] * np.arange(self.shape[1])
-        return np.meshgrid(ix, iy, indexing="ij")
-
-    def moves(self, t: int) -> tuple[np.ndarray, np.ndarray]:
-        """The cell offsets (M, 2) of the moves from step ``t`` within the input bounds, and
-        their displacements (M, 2)."""
-        along = self.reference[t + 1] - self.reference[t]
-        first = np.ceil((self.low - along) / self.h - 1e-9).astype(int)
-        last = np.floor((self.high - along) / self.h + 1e-9).astype(int)
-        cells = np.array([(i, j) for i in range(first[0], last[0] + 1)
-                          for j in range(first[1], last[1] + 1)], dtype=int).reshape(-1, 2)  # fmt: skip
-        return cells, along + cells * self.h
 
 
 def single_integrator(agent: AgentModel) -> bool:
@@ -100,18 +64,6 @@ def make_grid(agent: AgentModel, reference: np.ndarray) -> Grid:
     h = np.maximum(np.abs(low), np.abs(high)) / CELLS_PER_MOVE
     n = np.full(2, CELLS_PER_MOVE * REACH_MOVES)
     return Grid(np.asarray(reference, float), h, n, low, high)
-
-
-@dataclass(frozen=True)
-class HalfPlanes:
-    """The alternatives of one requirement in the agent's position: ``a_i . p >= c_i(t)``."""
-
-    a: np.ndarray  # (n_alt, 2)
-    c: np.ndarray  # (n_alt, n_steps): the requirement's steps, margin and clearance included
-    k: int
-    span: int
-    reads: frozenset[str] = frozenset()
-    """The other agents whose states are in ``c``."""
 
 
 @dataclass(frozen=True)

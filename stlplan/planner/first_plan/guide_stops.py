@@ -1,4 +1,5 @@
-"""The moves of a guide's grid search (:mod:`stlplan.planner.first_plan.guide`) that requirements stop.
+"""The grid of a guide's search (:mod:`stlplan.planner.first_plan.guide`), the requirements as
+half-planes in an agent's position, and the moves of the search that they stop.
 
 At each step the search moves from every cell it reached by every displacement the input
 bounds allow; a requirement of the step (its alternatives as half-planes ``a . p >= c`` in the
@@ -17,7 +18,7 @@ others, whose window is the whole grid or large, are examined one by one.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -29,6 +30,54 @@ Window = tuple[slice, slice]
 """Cells along each axis of a grid."""
 
 
+@dataclass(frozen=True)
+class Grid:
+    """Positions ``reference(t) + h * (i - n)``, ``i`` in ``0..2n`` along each axis, at each step."""
+
+    reference: np.ndarray  # (H+1, 2)
+    h: np.ndarray
+    n: np.ndarray
+    low: np.ndarray  # the shortest and longest displacement of one step along each axis
+    high: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return int(2 * self.n[0] + 1), int(2 * self.n[1] + 1)
+
+    def origin(self, t: int) -> np.ndarray:
+        """The position of cell ``(0, 0)`` at step ``t``."""
+        return self.reference[t] - self.h * self.n
+
+    def points(self, t: int) -> tuple[np.ndarray, np.ndarray]:
+        """The x and y coordinates of the cells at step ``t``, each of ``shape``."""
+        o = self.origin(t)
+        ix = o[0] + self.h[0] * np.arange(self.shape[0])
+        iy = o[1] + self.h[1] * np.arange(self.shape[1])
+        return np.meshgrid(ix, iy, indexing="ij")
+
+    def moves(self, t: int) -> tuple[np.ndarray, np.ndarray]:
+        """The cell offsets (M, 2) of the moves from step ``t`` within the input bounds, and
+        their displacements (M, 2)."""
+        along = self.reference[t + 1] - self.reference[t]
+        first = np.ceil((self.low - along) / self.h - 1e-9).astype(int)
+        last = np.floor((self.high - along) / self.h + 1e-9).astype(int)
+        cells = np.array([(i, j) for i in range(first[0], last[0] + 1)
+                          for j in range(first[1], last[1] + 1)], dtype=int).reshape(-1, 2)  # fmt: skip
+        return cells, along + cells * self.h
+
+
+@dataclass(frozen=True)
+class HalfPlanes:
+    """The alternatives of one requirement in the agent's position: ``a_i . p >= c_i(t)``."""
+
+    a: np.ndarray  # (n_alt, 2)
+    c: np.ndarray  # (n_alt, n_steps): the requirement's steps, margin and clearance included
+    k: int
+    span: int
+    reads: frozenset[str] = frozenset()
+    """The other agents whose states are in ``c``."""
+
+
 def reached(cost: np.ndarray) -> Window:
     """The least box of cells holding every cell of finite ``cost``."""
     rows = np.flatnonzero(np.isfinite(cost).any(axis=1))
@@ -38,7 +87,7 @@ def reached(cost: np.ndarray) -> Window:
     return slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1)
 
 
-def windows(a: np.ndarray, c: np.ndarray, grid: Any, t: int, reach: int) -> np.ndarray:
+def windows(a: np.ndarray, c: np.ndarray, grid: Grid, t: int, reach: int) -> np.ndarray:
     """The windows at step ``t`` of requirements of one shape, their alternatives ``a`` (R, A,
     2) and ``c`` (R, A, S): the first and last cell (exclusive) along each axis, (R, 2, 2),
     within ``reach`` cells of the box where every alternative fails (the whole grid when an
@@ -66,7 +115,9 @@ def windows(a: np.ndarray, c: np.ndarray, grid: Any, t: int, reach: int) -> np.n
     return out
 
 
-def block(hp: Any, grid: Any, t: int, shifts: np.ndarray, out: np.ndarray, window: Window) -> None:
+def block(
+    hp: HalfPlanes, grid: Grid, t: int, shifts: np.ndarray, out: np.ndarray, window: Window
+) -> None:
     """Mark in ``out`` (M, nx, ny) the moves from the cells of ``window`` at step ``t``
     (displacements ``shifts``) that break ``hp``."""
     wx, wy = window
@@ -78,13 +129,13 @@ def block(hp: Any, grid: Any, t: int, shifts: np.ndarray, out: np.ndarray, windo
 
 
 def stopped(
-    hps: Sequence[Any], grid: Any, t: int, shifts: np.ndarray, near: Window, reach: int
+    hps: Sequence[HalfPlanes], grid: Grid, t: int, shifts: np.ndarray, near: Window, reach: int
 ) -> np.ndarray:
     """The moves (M, nx, ny) from the cells of ``near`` at step ``t`` that a requirement of
     ``hps`` (all of the step) breaks (maybe some from other cells too, never one that breaks
     none)."""
     out = np.zeros((len(shifts), *grid.shape), dtype=bool)
-    shapes: dict[tuple[int, ...], list[Any]] = {}
+    shapes: dict[tuple[int, ...], list[HalfPlanes]] = {}
     for hp in hps:
         shapes.setdefault(hp.c.shape, []).append(hp)
     for group in shapes.values():
@@ -106,7 +157,7 @@ def _batch(
     a: np.ndarray,
     c: np.ndarray,
     found: np.ndarray,
-    grid: Any,
+    grid: Grid,
     t: int,
     shifts: np.ndarray,
     out: np.ndarray,
@@ -124,11 +175,11 @@ def _batch(
 def moves_failed(
     a: np.ndarray,
     c: np.ndarray,
-    grid: Any,
+    grid: Grid,
     t: int,
     shifts: np.ndarray,
-    x0: Any,
-    y0: Any,
+    x0: int | np.ndarray,
+    y0: int | np.ndarray,
     size: tuple[int, int],
 ) -> np.ndarray:
     """For requirements ``a`` (R, A, 2), ``c`` (R, A, S), whether each move (M) from each cell

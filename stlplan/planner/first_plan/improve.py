@@ -39,7 +39,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import logging
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -48,6 +48,7 @@ from stlplan.planner.backend.values import effort, load_values, model_values, tr
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.core.lazy import LazySolver
 from stlplan.planner.core.policy import RepairPolicy
+from stlplan.planner.core.repairs import Rounds
 from stlplan.planner.core.watch import load_plan
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.readout import chosen_run
@@ -61,7 +62,7 @@ from stlplan.planner.first_plan.overlay import States
 from stlplan.planner.first_plan.prioritized import Turn, held_plan, requirements_naming
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
-from stlplan.planner.run.outcome import Outcome, Plan, relative_gap
+from stlplan.planner.run.outcome import Outcome, Plan, VarKey, relative_gap
 from stlplan.planner.tolerances import MONITOR
 from stlplan.runtime import signals
 
@@ -70,7 +71,7 @@ _log = logging.getLogger(__name__)
 Solved = tuple[PlanModel, Outcome]
 """A model of the whole team with its plan loaded, and the outcome of that plan."""
 
-Found = tuple[States, dict[Any, float]]
+Found = tuple[States, dict[VarKey, float]]
 """A part's plan: its states, and its model's values."""
 
 
@@ -117,7 +118,7 @@ def _improved(
     config: PlannerConfig,
     clock: Clock,
     budget: Budget,
-    saved: dict[Any, float],
+    saved: dict[VarKey, float],
     policy: RepairPolicy | None,
 ) -> Plan | None:
     """The parts of the first plan's element problem (``parted``: it and its parts' agents)
@@ -173,10 +174,10 @@ class Turns:
         self.problem, self.groups, self.full, self.whole = problem, groups, full, whole
         self.config, self.budget, self.lent = config, budget, lent
         self.naming = requirements_naming(full)
-        self.built: dict[Any, Any] = {}
+        self.built: dict[Hashable, Rounds] = {}
         self.made: dict[int, Turn] = {}
 
-    def of(self, elements: Problem, values: dict[Any, float]) -> list[Turn]:
+    def of(self, elements: Problem, values: dict[VarKey, float]) -> list[Turn]:
         """The turns of ``elements``'s parts, a new part's model loaded with ``values`` (states
         of the team's current plan)."""
         states = trajectory_values(values)
@@ -188,7 +189,7 @@ class Turns:
             out.append(self.turn_of(part, self.config))
         return out
 
-    def turn_of(self, part: Any, config: PlannerConfig) -> Turn:
+    def turn_of(self, part: Rounds, config: PlannerConfig) -> Turn:
         """The turn of ``part`` (a lazy loop of :func:`element_part`), made once, its session
         lent."""
         if id(part) not in self.made:
@@ -204,7 +205,7 @@ class Team:
 
     turns: list[Any]
     plans: list[States]
-    kept: list[dict[Any, float]]
+    kept: list[dict[VarKey, float]]
     spent: list[float]
 
     @classmethod
@@ -233,9 +234,9 @@ class Team:
         """The current plans of every part but part ``i``."""
         return {a: s for j, plan in enumerate(self.plans) if j != i for a, s in plan.items()}
 
-    def values(self) -> dict[Any, float]:
+    def values(self) -> dict[VarKey, float]:
         """The states and inputs of the team's current plan, by variable."""
-        out: dict[Any, float] = {}
+        out: dict[VarKey, float] = {}
         for kept in self.kept:
             out.update(trajectory_values(kept))
         return out

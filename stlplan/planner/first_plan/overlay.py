@@ -14,6 +14,7 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+from pyomo.core.base.var import IndexedVar
 from pyomo.environ import Block, ConstraintList, VarList
 
 from stlplan.planner.encoding.model import PlanModel
@@ -27,7 +28,7 @@ States = dict[str, np.ndarray]
 class _Overlay:
     """``x[agent, k, i]``: the model's variable, or another agent's planned state."""
 
-    def __init__(self, states: Any, fixed: Mapping[str, np.ndarray]) -> None:
+    def __init__(self, states: IndexedVar, fixed: Mapping[str, np.ndarray]) -> None:
         self.states, self.fixed = states, fixed
 
     def __getitem__(self, key: tuple[str, int, int]) -> Any:

@@ -34,12 +34,13 @@ from typing import Any
 
 import numpy as np
 from pyomo.contrib.solver.common.results import TerminationCondition
+from pyomo.core.base.block import BlockData
 
 from stlplan.planner.backend.session import HighsSession, has_solution
 from stlplan.planner.backend.values import load_values, model_values, trajectory_values
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.core.in_turn import hold_agents, release
-from stlplan.planner.core.lazy import LazySolver
+from stlplan.planner.core.repairs import Rounds
 from stlplan.planner.core.watch import (
     least_margin,
     loaded_plan,
@@ -78,7 +79,7 @@ class Turn:
         mine = sorted({n for a in self.agents for n in naming.get(a, ())})
         self.crossing = [n for n in mine if not set(lazy[n].binding.values()) <= self.agents]
         """The merged model's requirements between the part's agents and others, by index."""
-        self.block: Any = None
+        self.block: BlockData | None = None
         self.blockers: set[str] = set()
         """Agents whose plans left the guide no path, in this turn's last solve."""
         self.own = trajectory_states(pm)
@@ -296,8 +297,8 @@ def raised(
 
 
 def prioritized(
-    merged: LazySolver,
-    parts: Sequence[LazySolver],
+    merged: Rounds,
+    parts: Sequence[Rounds],
     config: PlannerConfig,
     budget: Budget,
     last: Budget | None = None,
@@ -316,7 +317,7 @@ def prioritized(
 
 
 def in_orders(
-    merged: LazySolver,
+    merged: Rounds,
     parts: Sequence[PlanModel],
     sessions: Sequence[HighsSession],
     config: PlannerConfig,
@@ -359,7 +360,7 @@ def in_orders(
 
 
 def held_plan(
-    merged: LazySolver, turns: Sequence[Turn], config: PlannerConfig, budget: Budget
+    merged: Rounds, turns: Sequence[Turn], config: PlannerConfig, budget: Budget
 ) -> Plan | None:
     """The merged model solved once with every agent held near the turns' plans."""
     pm, planned = merged.pm, dict[Any, float]()
