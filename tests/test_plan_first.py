@@ -145,8 +145,8 @@ def test_a_loop_looking_for_its_first_plan_solves_its_rounds_to_a_looser_gap(
 
     config = EXACT if by_elements else EXACT.with_overrides({"repair.by_elements": None})
     problem, clock, budget = detour_for_free(), Clock(0.0, None), Budget.of_seconds(60)
-    policy = policy_of(config)
-    solver = build_part(problem, ("a", "b"), config, clock, budget, policy=policy).solver
+    inner = LazyRounds(policy_of(config))
+    solver = build_part(problem, ("a", "b"), config, clock, budget, inner=inner).solver
     settings = solver.session.solver.config
     solver.stop_at_first_plan(True)
     assert solver.watch is not None and solver.watch.first
@@ -158,7 +158,7 @@ def test_a_loop_looking_for_its_first_plan_solves_its_rounds_to_a_looser_gap(
     # a run asked for its first plan starts its loops at the repair by elements' gap, or at
     # its own
     quick = config.with_overrides({"solver.first_plan": True})
-    first = build_part(problem, ("a", "b"), quick, clock, budget, policy=policy).solver
+    first = build_part(problem, ("a", "b"), quick, clock, budget, inner=inner).solver
     own = config.repair.by_elements_gap if by_elements else config.solver.gap
     assert first.session.solver.config.rel_gap == own
 

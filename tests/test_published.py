@@ -24,6 +24,7 @@ from stlplan.planner.first_plan.published import Published
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
 from stlplan.planner.solve import plan
+from stlplan.planner.strategy import LazyRounds
 from tests.helpers.configs import paper_model
 from tests.helpers.missions import crossing_problem
 from tests.helpers.solving import accepted
@@ -123,8 +124,8 @@ def test_while_looking_for_a_first_plan_a_part_plans_around_those_done(around: b
     })  # fmt: skip
     clock = Clock(0.0, None)
     hooks = FirstPlan()
-    policy = RepairPolicy.of(options, hooks)
-    found = solve_parts(problem, options, clock, Budget.of_seconds(60), policy, hooks=hooks)
+    inner = LazyRounds(RepairPolicy.of(options, hooks))
+    found = solve_parts(problem, options, clock, Budget.of_seconds(60), inner, hooks=hooks)
     assert found is not None and found[1].status.has_plan
     assert (clock.reached.merges == 0) is around  # the second part's plan meets the first's
     result = plan(problem, options)

@@ -3,14 +3,18 @@ and every one reaches the up-front optimum, accepted by the monitor."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 import pytest
 
 from stlplan.mission.problem import Problem
 from stlplan.planner.config import PlannerConfig
+from stlplan.planner.core.lazy import LazySolver
 from stlplan.planner.core.policy import RepairPolicy
+from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.first_plan.hooks import FirstPlan
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
@@ -31,6 +35,51 @@ def test_the_configuration_composes_the_strategy() -> None:
     assert build_strategy(EXACT.with_overrides({"lazy.enabled": False})) == Direct()
     line = describe(EXACT)
     assert build_strategy(EXACT).describe() in line and line.startswith("model(standard")
+
+
+@dataclass(frozen=True)
+class _CountedRounds(LazyRounds):
+    """Lazy rounds that record the agents of every loop they make."""
+
+    made: list[tuple[str, ...]] = field(default_factory=list)
+
+    def rounds(
+        self, pm: PlanModel, config: PlannerConfig, clock: Clock, whole: bool = False
+    ) -> LazySolver:
+        self.made.append(tuple(a.name for a in pm.problem.agents))
+        return super().rounds(pm, config, clock, whole)
+
+
+@dataclass(frozen=True)
+class _CountedHooks(FirstPlan):
+    """The first-plan hooks, recording each time the parts ask whether to plan first."""
+
+    asked: list[int] = field(default_factory=list)
+
+    def plans_first(self, problem: Problem, config: PlannerConfig, agents: int) -> bool:
+        self.asked.append(agents)
+        return super().plans_first(problem, config, agents)
+
+
+def test_the_printed_pieces_are_the_ones_that_run() -> None:
+    # the strategy the configuration composes, its inner rounds and hooks counted: every part's
+    # loop is made by the inner strategy, repairing by the policy it prints
+    composed = build_strategy(EXACT)
+    assert isinstance(composed, Parts)
+    assert isinstance(composed.hooks, FirstPlan)
+    inner = _CountedRounds(composed.inner.policy)
+    hooks = _CountedHooks(composed.hooks.improve_share)
+    strategy = dataclasses.replace(composed, inner=inner, hooks=hooks)
+    assert strategy.describe() == composed.describe()
+    problem = detour_for_free()
+    _, outcome = strategy.solve(problem, EXACT, Clock.started(None), Budget.for_run(EXACT))
+    assert outcome.status is PlanStatus.OPTIMAL
+    assert sorted(inner.made[:2]) == [("a", "b"), ("e",)]  # the two parts, each by the inner
+    assert hooks.asked == [10]  # asked once, with the configured size, before the proofs
+    # without parts the inner strategy's own loop solves the whole team
+    alone = _CountedRounds(composed.inner.policy)
+    alone.solve(problem, EXACT, Clock.started(None), Budget.for_run(EXACT))
+    assert alone.made == [("a", "b", "e")]
 
 
 def test_the_stages_run_in_order() -> None:

@@ -30,7 +30,7 @@ from stlplan.mission.problem import Problem
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.core.components import solve_parts
 from stlplan.planner.core.hooks import FirstPlanHooks
-from stlplan.planner.core.lazy import solve_step1
+from stlplan.planner.core.lazy import LazySolver, solve_step1
 from stlplan.planner.core.policy import RepairPolicy
 from stlplan.planner.encoding.model import PlanModel, build_model
 from stlplan.planner.first_plan.hooks import FirstPlan
@@ -79,7 +79,8 @@ class Direct:
     ) -> tuple[PlanModel, Outcome]:
         up_front = config.with_overrides({"lazy.enabled": False})
         pm = _built(problem, up_front, clock, budget)
-        return pm, solve_step1(pm, up_front, clock, budget, start=start)
+        solver = LazySolver(pm, up_front, clock, whole=True)
+        return pm, solve_step1(solver, budget, start)
 
     def describe(self) -> str:
         return "direct"
@@ -100,7 +101,13 @@ class LazyRounds:
         start: Plan | None = None,
     ) -> tuple[PlanModel, Outcome]:
         pm = _built(problem, config, clock, budget)
-        return pm, solve_step1(pm, config, clock, budget, self.policy, start)
+        return pm, solve_step1(self.rounds(pm, config, clock, whole=True), budget, start)
+
+    def rounds(
+        self, pm: PlanModel, config: PlannerConfig, clock: Clock, whole: bool = False
+    ) -> LazySolver:
+        """The lazy loop of ``pm``, repairing by the policy (a part's, for :class:`Parts`)."""
+        return LazySolver(pm, config, clock, self.policy, whole)
 
     def describe(self) -> str:
         triggers, kept = self.policy.describe(), self.policy.repair.tasks_kept_seconds
@@ -127,7 +134,7 @@ class Parts:
         start: Plan | None = None,
     ) -> tuple[PlanModel, Outcome]:
         by_parts = solve_parts(
-            problem, config, clock, budget, self.inner.policy, start, self.plan_first, self.hooks
+            problem, config, clock, budget, self.inner, start, self.plan_first, self.hooks
         )
         if by_parts is not None and by_parts[1].stop == ASSEMBLY_FAILED and not budget.expired():
             return self.inner.solve(problem, config, clock, budget, start)  # no plan of the whole

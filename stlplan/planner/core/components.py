@@ -60,7 +60,7 @@ from stlplan.planner.core.assembly import assemble
 from stlplan.planner.core.collisions import crossing_requirements
 from stlplan.planner.core.hooks import FirstPlanHooks, Solved
 from stlplan.planner.core.merges import merged_parts, repair_merge
-from stlplan.planner.core.parts import Part, build_part, followed, tighten, totals
+from stlplan.planner.core.parts import Part, PartRounds, build_part, followed, tighten, totals
 from stlplan.planner.core.policy import RepairPolicy
 from stlplan.planner.core.side_by_side import in_shares, part_workers
 from stlplan.planner.core.team_split import agent_parts
@@ -147,13 +147,13 @@ def solve_parts(
     config: PlannerConfig,
     clock: Clock,
     budget: Budget,
-    policy: RepairPolicy | None = None,
+    inner: PartRounds | None = None,
     start: Plan | None = None,
     plan_first: int | None = None,
     hooks: FirstPlanHooks | None = None,
 ) -> tuple[PlanModel, Outcome] | None:
-    """Solve step 1 part by part (module docstring) within ``budget``, repairing in turn by
-    ``policy`` (default: ``config``'s), each part's first solve starting from ``start`` (a plan
+    """Solve step 1 part by part (module docstring) within ``budget``, each part by the lazy
+    loop ``inner`` makes (default: one repairing by ``config``'s policy), each part's first solve starting from ``start`` (a plan
     of the whole team: its keys of the part's variables); None when the problem has one part.
     With the first-plan ``hooks``, when a part has ``plan_first`` agents or more, a first plan of
     the whole team comes before the parts' proofs (:mod:`stlplan.planner.first_plan.hooks`).
@@ -167,7 +167,7 @@ def solve_parts(
     tick = time.perf_counter()
     with clock.building():
         full = build_model(problem, config.with_overrides({"model.floors": False}))
-    built = [build_part(problem, agents, config, clock, budget, policy=policy) for agents in names]
+    built = [build_part(problem, agents, config, clock, budget, inner=inner) for agents in names]
     parts = followed(built, clock)
     if start is not None:  # its agents' states and inputs; HiGHS completes the rest
         for part in parts:
@@ -179,6 +179,7 @@ def solve_parts(
         and hooks.plans_first(problem, config, plan_first)
     ):
         found = first_plan_of_parts(problem, parts, config, clock, budget, hooks)
+        policy = None if inner is None else inner.policy
         early = _improved(problem, found, config, clock, budget, hooks, policy)
         parts = followed(parts, clock)
     gap = config.solver.gap

@@ -322,19 +322,12 @@ def added_by_kind(pm: PlanModel) -> dict[str, int]:
     return counts
 
 
-def solve_step1(
-    pm: PlanModel,
-    config: PlannerConfig,
-    clock: Clock,
-    budget: Budget,
-    policy: RepairPolicy | None = None,
-    start: Plan | None = None,
-) -> Outcome:
-    """Solve problem (step1) of ``pm``, the whole team's model (its plans and bounds are the
-    run's), within ``budget``, lazily when ``pm`` was built with ``lazy=True`` (repairing in
-    turn by ``policy``), the first solve starting from ``start``."""
-    clock.reached.solving([a.name for a in pm.problem.agents])
-    solver = LazySolver(pm, config, clock, policy, whole=True)
+def solve_step1(solver: LazySolver, budget: Budget, start: Plan | None = None) -> Outcome:
+    """Solve problem (step1) of the whole team's model by its loop ``solver`` (its plans and
+    bounds are the run's) within ``budget``, lazily when the model was built with ``lazy=True``,
+    the first solve starting from ``start``."""
+    clock = solver.clock
+    clock.reached.solving([a.name for a in solver.pm.problem.agents])
     if start is not None:
         solver.session.start_from(start)
     ended = solver.run(budget)

@@ -49,8 +49,7 @@ def merged_parts(
         order = [a.name for a in problem.agents if a.name in agents]
         out = [p for p in out if p not in group]
         reused = whole if len(order) == len(problem.agents) else None
-        policy = group[0].solver.policy
-        merged = build_part(problem, order, config, clock, budget, seed, policy, reused)
+        merged = build_part(problem, order, config, clock, budget, seed, group[0].inner, reused)
         clock.reached.merges += 1
         merged.merged_from = tuple(group)
         merged.free, merged.team = free, len(problem.agents)

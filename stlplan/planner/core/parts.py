@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 from stlplan.mission.problem import Problem
 from stlplan.planner.config import PlannerConfig
@@ -23,13 +23,31 @@ from stlplan.planner.run.clock import Clock
 from stlplan.planner.run.outcome import Outcome
 
 
+class PartRounds(Protocol):
+    """The strategy inside the parts (:class:`~stlplan.planner.strategy.LazyRounds`): it makes
+    each part's lazy loop, which repairs by its policy."""
+
+    @property
+    def policy(self) -> RepairPolicy:
+        """How the loops repair."""
+        ...
+
+    def rounds(
+        self, pm: PlanModel, config: PlannerConfig, clock: Clock, whole: bool = False
+    ) -> LazySolver:
+        """The lazy loop of ``pm`` (``whole``: a model of the whole team)."""
+        ...
+
+
 @dataclass(eq=False)
 class Part:
-    """One part: its agents, model, lazy solver and last result."""
+    """One part: its agents, model, lazy solver and last result; ``inner`` made its solver
+    (None: a loop repairing by the configuration's policy)."""
 
     agents: tuple[str, ...]
     pm: PlanModel
     solver: LazySolver
+    inner: PartRounds | None = None
     step1: Outcome | None = None
     merged_from: tuple[Part, ...] = ()
     free: frozenset[str] = frozenset()
@@ -43,18 +61,21 @@ def build_part(
     clock: Clock,
     budget: Budget,
     seed: set[tuple[Any, ...]] = frozenset(),  # type: ignore[assignment]
-    policy: RepairPolicy | None = None,
+    inner: PartRounds | None = None,
     deferral: Deferral | None = None,
 ) -> Part:
-    """Build (and seed with known requirements) the lazy model of one part (reusing
-    ``deferral``, the split of the requirements of a part of the same agents, when given)."""
+    """Build (and seed with known requirements) the lazy model of one part, its loop made by
+    ``inner`` (reusing ``deferral``, the split of the requirements of a part of the same
+    agents, when given)."""
     sub = sub_problem(problem, agents)
     with clock.building():
         pm = build_model(sub, config, budget.share(config.model.floors_share).deadline, deferral)
     assert pm.deferral is not None
     add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
     whole = len(sub.agents) == len(problem.agents)  # a merge of every part: the whole problem
-    return Part(tuple(agents), pm, LazySolver(pm, config, clock, policy, whole))
+    if inner is None:
+        return Part(tuple(agents), pm, LazySolver(pm, config, clock, whole=whole))
+    return Part(tuple(agents), pm, inner.rounds(pm, config, clock, whole), inner)
 
 
 def totals(parts: Sequence[Part]) -> tuple[float | None, float | None]:
