@@ -12,10 +12,11 @@ from stlplan.formula.boundary import EPSILON
 from stlplan.planner.backend.session import HighsSession
 from stlplan.planner.backend.values import plan_of
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.core.components import crossing_requirements, solve_in_shares, solve_parts
+from stlplan.planner.core.components import crossing_requirements, waiting
 from stlplan.planner.core.lazy import LazySolver
 from stlplan.planner.core.parts import Part
 from stlplan.planner.core.repairs import Broken, HeldRepair
+from stlplan.planner.core.side_by_side import in_shares
 from stlplan.planner.core.team_split import agent_parts, sub_problem
 from stlplan.planner.encoding.deferred import requirement_key
 from stlplan.planner.encoding.model import build_model
@@ -26,7 +27,7 @@ from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model
 from tests.helpers.missions import detour_for_free, mission, swap_problem
-from tests.helpers.solving import accepted, up_front_optimum
+from tests.helpers.solving import accepted, by_parts, up_front_optimum
 
 
 def two_teams(separation: float | None = 0.05) -> Any:
@@ -81,12 +82,11 @@ def test_parts_give_the_up_front_optimum() -> None:
     # agree within the tolerance 1e-5
     problem = two_teams()
     options = PlannerConfig().with_overrides({"solver.time_limit": 60.0, "solver.gap": 1e-6})
-    by_parts = solve_parts(problem, options, Clock(0.0, None), Budget.of_seconds(60))
-    assert by_parts is not None
+    found = by_parts(problem, options)
     whole = up_front_optimum(problem)
     parted = plan(problem, options)
-    assert by_parts[1].status is PlanStatus.OPTIMAL
-    assert by_parts[1].objective == pytest.approx(whole.objective, abs=1e-5)
+    assert found[1].status is PlanStatus.OPTIMAL
+    assert found[1].objective == pytest.approx(whole.objective, abs=1e-5)
     assert parted.objective == pytest.approx(whole.objective, abs=1e-5)
     assert accepted(problem, parted)
 
@@ -108,13 +108,7 @@ def test_parts_solved_side_by_side_give_the_optimum_of_parts_one_after_another()
 def test_a_collision_between_parts_merges_them() -> None:
     # a and b are separate parts whose straight plans collide at step 1
     problem = swap_problem(separation=0.5)
-    found = solve_parts(
-        problem,
-        PlannerConfig().with_overrides({"solver.time_limit": 60.0}),
-        Clock(0.0, None),
-        Budget.of_seconds(60),
-    )
-    assert found is not None
+    found = by_parts(problem, PlannerConfig().with_overrides({"solver.time_limit": 60.0}))
     full, step1 = found
     assert step1.status is PlanStatus.OPTIMAL
     # every predicate holds with the margin EPSILON (see tests/test_lazy.py); the merged part
@@ -142,8 +136,7 @@ def test_a_merged_part_is_repaired_with_only_the_colliding_agents_free(
     problem = detour_for_free()
     assert agent_parts(problem) == [("a", "b"), ("e",)]
     options = PlannerConfig().with_overrides({"solver.time_limit": 60.0, "solver.gap": 1e-6})
-    found = solve_parts(problem, options, Clock(0.0, None), Budget.of_seconds(60))
-    assert found is not None
+    found = by_parts(problem, options)
     _, step1 = found
     whole = up_front_optimum(problem)
     assert [free for free, _ in repairs] == [frozenset({"a", "e"})]  # b was held
@@ -186,8 +179,8 @@ def test_the_held_repair_looks_for_a_plan_to_the_repair_gap_when_the_run_gap_fin
         }  # (its rounds' looser gap: test_plan_first)
     )
     options = options.with_overrides({"solver.first_plan": first_plan})
-    found = solve_parts(detour_for_free(), options, Clock(0.0, None), Budget.of_seconds(60))
-    assert found is not None and found[1].objective is not None
+    found = by_parts(detour_for_free(), options)
+    assert found[1].objective is not None
     assert [gap for _, gap in seen] == gaps
     assert seen[0][0].session.solver.config.rel_gap == 1e-6  # the merged part's own rounds'
 
@@ -228,7 +221,7 @@ def _place(part: Part, where: dict[str, tuple[float, float]]) -> None:
 def test_only_requirements_between_parts_are_crossings() -> None:
     # a part's plan meets its own rows within HiGHS's tolerances (which may exceed the check's);
     # such a requirement is no crossing: merging parts could not change it, and the loop of
-    # solve_parts would merge nothing and check again, forever
+    # the parts would merge nothing and check again, forever
     problem = two_teams()
     options, clock = PlannerConfig().with_overrides({"solver.time_limit": 60.0}), Clock(0.0, None)
     lazy = paper_model(lazy__enabled=True, model__encoding=options.model.encoding)
@@ -256,7 +249,7 @@ def test_parts_are_solved_smallest_first_in_shares_with_a_reserve(
     asked: list[tuple[tuple[str, ...], float]] = []
     start = time.perf_counter()
 
-    def solve_part(part: Part, config: PlannerConfig, share: Budget) -> Outcome:
+    def solve_part(part: Part, share: Budget) -> Outcome:
         asked.append((part.agents, share.remaining()))
         monkeypatch.setattr(time, "perf_counter", lambda: share.deadline)  # the share is spent
         return Outcome(PlanStatus.OPTIMAL, 1.0, 1.0, None, 0.0, 1, 0, "optimal")
@@ -264,11 +257,14 @@ def test_parts_are_solved_smallest_first_in_shares_with_a_reserve(
     parts = [Part(agents, None, None) for agents in (("a", "b", "c"), ("d",), ("e", "f"))]  # type: ignore[arg-type]
     monkeypatch.setattr(time, "perf_counter", lambda: start)
     budget = Budget(start + 100.0, start + 100.0)
-    solve_in_shares(parts, PlannerConfig(), budget, solve=solve_part)
+    reserve = PlannerConfig().parts.merge_reserve
+    first = waiting(parts)
+    solved = in_shares(first, solve_part, budget, reserve)
     assert [agents for agents, _ in asked] == [("d",), ("e", "f"), ("a", "b", "c")]
-    usable = 100.0 * (1 - PlannerConfig().parts.merge_reserve)
+    assert [p.agents for p in first] == [agents for agents, _ in asked]
+    usable = 100.0 * (1 - reserve)
     assert [share for _, share in asked] == pytest.approx([usable / 3] * 3)
-    assert all(p.step1 is not None for p in parts)
+    assert all(done is not None and done.status is PlanStatus.OPTIMAL for done in solved)
 
 
 def test_every_solve_of_a_merged_part_is_a_round_of_its_own() -> None:

@@ -15,7 +15,6 @@ from stlplan.mission.problem import Problem
 from stlplan.planner.backend.session import HighsSession
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.core import in_turn
-from stlplan.planner.core.components import solve_parts
 from stlplan.planner.core.in_turn import (
     InTurn,
     agents_of,
@@ -38,7 +37,7 @@ from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model
 from tests.helpers.missions import crossing_problem, detour_for_free
 from tests.helpers.paths import FARM
-from tests.helpers.solving import accepted, solve, up_front_optimum
+from tests.helpers.solving import accepted, by_parts, solve, up_front_optimum
 
 
 def _first_round(problem: Problem) -> tuple[Any, HighsSession]:
@@ -378,8 +377,8 @@ def test_a_merged_part_colliding_in_a_crowd_is_repaired_in_turn(
             "repair.orders": 0,
         }  # the repair in turn alone (prioritized: test_prioritized.py)
     )
-    found = solve_parts(problem, options, Clock(0.0, None), Budget.of_seconds(60))
-    assert found is not None and found[1].status is PlanStatus.OPTIMAL
+    found = by_parts(problem, options)
+    assert found[1].status is PlanStatus.OPTIMAL
     assert turns == ([{"a", "e"}] if in_turn else [])
     name, repaired = repairs[0]
     assert name == ("in turn" if in_turn else "held") and repaired is not None

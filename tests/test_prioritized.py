@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from typing import Any
 
 import numpy as np
@@ -256,9 +257,9 @@ def test_a_part_without_a_plan_around_no_other_part_ends_the_orders(
     monkeypatch.setattr(prioritized, "load_values", lambda *_: None)
     merged = SimpleNamespace(pm=None, clock=SimpleNamespace(reached=Reached()))
     alone: list[int] = []
-    budgets = (Budget.of_seconds(10), Budget.of_seconds(10))
-    models = [SimpleNamespace(model=None)] * 3
-    found = prioritized.in_orders(merged, models, [None] * 3, PlannerConfig(), budgets, alone)
+    parts = [SimpleNamespace(pm=None, lent=lambda gap: contextlib.nullcontext())] * 3
+    budget = Budget.of_seconds(10)
+    found = prioritized.prioritized(merged, parts, PlannerConfig(), budget, budget, alone)  # type: ignore[arg-type]
     assert found is None
     assert alone == [1]
     # b failed after a in the first order, then first in the second: no third order

@@ -12,7 +12,7 @@ from stlplan.mission.problem import Problem
 from stlplan.planner.backend.session import HighsSession
 from stlplan.planner.backend.values import ColumnKeys
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.core.components import solve_parts
+from stlplan.planner.core.components import Parts
 from stlplan.planner.core.in_turn import InTurn, agents_of, broken_requirements
 from stlplan.planner.core.policy import RepairPolicy
 from stlplan.planner.core.team_split import sub_problem
@@ -125,7 +125,7 @@ def test_while_looking_for_a_first_plan_a_part_plans_around_those_done(around: b
     clock = Clock(0.0, None)
     hooks = FirstPlan()
     inner = LazyRounds(RepairPolicy.of(options, hooks))
-    found = solve_parts(problem, options, clock, Budget.of_seconds(60), inner, hooks=hooks)
+    found = Parts(inner, hooks=hooks).solve(problem, options, clock, Budget.of_seconds(60))
     assert found is not None and found[1].status.has_plan
     assert (clock.reached.merges == 0) is around  # the second part's plan meets the first's
     result = plan(problem, options)

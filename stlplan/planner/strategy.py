@@ -28,15 +28,14 @@ from typing import Protocol
 
 from stlplan.mission.problem import Problem
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.core.components import solve_parts
-from stlplan.planner.core.hooks import FirstPlanHooks
+from stlplan.planner.core.components import Parts
 from stlplan.planner.core.lazy import LazySolver, solve_step1
 from stlplan.planner.core.policy import RepairPolicy
 from stlplan.planner.encoding.model import PlanModel, build_model
 from stlplan.planner.first_plan.hooks import FirstPlan
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
-from stlplan.planner.run.outcome import ASSEMBLY_FAILED, Outcome, Plan
+from stlplan.planner.run.outcome import Outcome, Plan
 
 
 class Strategy(Protocol):
@@ -114,43 +113,6 @@ class LazyRounds:
         in_turn = f", repair in turn if {triggers}" if triggers else ""
         tasks = "" if kept is None else f", tasks kept if round >= {kept:g} s with a plan"
         return f"lazy rounds(direct{_by_elements(self.policy)}{in_turn}{tasks})"
-
-
-@dataclass(frozen=True)
-class Parts:
-    """Independent parts solved apart by ``inner``, merged where their plans collide; a first
-    plan before the parts' proofs when a part has ``plan_first`` agents or more."""
-
-    inner: LazyRounds
-    plan_first: int | None = None
-    hooks: FirstPlanHooks | None = None
-
-    def solve(
-        self,
-        problem: Problem,
-        config: PlannerConfig,
-        clock: Clock,
-        budget: Budget,
-        start: Plan | None = None,
-    ) -> tuple[PlanModel, Outcome]:
-        by_parts = solve_parts(
-            problem, config, clock, budget, self.inner, start, self.plan_first, self.hooks
-        )
-        if by_parts is not None and by_parts[1].stop == ASSEMBLY_FAILED and not budget.expired():
-            return self.inner.solve(problem, config, clock, budget, start)  # no plan of the whole
-        return by_parts or self.inner.solve(problem, config, clock, budget, start)
-
-    def describe(self) -> str:
-        repair = self.inner.policy.repair
-        ordered = ["prioritized"] if repair.orders else []
-        ordered += [] if repair.by_elements is None else ["by elements before a first plan"]
-        crowd, first = repair.crowd_agents, "".join(f"{w}, " for w in [" or ".join(ordered)] if w)
-        team = "" if repair.crowd_team is None else f" of a team >= {repair.crowd_team}"
-        merge = f"{first}in turn if >= {crowd} agents{team}, held" if crowd is not None else "held"
-        early = "" if self.plan_first is None else f"; plan first if >= {self.plan_first} agents"
-        after = "" if self.hooks is None else self.hooks.describe()
-        early += f", {after}" if early and after else ""
-        return f"parts({self.inner.describe()}; merge: {merge}{early})"
 
 
 def build_strategy(config: PlannerConfig) -> Strategy:

@@ -7,8 +7,14 @@ from typing import Any
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.run.clock import Progress
+from stlplan.planner.core.components import Parts
+from stlplan.planner.core.policy import RepairPolicy
+from stlplan.planner.encoding.model import PlanModel
+from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.clock import Clock, Progress
+from stlplan.planner.run.outcome import Outcome
 from stlplan.planner.solve import plan
+from stlplan.planner.strategy import LazyRounds
 from stlplan.result import PlanResult
 from tests.helpers.configs import UP_FRONT
 
@@ -39,3 +45,13 @@ def accepted(problem: Problem, result: PlanResult) -> bool:
     """Whether the monitor accepts the plan of ``result`` (which must have one)."""
     assert result.trajectory is not None
     return check(problem, result.trajectory).satisfied
+
+
+def by_parts(
+    problem: Problem, config: PlannerConfig, clock: Clock | None = None
+) -> tuple[PlanModel, Outcome]:
+    """Step 1 of ``problem`` part by part (:class:`~stlplan.planner.core.components.Parts`),
+    each part's loop repairing by ``config``'s policy without the first-plan heuristics, within
+    60 s."""
+    parts = Parts(LazyRounds(RepairPolicy.of(config)))
+    return parts.solve(problem, config, clock or Clock(0.0, None), Budget.of_seconds(60))

@@ -40,7 +40,7 @@ With the first-plan heuristics (the policy's hooks, :mod:`stlplan.planner.core.h
 largest part has ``parts.plan_first_agents`` agents or more, all of the above is first done for a
 first plan only, in a model of the whole team of its own, before the parts go on towards their
 proofs (:mod:`stlplan.planner.first_plan.hooks`). While looking for a first plan, a part's
-repairs plan around the plans the parts done published (:func:`publishing`), and before parts
+repairs plan around the plans the parts done published (:func:`_solve_part`), and before parts
 whose plans collide are merged, each is repaired around the others' plans. That first plan is
 then improved element by element (by the hooks, within ``parts.improve_share`` of the time
 left).
@@ -49,9 +49,11 @@ left).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import threading
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 from stlplan.mission.problem import Problem
 from stlplan.planner.config import PlannerConfig
@@ -59,9 +61,8 @@ from stlplan.planner.core.around import Publisher
 from stlplan.planner.core.assembly import assemble
 from stlplan.planner.core.collisions import crossing_requirements
 from stlplan.planner.core.hooks import FirstPlanHooks, Solved
-from stlplan.planner.core.merges import merged_parts, repair_merge
+from stlplan.planner.core.merges import merge_repaired, merge_repairs, merged_parts
 from stlplan.planner.core.parts import Part, PartRounds, build_part, followed, tighten, totals
-from stlplan.planner.core.policy import RepairPolicy
 from stlplan.planner.core.side_by_side import in_shares, part_workers
 from stlplan.planner.core.team_split import agent_parts
 from stlplan.planner.core.watch import trajectory_states
@@ -69,15 +70,15 @@ from stlplan.planner.encoding.model import PlanModel, build_model
 from stlplan.planner.run import outcome
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
-from stlplan.planner.run.outcome import Outcome, Plan
+from stlplan.planner.run.outcome import ASSEMBLY_FAILED, Outcome, Plan
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
 
 _COUNTING = threading.Lock()
 """Parts solved side by side count the planned ones one at a time."""
 
-PartSolve = Callable[[Part, PlannerConfig, Budget], Outcome]
-"""One part's solve within its share of the time, ``(part, config, budget) -> result``."""
+PartSolve = Callable[[Part, Budget], Outcome]
+"""One part's first solve within its share of the time, ``(part, share) -> result``."""
 
 
 def _combined(parts: Sequence[Part], config: PlannerConfig, clock: Clock, tick: float) -> Outcome:
@@ -90,107 +91,138 @@ def _combined(parts: Sequence[Part], config: PlannerConfig, clock: Clock, tick: 
     return done
 
 
-def solve_in_shares(
-    parts: Sequence[Part], config: PlannerConfig, budget: Budget, solve: PartSolve | None = None
-) -> None:
-    """Solve the parts not solved yet, the smallest first, each within an equal share of the
-    time left but ``parts.merge_reserve`` (what one leaves goes to the next); the reserve is for
-    merging parts whose plans collide, and :func:`~stlplan.planner.core.parts.tighten` spends what is left at the end on
-    the part furthest from its bound. With ``parts.side_by_side`` workers, as many parts are
-    solved at the same time (:mod:`stlplan.planner.core.side_by_side`). A stop request ends the loop
-    before the next part.
-
-    Parameters
-    ----------
-    parts
-        The parts; each one without a result (``step1`` None) gets the result of its solve.
-    config
-        The run's configuration (``parts.merge_reserve``).
-    budget
-        The time the parts share.
-    solve
-        How one part is solved within its share (default: its first solve, a merged part
-        repaired first).
-    """
-    solve = solve or _solve_part
-    waiting = sorted((p for p in parts if p.step1 is None), key=lambda p: len(p.agents))
-
-    def run(part: Part, share: Budget) -> None:
-        part.step1 = solve(part, config, share)
-
-    reserve = config.parts.merge_reserve
-    in_shares(waiting, run, budget, reserve, part_workers(config))
+def waiting(parts: Sequence[Part]) -> list[Part]:
+    """The parts not solved yet, the smallest first: the order of their first solves, each
+    within an equal share of the time left but ``parts.merge_reserve`` (what one leaves goes to
+    the next). The reserve is for merging parts whose plans collide, and
+    :func:`~stlplan.planner.core.parts.tighten` spends what is left at the end on the part
+    furthest from its bound. With ``parts.side_by_side`` workers, as many parts are solved at
+    the same time (:mod:`stlplan.planner.core.side_by_side`)."""
+    return sorted((p for p in parts if p.step1 is None), key=lambda p: len(p.agents))
 
 
-def _solve_part(part: Part, config: PlannerConfig, budget: Budget) -> Outcome:
-    """A part's first solve; a merged part is repaired first (module docstring)."""
-    reached = part.solver.clock.reached
+def _solve_part(
+    part: Part, budget: Budget, config: PlannerConfig, published: Publisher | None = None
+) -> Outcome:
+    """A part's first solve; a merged part is repaired first (module docstring). Its repairs
+    plan around the plans in ``published``, and a plan it finds is published there."""
+    solver, reached = part.solver, part.solver.clock.reached
     reached.solving(part.agents, len(part.merged_from))
-    if not part.merged_from:
-        done = part.solver.run(budget)
-        with _COUNTING:
-            reached.planned += done.status.has_plan
-        return done
-    repaired = repair_merge(part, config, budget)
+    solver.published = published
+    try:
+        if not part.merged_from:
+            done = solver.run(budget)
+            with _COUNTING:
+                reached.planned += done.status.has_plan
+        else:  # the repairs the policy names, in order, until one plans the merge
+            tick, repaired = time.perf_counter(), None
+            broken, repairs = merge_repairs(part, config)
+            for repair, share in repairs:
+                plan = repair.repair(broken, config, budget.share(share))
+                if plan is not None:
+                    repaired = merge_repaired(part, plan, config, budget, tick)
+                    break
+            done = _merge_proven(part, repaired, config, budget)
+    finally:
+        solver.published = None
+    if published is not None and done.status.has_plan:
+        published.publish(trajectory_states(part.pm))
+    return done
+
+
+def _merge_proven(
+    part: Part, repaired: Outcome | None, config: PlannerConfig, budget: Budget
+) -> Outcome:
+    """A merged part's result from its ``repaired`` plan (None: none) and the bounds of the
+    parts it comes from, or from its own rounds."""
     _, ceiling = totals(part.merged_from)
     assert part.solver.watch is not None
     part.solver.watch.ceiling = ceiling
+    proven = outcome.proven(repaired, ceiling, config.solver.gap)
     if repaired is not None and config.solver.first_plan:  # a plan is all that is asked for
-        return outcome.proven(repaired, ceiling, config.solver.gap) or outcome.bounded(
-            repaired, ceiling
+        return proven or outcome.bounded(repaired, ceiling)
+    return proven or part.solver.run(budget)
+
+
+@dataclass(frozen=True)
+class Parts:
+    """Independent parts solved apart by ``inner``, merged where their plans collide (module
+    docstring); a first plan before the parts' proofs when a part has ``plan_first`` agents or
+    more and the first-plan ``hooks`` say so. A team of one part, or one whose parts' plans do
+    not assemble into a plan of the whole, is solved whole by ``inner``."""
+
+    inner: PartRounds
+    plan_first: int | None = None
+    hooks: FirstPlanHooks | None = None
+
+    def solve(
+        self,
+        problem: Problem,
+        config: PlannerConfig,
+        clock: Clock,
+        budget: Budget,
+        start: Plan | None = None,
+    ) -> Solved:
+        """The full problem's model with the plan loaded (when there is one) and the result;
+        each part's first solve starts from ``start`` (its keys of the part's variables)."""
+        names = agent_parts(problem)
+        if len(names) < 2:
+            return self.inner.solve(problem, config, clock, budget, start)
+        clock.reached.parts, tick = len(names), time.perf_counter()
+        with clock.building():
+            full = build_model(problem, config.with_overrides({"model.floors": False}))
+        parts = [
+            build_part(problem, agents, config, clock, budget, inner=self.inner) for agents in names
+        ]
+        for part in followed(parts, clock):
+            if start is not None:  # its agents' states and inputs; HiGHS completes the rest
+                part.solver.session.start_from(start)
+        early = self._first_plan(problem, parts, config, clock, budget)
+        parts, done = solve_apart(problem, full, parts, config, clock, budget, tick, self.hooks)
+        if not done.status.has_plan:
+            return better(early, (full, done), config.solver.gap)
+        if not (signals.requested() or config.solver.first_plan):
+            tighten(parts, config, budget)
+        if len(parts) == 1:  # merged into one part of the whole team: its model is a full one
+            whole = dataclasses.replace(parts[0].pm, problem=problem)
+            return better(early, (whole, done), config.solver.gap)
+        found = better(
+            early, (full, _whole(full, parts, config, clock, budget, tick)), config.solver.gap
         )
-    return outcome.proven(repaired, ceiling, config.solver.gap) or part.solver.run(budget)
+        if found[1].stop == ASSEMBLY_FAILED and not budget.expired():
+            return self.inner.solve(problem, config, clock, budget, start)  # no plan of the whole
+        return found
 
-
-def solve_parts(
-    problem: Problem,
-    config: PlannerConfig,
-    clock: Clock,
-    budget: Budget,
-    inner: PartRounds | None = None,
-    start: Plan | None = None,
-    plan_first: int | None = None,
-    hooks: FirstPlanHooks | None = None,
-) -> tuple[PlanModel, Outcome] | None:
-    """Solve step 1 part by part (module docstring) within ``budget``, each part by the lazy
-    loop ``inner`` makes (default: one repairing by ``config``'s policy), each part's first solve starting from ``start`` (a plan
-    of the whole team: its keys of the part's variables); None when the problem has one part.
-    With the first-plan ``hooks``, when a part has ``plan_first`` agents or more, a first plan of
-    the whole team comes before the parts' proofs (:mod:`stlplan.planner.first_plan.hooks`).
-
-    Returns the full problem's model with the plan loaded (when there is one) and the result.
-    """
-    names = agent_parts(problem)
-    if len(names) < 2:
-        return None
-    clock.reached.parts = len(names)
-    tick = time.perf_counter()
-    with clock.building():
-        full = build_model(problem, config.with_overrides({"model.floors": False}))
-    built = [build_part(problem, agents, config, clock, budget, inner=inner) for agents in names]
-    parts = followed(built, clock)
-    if start is not None:  # its agents' states and inputs; HiGHS completes the rest
-        for part in parts:
-            part.solver.session.start_from(start)
-    early = None
-    if (
-        plan_first is not None
-        and hooks is not None
-        and hooks.plans_first(problem, config, plan_first)
-    ):
+    def _first_plan(
+        self,
+        problem: Problem,
+        parts: list[Part],
+        config: PlannerConfig,
+        clock: Clock,
+        budget: Budget,
+    ) -> Solved | None:
+        """A first plan of the whole team, improved, before the parts' proofs (None: not
+        looked for, or none)."""
+        hooks, least = self.hooks, self.plan_first
+        if least is None or hooks is None or not hooks.plans_first(problem, config, least):
+            return None
         found = first_plan_of_parts(problem, parts, config, clock, budget, hooks)
-        policy = None if inner is None else inner.policy
-        early = _improved(problem, found, config, clock, budget, hooks, policy)
-        parts = followed(parts, clock)
-    gap = config.solver.gap
-    parts, done = solve_apart(problem, full, parts, config, clock, budget, tick, hooks)
-    if not done.status.has_plan:
-        return better(early, (full, done), gap)
-    if not (signals.requested() or config.solver.first_plan):
-        tighten(parts, config, budget)
-    if len(parts) == 1:  # merged into one part of the whole team: its model is a full one
-        return better(early, (dataclasses.replace(parts[0].pm, problem=problem), done), gap)
-    return better(early, (full, _whole(full, parts, config, clock, budget, tick)), gap)
+        if found is not None and not signals.requested():
+            found = hooks.improved(problem, found, config, clock, budget, self.inner.policy)
+        followed(parts, clock)
+        return found
+
+    def describe(self) -> str:
+        repair = self.inner.policy.repair
+        ordered = ["prioritized"] if repair.orders else []
+        ordered += [] if repair.by_elements is None else ["by elements before a first plan"]
+        crowd, first = repair.crowd_agents, "".join(f"{w}, " for w in [" or ".join(ordered)] if w)
+        team = "" if repair.crowd_team is None else f" of a team >= {repair.crowd_team}"
+        merge = f"{first}in turn if >= {crowd} agents{team}, held" if crowd is not None else "held"
+        early = "" if self.plan_first is None else f"; plan first if >= {self.plan_first} agents"
+        after = "" if self.hooks is None else self.hooks.describe()
+        early += f", {after}" if early and after else ""
+        return f"parts({self.inner.describe()}; merge: {merge}{early})"
 
 
 def solve_apart(
@@ -207,9 +239,13 @@ def solve_apart(
     has no plan); the parts and their combined outcome. With the first-plan ``hooks``, the parts
     publish their plans and colliding parts are repaired around each other's before a merge."""
     published = None if hooks is None else hooks.publisher(full, config)
-    solve = _solve_part if published is None else publishing(published, _solve_part)
+    solve: PartSolve = functools.partial(_solve_part, config=config, published=published)
+    workers, reserve = part_workers(config), config.parts.merge_reserve
     while True:
-        solve_in_shares(parts, config, budget, solve)
+        first = waiting(parts)
+        solved = in_shares(first, solve, budget, reserve, workers)
+        for part, step1 in zip(first, solved, strict=True):
+            part.step1 = step1  # (None: not solved, a stop request)
         done = _combined(parts, config, clock, tick)
         if not done.status.has_plan:  # the message names a part without a plan
             failed = [p.agents for p in parts if p.step1 is None or not p.step1.status.has_plan]
@@ -273,23 +309,6 @@ def first_plan_of_parts(
     return (full, found) if found is not None and found.status.has_plan else None
 
 
-def _improved(
-    problem: Problem,
-    early: Solved | None,
-    config: PlannerConfig,
-    clock: Clock,
-    budget: Budget,
-    hooks: FirstPlanHooks,
-    policy: RepairPolicy | None,
-) -> Solved | None:
-    """The first plan ``early`` improved by ``hooks`` within the time left, its loops repairing
-    by ``policy`` (default: ``config``'s)."""
-    if early is None or signals.requested():
-        return early
-    policy = policy or RepairPolicy.of(config, hooks)
-    return hooks.improved(problem, early, config, clock, budget, policy)
-
-
 def better(first: Solved | None, second: Solved, gap: float) -> Solved:
     """The second solve when its plan is at least as good as the first's (or there is no
     first), else the first; either with the tighter bound of the two (:func:`outcome.better`)."""
@@ -298,23 +317,6 @@ def better(first: Solved | None, second: Solved, gap: float) -> Solved:
     if kept or first is None:
         return second[0], done
     return first[0], done
-
-
-def publishing(published: Publisher | None, solve: PartSolve) -> PartSolve:
-    """A part's ``solve`` whose repairs plan around the plans in ``published`` (its lazy
-    solver's ``published``), and which publishes its own plan there."""
-
-    def solved(part: Part, config: PlannerConfig, budget: Budget) -> Outcome:
-        part.solver.published = published
-        try:
-            done = solve(part, config, budget)
-        finally:
-            part.solver.published = None
-        if published is not None and done.status.has_plan:
-            published.publish(trajectory_states(part.pm))
-        return done
-
-    return solved
 
 
 def _stop_at_first_plans(parts: Sequence[Part], first: bool) -> None:

@@ -151,19 +151,31 @@ class LazySolver:
         ``trial`` neither confirms an infeasible verdict nor completes a plan at the time limit
         (no plan then).
         """
-        tick = time.perf_counter()
+        tick, watch, first = time.perf_counter(), self.watch, len(self.clock.round_log)
+        self._set_gap(abs_gap, trial)
+        while True:
+            if watch is not None:
+                watch.stopped = False  # (the session clears HiGHS's stale interrupt flag)
+                if watch.best is not None:
+                    self.session.start_from(watch.best)
+            else:  # every requirement in the model: one solve
+                self.clock.reached.enter("up front")
+            self.clock.next_round()
+            solved = self._recorded_round(self.session.solve(budget))
+            if watch is None:
+                return _ended(solved, time.perf_counter() - tick, 1, 0)
+            ended = self._after_round(solved, budget, tick, first)
+            if ended is not None:
+                return self._capped(ended)
+
+    def _set_gap(self, abs_gap: float | None, trial: bool) -> None:
+        """A run that is a ``trial`` or not, to the relative gap or to ``abs_gap`` alone."""
         self.trial = self.session.trial = trial
         if abs_gap is not None:  # the absolute gap alone decides
             self.session.solver.config.abs_gap = abs_gap
             self.session.solver.config.rel_gap = 0.0
             if self.watch is not None:
                 self.watch.abs_gap, self.watch.gap = abs_gap, 0.0
-        if self.watch is None:  # every requirement in the model: one solve
-            self.clock.reached.enter("up front")
-            self.clock.next_round()
-            solved = self._recorded_round(self.session.solve(budget))
-            return _ended(solved, time.perf_counter() - tick, 1, 0)
-        return self._capped(self._rounds(budget, tick))
 
     def _recorded_round(self, solved: Solved) -> Solved:
         """``solved``, a round just solved, recorded on the clock."""
@@ -186,48 +198,44 @@ class LazySolver:
         ceiling = self.watch.ceiling
         return outcome.capped(step1, ceiling, self.watch.closed(lowest(step1.bound, ceiling)))
 
-    def _rounds(self, budget: Budget, tick: float) -> Outcome:
+    def _after_round(
+        self, solved: Solved, budget: Budget, tick: float, first: int
+    ) -> Outcome | None:
+        """How the rounds end after the round ``solved`` (the loop began at ``tick``, with the
+        round log ``first`` long), or None: its violations added, another round."""
         pm, clock, watch = self.pm, self.clock, self.watch
         assert pm.deferral is not None and watch is not None
-        first = len(clock.round_log)
-        while True:
-            watch.stopped = False  # (the session clears HiGHS's stale interrupt flag)
-            if watch.best is not None:
-                self.session.start_from(watch.best)
-            self.clock.next_round()
-            solved = self._recorded_round(self.session.solve(budget))
-            rounds, seconds = len(clock.round_log) - first, time.perf_counter() - tick
-            results = solved.results
-            bound = results.objective_bound
-            if not self.trial and bound is not None and math.isfinite(bound):
-                watch.ceiling = lowest(bound, watch.ceiling)  # every round bounds the problem
-            self._recorded(bound)
-            if watch.best is not None and watch.closed(results.objective_bound):
-                return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
-            if watch.done():
-                return self._from_best(solved, tick, rounds, PlanStatus.FEASIBLE)
-            converged = (
-                results.termination_condition == TerminationCondition.convergenceCriteriaSatisfied
-            )
-            bad = pending_violations(pm) if has_solution(results) else []
-            if converged and not bad:
-                done = _ended(solved, seconds, rounds, len(pm.added))
-                return (
-                    outcome.within(done, watch.gap) if watch.first else done
-                )  # (maybe a loose round)
-            left = budget.remaining()
-            # another round while the time left is what this one took (or a least solve)
-            needed = min(self.min_solve, solved.seconds)
-            out_of_time = not (converged or watch.stopped) or left < needed
-            if solved.stopped or out_of_time:
-                return self._last(solved, tick, rounds, budget)
-            length = solved.length(self.config.solver.deterministic)
-            self._repair_between_rounds(bad, budget, length)
-            if watch.closed(watch.ceiling):
-                return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
-            if watch.done():  # a repair found the first plan
-                return self._from_best(solved, tick, rounds, PlanStatus.FEASIBLE)
-            add_requirements(pm, neighbours(pm.deferral.lazy, bad, self.config.lazy.window))
+        rounds, seconds = len(clock.round_log) - first, time.perf_counter() - tick
+        results = solved.results
+        bound = results.objective_bound
+        if not self.trial and bound is not None and math.isfinite(bound):
+            watch.ceiling = lowest(bound, watch.ceiling)  # every round bounds the problem
+        self._recorded(bound)
+        if watch.best is not None and watch.closed(results.objective_bound):
+            return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
+        if watch.done():
+            return self._from_best(solved, tick, rounds, PlanStatus.FEASIBLE)
+        converged = (
+            results.termination_condition == TerminationCondition.convergenceCriteriaSatisfied
+        )
+        bad = pending_violations(pm) if has_solution(results) else []
+        if converged and not bad:
+            done = _ended(solved, seconds, rounds, len(pm.added))
+            return outcome.within(done, watch.gap) if watch.first else done  # (maybe a loose round)
+        left = budget.remaining()
+        # another round while the time left is what this one took (or a least solve)
+        needed = min(self.min_solve, solved.seconds)
+        out_of_time = not (converged or watch.stopped) or left < needed
+        if solved.stopped or out_of_time:
+            return self._last(solved, tick, rounds, budget)
+        length = solved.length(self.config.solver.deterministic)
+        self._repair_between_rounds(bad, budget, length)
+        if watch.closed(watch.ceiling):
+            return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
+        if watch.done():  # a repair found the first plan
+            return self._from_best(solved, tick, rounds, PlanStatus.FEASIBLE)
+        add_requirements(pm, neighbours(pm.deferral.lazy, bad, self.config.lazy.window))
+        return None
 
     def _recorded(self, bound: float | None) -> None:
         """Outside a trial, a round's bound (a relaxation's) is the run's when the model is the

@@ -16,13 +16,14 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.core.assembly import added_keys, plan_values
 from stlplan.planner.core.collisions import merge_groups
 from stlplan.planner.core.parts import Part, build_part, followed, tighten
+from stlplan.planner.core.policy import Planned
 from stlplan.planner.core.repairs import Broken
 from stlplan.planner.core.watch import least_margin, trajectory_states
 from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.deferred import Deferral, Requirement, requirement_key
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
-from stlplan.planner.run.outcome import Outcome
+from stlplan.planner.run.outcome import Outcome, Plan
 from stlplan.planner.tolerances import FEASIBILITY
 
 
@@ -57,22 +58,24 @@ def merged_parts(
     return followed(out, clock)
 
 
-def repair_merge(part: Part, config: PlannerConfig, budget: Budget) -> Outcome | None:
-    """Repair the parts' plans together by the repairs the policy names for the merge (module
-    docstring); then tighten the bounds of the parts the merged part comes from towards the
-    repaired plan (None: no plan)."""
-    tick = time.perf_counter()
-    broken = _broken(part)
+def merge_repairs(part: Part, config: PlannerConfig) -> tuple[Broken, Planned]:
+    """What the repairs of a merged part start from (its parts' plans loaded, with the
+    requirements they break together), and the repairs the policy names for the merge, each
+    with its share of the time (module docstring)."""
     largest = max(len(p.pm.problem.agents) for p in part.merged_from)
     first = config.solver.first_plan
     repairs = part.solver.policy.merge_repairs(len(part.free), largest, part.team, first)
-    for repair, share in repairs:
-        plan = repair.repair(broken, config, budget.share(share))
-        if plan is not None:
-            repaired = part.solver.repaired(plan, time.perf_counter() - tick)
-            tighten(part.merged_from, config, budget, plan=repaired.objective)
-            return repaired
-    return None
+    return _broken(part), repairs
+
+
+def merge_repaired(
+    part: Part, plan: Plan, config: PlannerConfig, budget: Budget, tick: float
+) -> Outcome:
+    """A merged part's result from a repair's ``plan`` (the repair began at ``tick``), the
+    bounds of the parts it comes from tightened towards it."""
+    repaired = part.solver.repaired(plan, time.perf_counter() - tick)
+    tighten(part.merged_from, config, budget, plan=repaired.objective)
+    return repaired
 
 
 def _broken(part: Part) -> Broken:

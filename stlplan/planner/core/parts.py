@@ -20,7 +20,7 @@ from stlplan.planner.encoding.model import PlanModel, add_requirements, build_mo
 from stlplan.planner.run import outcome
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
-from stlplan.planner.run.outcome import Outcome
+from stlplan.planner.run.outcome import Outcome, Plan
 
 
 class PartRounds(Protocol):
@@ -36,6 +36,21 @@ class PartRounds(Protocol):
         self, pm: PlanModel, config: PlannerConfig, clock: Clock, whole: bool = False
     ) -> LazySolver:
         """The lazy loop of ``pm`` (``whole``: a model of the whole team)."""
+        ...
+
+    def solve(
+        self,
+        problem: Problem,
+        config: PlannerConfig,
+        clock: Clock,
+        budget: Budget,
+        start: Plan | None = None,
+    ) -> tuple[PlanModel, Outcome]:
+        """Step 1 of the whole team by this strategy alone (its model and how it ended)."""
+        ...
+
+    def describe(self) -> str:
+        """The strategy in words."""
         ...
 
 

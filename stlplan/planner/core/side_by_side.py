@@ -24,6 +24,7 @@ from stlplan.planner.run.budget import Budget
 from stlplan.runtime import signals
 
 Job = TypeVar("Job")
+Result = TypeVar("Result")
 
 
 def part_workers(config: PlannerConfig) -> int:
@@ -36,53 +37,61 @@ def part_workers(config: PlannerConfig) -> int:
 
 def in_shares(
     jobs: Sequence[Job],
-    run: Callable[[Job, Budget], None],
+    run: Callable[[Job, Budget], Result],
     budget: Budget,
     reserve: float = 0.0,
     workers: int = 1,
-) -> None:
-    """Run ``run(job, share)`` for every job, in order, ``workers`` at a time, each within its
-    share of ``budget`` but ``reserve`` of the time left now (module docstring)."""
-    queue: _Queue[Job] = _Queue(list(jobs), budget, reserve, max(1, workers))
-    if queue.workers == 1 or len(jobs) < 2:
-        queue.work(run)
-        return
+) -> list[Result | None]:
+    """``run(job, share)`` of every job, in order, ``workers`` at a time, each within its share
+    of ``budget`` but ``reserve`` of the time left now (module docstring); None for a job not
+    run (a stop request)."""
+    queue: _Queue[Job, Result] = _Queue(list(jobs), budget, reserve, max(1, workers))
+    if queue.workers == 1 or len(jobs) < 2:  # here, one after another
+        while (taken := queue.take()) is not None:
+            index, job, share = taken
+            queue.results[index] = run(job, share)
+            queue.running -= 1
+        return queue.results
     threads = min(queue.workers, len(jobs))
     with ThreadPoolExecutor(threads, "stlplan-part") as pool:
         futures = [pool.submit(queue.work, run) for _ in range(threads)]
     for future in futures:
         future.result()
+    return queue.results
 
 
-class _Queue(Generic[Job]):
-    """The jobs not started, and how many are running."""
+class _Queue(Generic[Job, Result]):
+    """The jobs not started, how many are running, and the results of those done."""
 
     def __init__(self, jobs: list[Job], budget: Budget, reserve: float, workers: int) -> None:
         self.jobs, self.budget, self.workers = jobs, budget, workers
         self.end = budget.deadline - reserve * max(0.0, budget.remaining())
         """When the jobs' time ends: the reserve of the time left now is kept."""
+        self.results: list[Result | None] = [None] * len(jobs)
+        self.started = 0
         self.running = 0
         self.failed = False
         self.lock = threading.Lock()
 
-    def take(self) -> tuple[Job, Budget] | None:
-        """The next job and its share (None: none left, a stop request, or a job failed)."""
+    def take(self) -> tuple[int, Job, Budget] | None:
+        """The next job, its index and its share (None: none left, a stop request, or a job
+        failed)."""
         with self.lock:
-            if not self.jobs or self.failed or signals.requested():
+            if self.started == len(self.jobs) or self.failed or signals.requested():
                 return None
-            job = self.jobs.pop(0)
-            unfinished = len(self.jobs) + self.running + 1
+            index, self.started = self.started, self.started + 1
+            unfinished = len(self.jobs) - self.started + self.running + 1
             self.running += 1
             now = time.perf_counter()
             share = max(0.0, self.end - now) * min(1.0, self.workers / unfinished)
-            return job, self.budget.until(now + share)
+            return index, self.jobs[index], self.budget.until(now + share)
 
-    def work(self, run: Callable[[Job, Budget], None]) -> None:
-        """Run jobs until none is left."""
+    def work(self, run: Callable[[Job, Budget], Result]) -> None:
+        """Run jobs until none is left (a worker's thread)."""
         while (taken := self.take()) is not None:
-            job, share = taken
+            index, job, share = taken
             try:
-                run(job, share)
+                self.results[index] = run(job, share)
             except BaseException:
                 self.failed = True
                 raise

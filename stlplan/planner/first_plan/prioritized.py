@@ -29,7 +29,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -93,9 +93,15 @@ class Turn:
         every solve of the MILP starts from ``start`` (a plan around ``fixed``) when given."""
         lazy, self.blockers = self._lazy(), set()
         mine = self._crossing_with(fixed)
-        guided = self._guided(fixed, [lazy[n] for n in mine], budget)
-        if guided is not None or (self.guided and not exact):
-            return guided
+        crossing = [lazy[n] for n in mine]
+        for wanted, guide in self._guides(fixed, crossing):
+            guided = self.sided(fixed, crossing, wanted, guide, budget)
+            if guided is not None:
+                return guided
+            if budget.expired():
+                break
+        if self.guided and not exact:
+            return None
         ctx, added = self._context(fixed), set[int]()
         for _ in range(self.config.repair.solves_per_turn):
             if start is not None:
@@ -120,13 +126,15 @@ class Turn:
         _log.debug("prioritized: a turn used its %d solves", self.config.repair.solves_per_turn)
         return None
 
-    def _guided(self, fixed: States, mine: Sequence[Requirement], budget: Budget) -> States | None:
-        """The part's states from a solve with the sides of a guide path
-        (:mod:`stlplan.planner.first_plan.guide`), its distance from the part's own plan weighed evenly,
-        then more the later it is; or None (a part of several agents or of other dynamics, no
-        path, or no plan that meets every requirement)."""
+    def _guides(
+        self, fixed: States, mine: Sequence[Requirement]
+    ) -> Iterator[tuple[list[Requirement], States]]:
+        """The guide paths of a guided part (:mod:`stlplan.planner.first_plan.guide`), each with
+        the requirements it is to keep sides of, until a solve with those sides plans the part:
+        around its task's planes, without them, then weighing the distance from the part's own
+        plan more the later it is (none for a part of several agents or of other dynamics)."""
         if not self.guided:
-            return None
+            return
         agent = self.pm.problem.agents[0]
         first = _fixed_steps(self.pm, agent.name)
         reference = self.own[agent.name]
@@ -138,11 +146,8 @@ class Turn:
             if found.path is None:
                 self.blockers |= found.blockers
                 continue
-            states = self.sided(fixed, mine, wanted, {**fixed, agent.name: found.path}, budget)
-            if states is not None or budget.expired():
-                return states
+            yield wanted, {**fixed, agent.name: found.path}
         _log.debug("prioritized: no guided plan for %s", agent.name)
-        return None
 
     def in_the_way(self, found: States, others: States) -> set[str]:
         """The agents of ``others`` whose plans break a requirement with the part's plan
@@ -305,58 +310,50 @@ def prioritized(
     alone: list[int] | None = None,
 ) -> Plan | None:
     """A plan of the merged part of ``merged`` (its lazy solver) from its ``parts`` (their
-    lazy solvers, whose sessions the turns borrow) planned in turn (module docstring) within
-    ``budget``, their plans joined within ``last`` (the same budget when None); or None. A
-    part whose MILP finds no plan first in an order, around no other part, ends the orders (no
-    order plans it): its index goes in ``alone``."""
+    lazy solvers, whose sessions the turns borrow) planned in turn (module docstring), the
+    orders within ``budget``, their plans joined within ``last`` (the same budget when None);
+    or None. A part whose MILP finds no plan first in an order, around no other part, ends the
+    orders (no order plans it): its index goes in ``alone``."""
+    alone = [] if alone is None else alone
     with contextlib.ExitStack() as lent:
-        sessions = [lent.enter_context(part.lent(config.repair.gap)) for part in parts]
-        models = [part.pm for part in parts]
-        found = [] if alone is None else alone
-        return in_orders(merged, models, sessions, config, (budget, last or budget), found)
+        turns = _turns(merged, parts, config, lent)
+        order, tried, fails = list(range(len(turns))), 0, dict[int, int]()
+        planned: Planned = []
+        saved = [model_values(turn.pm.model) for turn in turns]
+        guided = any(turn.guided for turn in turns)
+        passes = ((False, config.repair.guided_orders),) if guided else ()
+        try:  # guided parts on their guide paths only, then with their MILPs
+            for exact, orders in (*passes, (True, max(1, config.repair.orders))):
+                for _ in range(orders):
+                    planned, failed = plan_in_order(turns, order, budget, exact, planned)
+                    tried += 1
+                    merged.clock.reached.ordered(len(planned), len(turns), tried)
+                    if failed is None:
+                        return held_plan(merged, turns, config, last or budget)
+                    if exact and not planned:  # no plan around no other part
+                        alone.append(failed)
+                    if budget.expired() or alone:
+                        return None
+                    fails[failed] = fails.get(failed, 0) + 1
+                    ahead = [i for i in order if turns[i].agents & turns[failed].blockers]
+                    order = raised(order, failed, ahead, fails[failed])
+            return None
+        finally:
+            for turn, values in zip(turns, saved, strict=True):
+                turn.clear()
+                load_values(turn.pm.model, values)
 
 
-def in_orders(
-    merged: Rounds,
-    parts: Sequence[PlanModel],
-    sessions: Sequence[HighsSession],
-    config: PlannerConfig,
-    budgets: tuple[Budget, Budget],
-    alone: list[int],
-) -> Plan | None:
-    """The orders of :func:`prioritized`, each part's turns solved in ``sessions``, within the
-    first of ``budgets``, their plans joined within the second."""
-    budget, last = budgets
+def _turns(
+    merged: Rounds, parts: Sequence[Rounds], config: PlannerConfig, lent: contextlib.ExitStack
+) -> list[Turn]:
+    """A turn of each part in its lent session (returned when ``lent`` closes)."""
+    sessions = [lent.enter_context(part.lent(config.repair.gap)) for part in parts]
     naming = requirements_naming(merged.pm)
-    turns = [
-        Turn(pm, session, merged.pm, config, naming)
-        for pm, session in zip(parts, sessions, strict=True)
+    return [
+        Turn(part.pm, session, merged.pm, config, naming)
+        for part, session in zip(parts, sessions, strict=True)
     ]
-    order, tried, fails = list(range(len(parts))), 0, dict[int, int]()
-    planned: Planned = []
-    saved = [model_values(pm.model) for pm in parts]
-    guided = any(turn.guided for turn in turns)
-    passes = ((False, config.repair.guided_orders),) if guided else ()
-    try:  # guided parts on their guide paths only, then with their MILPs
-        for exact, orders in (*passes, (True, max(1, config.repair.orders))):
-            for _ in range(orders):
-                planned, failed = plan_in_order(turns, order, budget, exact, planned)
-                tried += 1
-                merged.clock.reached.ordered(len(planned), len(parts), tried)
-                if failed is None:
-                    return held_plan(merged, turns, config, last)
-                if exact and not planned:  # no plan around no other part
-                    alone.append(failed)
-                if budget.expired() or alone:
-                    return None
-                fails[failed] = fails.get(failed, 0) + 1
-                ahead = [i for i in order if turns[i].agents & turns[failed].blockers]
-                order = raised(order, failed, ahead, fails[failed])
-        return None
-    finally:
-        for turn, values in zip(turns, saved, strict=True):
-            turn.clear()
-            load_values(turn.pm.model, values)
 
 
 def held_plan(
