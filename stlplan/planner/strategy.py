@@ -24,38 +24,18 @@ itself; ``summary.json`` records the line (``strategy``).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
 
 from stlplan.mission.problem import Problem
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.core.components import Parts
 from stlplan.planner.core.lazy import LazySolver, solve_step1
+from stlplan.planner.core.parts import Strategy
 from stlplan.planner.core.policy import RepairPolicy
 from stlplan.planner.encoding.model import PlanModel, build_model
 from stlplan.planner.first_plan.hooks import FirstPlan
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
 from stlplan.planner.run.outcome import Outcome, Plan
-
-
-class Strategy(Protocol):
-    """A way to solve step 1."""
-
-    def solve(
-        self,
-        problem: Problem,
-        config: PlannerConfig,
-        clock: Clock,
-        budget: Budget,
-        start: Plan | None = None,
-    ) -> tuple[PlanModel, Outcome]:
-        """The model of ``problem`` with the plan loaded, and how step 1 ended; the first solve
-        starts from ``start`` when given."""
-        ...
-
-    def describe(self) -> str:
-        """The strategy in words."""
-        ...
 
 
 def _built(problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget) -> PlanModel:

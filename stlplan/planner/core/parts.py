@@ -23,9 +23,29 @@ from stlplan.planner.run.clock import Clock
 from stlplan.planner.run.outcome import Outcome, Plan
 
 
-class PartRounds(Protocol):
+class Strategy(Protocol):
+    """A way to solve step 1 (:mod:`stlplan.planner.strategy` composes them)."""
+
+    def solve(
+        self,
+        problem: Problem,
+        config: PlannerConfig,
+        clock: Clock,
+        budget: Budget,
+        start: Plan | None = None,
+    ) -> tuple[PlanModel, Outcome]:
+        """The model of ``problem`` with the plan loaded, and how step 1 ended; the first solve
+        starts from ``start`` when given."""
+        ...
+
+    def describe(self) -> str:
+        """The strategy in words."""
+        ...
+
+
+class PartRounds(Strategy, Protocol):
     """The strategy inside the parts (:class:`~stlplan.planner.strategy.LazyRounds`): it makes
-    each part's lazy loop, which repairs by its policy."""
+    each part's lazy loop, which repairs by its policy, and solves a team alone."""
 
     @property
     def policy(self) -> RepairPolicy:
@@ -36,21 +56,6 @@ class PartRounds(Protocol):
         self, pm: PlanModel, config: PlannerConfig, clock: Clock, whole: bool = False
     ) -> LazySolver:
         """The lazy loop of ``pm`` (``whole``: a model of the whole team)."""
-        ...
-
-    def solve(
-        self,
-        problem: Problem,
-        config: PlannerConfig,
-        clock: Clock,
-        budget: Budget,
-        start: Plan | None = None,
-    ) -> tuple[PlanModel, Outcome]:
-        """Step 1 of the whole team by this strategy alone (its model and how it ended)."""
-        ...
-
-    def describe(self) -> str:
-        """The strategy in words."""
         ...
 
 
