@@ -64,7 +64,6 @@ FORMULATIONS: dict[str, dict[str, Any]] = {
     "in-turn-always": {"repair.after_round_seconds": 0.0},
     "freed-all-at-once": {"repair.free_one_more": False},
     "turns-by-name": {"repair.formations_together": False},
-    "turns-all-solved": {"repair.keep_met": False},
     "first-plan-rounds-as-others": {"repair.first_plan_rounds": False},
     "published-plans-ignored": {"parts.plan_around_published": False},
     "no-parts": {"parts.enabled": False},

@@ -14,20 +14,18 @@ from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from stlplan.planner.backend.session import HighsSession
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.core import in_turn
 from stlplan.planner.core.in_turn import (
     InTurn,
     agents_of,
     hold_agents,
     in_formations,
     in_the_way,
-    meets_its_own,
     release,
     solve_free,
 )
 from stlplan.planner.core.repairs import Broken, HeldRepair, InTurnRepair
 from stlplan.planner.core.watch import pending_violations
-from stlplan.planner.encoding.model import add_requirements, build_model
+from stlplan.planner.encoding.model import build_model
 from stlplan.planner.encoding.readout import assignments, partners
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
@@ -252,53 +250,6 @@ def test_a_choice_without_values_names_no_partners(caplog: pytest.LogCaptureFixt
         assert partners(pm, "ir1") == []
         assert in_formations(pm, ["uv1", "vis1", "ir1"]) == ["uv1", "vis1", "ir1"]
     assert not [r for r in caplog.records if r.levelno >= logging.WARNING]
-
-
-@pytest.mark.parametrize("keep_met", [True, False])
-def test_a_turn_whose_plan_meets_its_requirements_keeps_it(keep_met: bool) -> None:
-    # a's relaxed plan crosses only agents whose turns come after its own
-    pm, session = _first_round(crossing_problem())
-    bad = pending_violations(pm)
-    assert meets_its_own(pm, "a", set()) and not meets_its_own(pm, "a", {"b", "c", "d"})
-    freed: list[set[str]] = []
-    turn = partial(solve_free, pm, session, PlannerConfig().repair)
-
-    def spy(free: set[str], done: set[str], budget: Budget) -> list[str]:
-        freed.append(set(free))
-        return turn(free, done, budget)
-
-    options = PlannerConfig().with_overrides({"repair.keep_met": keep_met})
-    assert InTurn(pm, session, options, solve=spy).run(bad, Budget.of_seconds(30.0)) is not None
-    assert pending_violations(pm) == []
-    assert freed[0] == ({"b"} if keep_met else {"a"})  # a kept its plan, or solved it again
-
-
-def test_a_requirement_in_the_model_is_met_before_a_plan_is_kept() -> None:
-    pm, _ = _first_round(crossing_problem())
-    (crossing, *_) = between(pm, {"a", "b"})
-    assert meets_its_own(pm, "a", set())
-    add_requirements(pm, [crossing])  # the loaded plan crosses b: the model's new rows refuse it
-    assert not meets_its_own(pm, "a", set()) and meets_its_own(pm, "c", set())
-
-
-@pytest.mark.parametrize("settled", [True, False])
-def test_a_kept_last_turn_is_followed_by_a_solve_that_holds_everyone(
-    settled: bool, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    # b, the last turn, keeps its plan: one solve with every agent held sets the indicators
-    pm, session = _first_round(crossing_problem())
-    monkeypatch.setattr(in_turn, "meets_its_own", lambda pm, name, done: name == "b")
-    calls: list[tuple[set[str], set[str]]] = []
-
-    def stub(free: set[str], done: set[str], budget: Budget) -> list[str]:
-        calls.append((set(free), set(done)))
-        return [] if free or settled else ["a", "b"]
-
-    bad = between(pm, {"a", "b"})
-    InTurn(pm, session, PlannerConfig(), solve=stub).run(bad, Budget.of_seconds(60))
-    everyone = {"a", "b", "c", "d"}
-    assert calls[:2] == [({"a"}, {"c", "d"}), (set(), everyone)]
-    assert len(calls) == (4 if settled else 2)  # then the second turns, or no plan
 
 
 def test_the_second_turns_never_make_the_repaired_plan_worse() -> None:

@@ -65,9 +65,6 @@ class RepairConfig(Section):
     formations_together: bool = True
     """Each agent's turn is followed by its formation partners' (the other roles of the elements
     it fills) rather than in the team's order. Measured: docs/measurements.md#formations-in-turn."""
-    keep_met: bool = True
-    """A turn whose agent's plan already meets the requirements it must meet there keeps it
-    without a solve (False: every turn solves). Measured: docs/measurements.md#turns-kept-as-they-are."""
     window: int | None = Field(default=None, ge=0)
     """Steps of a violated requirement's family (the same pair, or agent and constraint) a turn
     adds with it (None: all of them). Measured: docs/measurements.md#the-24-agent-farm."""

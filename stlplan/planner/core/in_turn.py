@@ -7,9 +7,7 @@ plan meeting them in the time left. Repairing in turn finds one the way prioriti
 the agents the violated requirements name are freed one at a time, every other agent held at its
 plan, and the free agent's plan is solved again with the requirements it violates together with
 the agents already repaired (or never involved). Each of those solves is small: one agent's
-trajectory and choices. The agent is then held at its new plan. An agent whose plan already
-meets what its solve would have to meet keeps it without one (``repair.keep_met``). The turns go
-in the team's order, but an agent's formation partners (the other roles of the elements it
+trajectory and choices. The agent is then held at its new plan. The turns go in the team's order, but an agent's formation partners (the other roles of the elements it
 fills) take theirs right after it, while few agents are yet held around the path it chose
 (``repair.formations_together``). A requirement between two repaired agents is met by the later
 one, which avoided the earlier one's final plan, so when every turn succeeds the last plan meets
@@ -42,7 +40,6 @@ from functools import partial
 from typing import Any
 
 from pyomo.core.base.var import VarData
-from pyomo.environ import value
 
 from stlplan.planner.backend.session import HighsSession, Solved, has_solution
 from stlplan.planner.backend.values import plan_of
@@ -53,13 +50,11 @@ from stlplan.planner.core.watch import (
     pending_violations,
     trajectory_states,
 )
-from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.deferred import neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.encoding.readout import partners
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.outcome import Plan
-from stlplan.planner.tolerances import FEASIBILITY
 
 _log = logging.getLogger(__name__)
 
@@ -110,18 +105,6 @@ def agents_of(pm: PlanModel, indices: Iterable[int]) -> set[str]:
     """Agents the lazy requirements ``indices`` name."""
     assert pm.deferral is not None
     return {name for n in indices for name in pm.deferral.lazy[n].binding.values()}
-
-
-def meets_its_own(pm: PlanModel, name: str, done: Collection[str]) -> bool:
-    """Whether the loaded plan of the agent ``name`` meets every lazy requirement that names it
-    and is in the model or names only agents ``done`` besides it: what its turn's solve would
-    have to meet (the model's other rows the loaded plan meets, found by a solve)."""
-    assert pm.deferral is not None
-    lazy, around = pm.deferral.lazy, {name, *done}
-    found = violated(lazy, trajectory_states(pm), float(value(pm.margin)), FEASIBILITY)
-    named = (set(lazy[n].binding.values()) for n in found)
-    return not any(name in agents and (n in pm.added or agents <= around)
-                   for n, agents in zip(found, named, strict=True))  # fmt: skip
 
 
 def in_formations(pm: PlanModel, turns: Sequence[str]) -> list[str]:
@@ -184,31 +167,19 @@ class InTurn:
             return loaded_plan(self.pm)
 
     def _repair(self, turns: list[str], done: set[str], budget: Budget) -> bool:
-        """The turns of the agents ``turns``, in order; whether each found a plan. A turn kept
-        without a solve (``repair.keep_met``) is followed by a solve that holds every agent,
-        when no other turn's solve follows it: it sets the indicators of the plan."""
-        unsettled = False
+        """The turns of the agents ``turns``, in order; whether each found a plan."""
         for name in turns:
             if name in done:  # freed together with an earlier agent
                 continue
             if self.stop():
                 return False
             left = [n for n in turns if n not in done]
-            kept = self.repair.keep_met and self._meets(name, done)
-            free = {name} if kept else self._turn({name}, done, budget, len(left))
+            free = self._turn({name}, done, budget, len(left))
             if free is None:
                 return False
-            unsettled = kept
             done |= free
             self.session.clock.reached.turns(len(done & set(turns)), len(turns))
-        return not unsettled or not self.solve(set(), done, budget.share(1.0))
-
-    def _meets(self, name: str, done: set[str]) -> bool:
-        """Whether the agent ``name`` may keep its plan (:func:`meets_its_own`, and against the
-        agents outside)."""
-        if not meets_its_own(self.pm, name, done):
-            return False
-        return self.outside is None or not self.outside.broken(trajectory_states(self.pm), [name])
+        return True
 
     def _improve(self, turns: list[str], everyone: set[str], budget: Budget) -> None:
         """Each repaired agent once more, alone, every other agent at its repaired plan: the
