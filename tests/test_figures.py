@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -11,7 +12,8 @@ from typer.testing import CliRunner
 from stlplan import api
 from stlplan.api import Overrides
 from stlplan.cli import app
-from stlplan.verify import plan_objective
+from stlplan.errors import SolverError
+from stlplan.verify import plan_objective, reported
 from tests.helpers.paths import DATA, MISSIONS
 
 
@@ -66,3 +68,29 @@ def test_a_failed_continuous_solve_says_why_and_what_it_costs(
             api.validate(MISSIONS / "reach-avoid.yaml"), result.trajectory, result.report
         )
     )
+
+
+def test_a_fallbacks_shortfall_is_its_cost_and_any_other_an_error(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # step 1's plan kept: its margin claimed within HiGHS's integrality slack (big-M * 1e-6)
+    # of the plan's is the fallback's cost; the same claim of a plan not kept as a fallback is
+    # an error
+    import stlplan.planner.solve
+    from stlplan.planner.core.finish import Finish
+
+    def failing(pm, config, clock, budget):  # type: ignore[no-untyped-def]
+        return Finish("the continuous solve ended maxTimeLimit")
+
+    monkeypatch.setattr(stlplan.planner.solve, "finish", failing)
+    problem, result = api.plan(MISSIONS / "reach-avoid.yaml", overrides=Overrides(threads=1))
+    assert result.fallback is not None and result.solver is not None
+    assert result.report is not None and result.margin is not None
+    claimed = dataclasses.replace(
+        result, margin=result.margin + 1e-2, objective=result.solver.objective
+    )
+    kept = reported(problem, claimed, result.report, 1e-4)
+    assert kept.margin == result.margin and kept.fallback is not None
+    assert kept.fallback.cost["margin"] == pytest.approx(1e-2)
+    with pytest.raises(SolverError, match="spatial margin disagrees"):
+        reported(problem, dataclasses.replace(claimed, fallback=None), result.report, 1e-4)
