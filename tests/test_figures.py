@@ -43,9 +43,8 @@ def test_stepping_stones_summary_reports_the_monitors_margin(tmp_path: Path) -> 
     assert f"margin     {monitor:.10g} (monitor)" in result.output
 
 
-def test_a_failed_continuous_solve_says_why_and_what_it_costs(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
+def _fail_the_continuous_stage(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every continuous stage ends out of time: step 1's plan is kept as a fallback."""
     import stlplan.planner.solve
     from stlplan.planner.core.finish import Finish
 
@@ -53,6 +52,12 @@ def test_a_failed_continuous_solve_says_why_and_what_it_costs(
         return Finish("the continuous solve ended maxTimeLimit")
 
     monkeypatch.setattr(stlplan.planner.solve, "finish", failing)
+
+
+def test_a_failed_continuous_solve_says_why_and_what_it_costs(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    _fail_the_continuous_stage(monkeypatch)
     _, result = api.plan(MISSIONS / "reach-avoid.yaml", overrides=Overrides(threads=1))
     assert result.status.has_plan and result.report is not None
     assert result.fallback is not None
@@ -76,13 +81,7 @@ def test_a_fallbacks_shortfall_is_its_cost_and_any_other_an_error(
     # step 1's plan kept: its margin claimed within HiGHS's integrality slack (big-M * 1e-6)
     # of the plan's is the fallback's cost; the same claim of a plan not kept as a fallback is
     # an error
-    import stlplan.planner.solve
-    from stlplan.planner.core.finish import Finish
-
-    def failing(pm, config, clock, budget):  # type: ignore[no-untyped-def]
-        return Finish("the continuous solve ended maxTimeLimit")
-
-    monkeypatch.setattr(stlplan.planner.solve, "finish", failing)
+    _fail_the_continuous_stage(monkeypatch)
     problem, result = api.plan(MISSIONS / "reach-avoid.yaml", overrides=Overrides(threads=1))
     assert result.fallback is not None and result.solver is not None
     assert result.report is not None and result.margin is not None
