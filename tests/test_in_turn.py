@@ -122,9 +122,9 @@ def test_a_crowded_round_is_repaired_however_short(
     assert all(len(agents) >= crowd for agents in runs)
 
 
-@pytest.mark.parametrize("first_plan_rounds", [True, False])
+@pytest.mark.parametrize("first_plan", [True, False])
 def test_a_loop_looking_for_its_first_plan_repairs_every_round(
-    first_plan_rounds: bool, monkeypatch: pytest.MonkeyPatch
+    first_plan: bool, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     # a short round whose violations name no crowd: repaired only on the way to a first plan
     problem = crossing_problem()
@@ -137,17 +137,15 @@ def test_a_loop_looking_for_its_first_plan_repairs_every_round(
 
     monkeypatch.setattr(InTurn, "run", spy)
     config = {
-        "solver.first_plan": True,
-        "repair.first_plan_rounds": first_plan_rounds,
+        "solver.first_plan": first_plan,
         "repair.after_round_seconds": 1e6,
         "repair.crowd_agents": None,
         "repair.orders": 0,
-        "parts.plan_around_published": False,  # the parts' collisions merged and repaired
         "repair.by_elements": None,  # (each agent its own element: no repair in turn)
     }
     result, _ = solve(problem, config)
     assert result.objective is not None and accepted(problem, result)
-    assert bool(runs) is first_plan_rounds
+    assert bool(runs) is first_plan
 
 
 def between(pm: Any, agents: set[str]) -> list[int]:
@@ -184,8 +182,7 @@ def test_a_turn_that_fails_frees_the_agents_it_could_not_avoid() -> None:
     assert calls == [({"a"}, {"c", "d"})]
 
 
-@pytest.mark.parametrize("one_more", [True, False])
-def test_the_agents_in_a_turns_way_are_freed_one_at_a_time(one_more: bool) -> None:
+def test_the_agents_in_a_turns_way_are_freed_one_at_a_time() -> None:
     # b alone cannot avoid c and a (c named last); with c it still cannot avoid a; with both, a plan
     pm, session = _first_round(crossing_problem())
     calls: list[set[str]] = []
@@ -194,10 +191,9 @@ def test_the_agents_in_a_turns_way_are_freed_one_at_a_time(one_more: bool) -> No
         calls.append(set(free))
         return {"b": ["b", "c", "a"], "bc": ["b", "c", "a"]}.get("".join(sorted(free)), [])
 
-    options = PlannerConfig().with_overrides({"repair.free_one_more": one_more})
     bad = between(pm, {"a", "b"}) + between(pm, {"b", "c"})
-    InTurn(pm, session, options, solve=stub).run(bad, Budget.of_seconds(60))
-    grown = [{"b"}, {"b", "c"}, {"a", "b", "c"}] if one_more else [{"b"}, {"a", "b", "c"}]
+    InTurn(pm, session, PlannerConfig(), solve=stub).run(bad, Budget.of_seconds(60))
+    grown = [{"b"}, {"b", "c"}, {"a", "b", "c"}]
     assert calls[: 1 + len(grown)] == [{"a"}, *grown]  # a's turn, then b's (c freed with it)
     assert calls[1 + len(grown)] == {"a"}  # the second turns: the repair went on
 

@@ -169,7 +169,9 @@ def test_single_integrators_turns_are_solved_on_the_sides_of_a_guide_path(
 def test_turns_without_the_guide_solve_their_disjunctions(
     small_crowd: Any, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    result, sided = _guided_turns(small_crowd, monkeypatch, {"repair.guide": False})
+    # (agents of other dynamics than a single integrator in the plane get no guide)
+    monkeypatch.setattr(prioritized, "single_integrator", lambda agent: False)
+    result, sided = _guided_turns(small_crowd, monkeypatch, {})
     assert sided == []
     assert result.status.has_plan and result.report is not None and result.report.satisfied
 

@@ -120,13 +120,14 @@ def test_while_looking_for_a_first_plan_a_part_plans_around_those_done(around: b
     problem = pairs_problem()
     options = PlannerConfig().with_overrides({
         "solver.time_limit": 60.0, "solver.first_plan": True, "solver.threads": 1,
-        "parts.plan_around_published": around, "repair.orders": 0,
+        "repair.orders": 0,
     })  # fmt: skip
     clock = Clock(0.0, None)
-    hooks = FirstPlan()
+    hooks = FirstPlan()  # (without the first-plan hooks nothing is published)
     inner = LazyRounds(RepairPolicy.of(options, hooks))
-    found = Parts(inner, hooks=hooks).solve(problem, options, clock, Budget.of_seconds(60))
-    assert found is not None and found[1].status.has_plan
+    parts = Parts(inner, hooks=hooks if around else None)
+    found = parts.solve(problem, options, clock, Budget.of_seconds(60))
+    assert found[1].status.has_plan
     assert (clock.reached.merges == 0) is around  # the second part's plan meets the first's
     result = plan(problem, options)
     assert result.objective is not None and accepted(problem, result)

@@ -100,11 +100,12 @@ def test_the_repair_policy_decides_both_triggers() -> None:
     assert teams.on_merge(7, 10) and not teams.on_merge(7, 9) and not teams.on_merge(6, 64)
     assert teams.after_round(0.1, 7)  # a round's crowd is one in any team
     # before a first plan a merge of a large team is repaired in turn from two agents named
-    first = _policy(crowd_agents=7, crowd_team=10, first_plan_rounds=True)
+    first = _policy(crowd_agents=7, crowd_team=10)
     assert first.on_merge(2, 24, first=True) and not first.on_merge(2, 24)
     assert not first.on_merge(1, 24, first=True) and not first.on_merge(2, 9, first=True)
-    never = _policy(after_round_seconds=None, crowd_agents=None, first_plan_rounds=False)
-    assert not never.after_round(1e6, 100) and not never.on_merge(100) and never.describe() == ""
+    never = _policy(after_round_seconds=None, crowd_agents=None)
+    assert not never.after_round(1e6, 100) and not never.on_merge(100)
+    assert never.describe() == "before a first plan"  # (the only trigger left)
 
 
 PROBLEMS: dict[str, Callable[[], Problem]] = {
@@ -193,8 +194,6 @@ def test_the_policy_names_the_repairs_and_their_shares() -> None:
     assert alone.round_repairs(1.0, 2, first=True) == ((InTurnRepair(), share),)
     assert policy.round_repairs(10.0, 1, first=True) == ((InTurnRepair(), share),)
     assert policy.round_repairs(1.0, 1, first=True) == ()  # (one agent: the next round)
-    as_others = policy_of(EXACT.with_overrides({"repair.first_plan_rounds": False}))
-    assert as_others.round_repairs(1.0, 2, first=True) == ()
     # once a plan meets every requirement, a long round's plan with its task decisions kept
     kept = EXACT.repair.tasks_kept_seconds
     assert kept is not None and kept > 0.1

@@ -139,16 +139,6 @@ class PartsConfig(_Section):
     """Share of the time left after that first plan in which its elements are planned again,
     each around all the others, while that lowers the effort (None: never). Measured:
     docs/measurements.md#the-first-plan-improved-element-by-element."""
-    earlier_runs: bool = True
-    """While the first plan is improved, each synchronous task's run is started a step earlier
-    while its elements can be planned again so (False: never). Measured:
-    docs/measurements.md#a-synchronous-run-started-earlier."""
-    plan_around_published: bool = True
-    """While looking for a first plan, a part whose lazy loop found one publishes it, and the
-    repairs in turn of the parts still looking for theirs plan around it; before a merge that
-    the prioritized repair does not take, each colliding part is repaired around the others'
-    plans (False: the parts' plans meet only when merged). Measured:
-    docs/measurements.md#parts-done-early-repaired-around-the-later-plans."""
     side_by_side: int | None = Field(default=None, ge=1)
     """Parts solved at the same time, each in a thread (None: ``solver.threads``, one when
     HiGHS decides). Measured: docs/performance.md#parts-side-by-side."""

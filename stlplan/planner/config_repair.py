@@ -28,11 +28,6 @@ class RepairConfig(Section):
     crowd_team: int | None = Field(default=10, ge=1)
     """A merge's crowd is repaired in turn only in a team of this many agents or more (None: any).
     Measured: docs/performance.md#crowded-merges-in-cases-i-iii."""
-    first_plan_rounds: bool = True
-    """Every round naming two agents or more of a lazy loop that looks for its first plan only
-    (``--first-plan``, a large team's parts), and every merge of a team of ``crowd_team`` agents
-    or more whose collisions name two agents or more, meanwhile, is repaired in turn.
-    Measured: docs/measurements.md#first-plans-repaired-at-once."""
     by_elements: float | None = Field(default=0.5, gt=0, le=1)
     """Before a first plan, in a loop that looks for one, a round's plan is first repaired by
     elements (its task choices as parts of their own, planned in turn) within this share of the
@@ -59,12 +54,6 @@ class RepairConfig(Section):
     the round's task decisions, the closest it can come to the round's bound."""
     solves_per_turn: int = Field(default=10, ge=1)
     """Solves of one agent's turn at most (each after adding what the last plan violated)."""
-    free_one_more: bool = True
-    """A turn without a plan is solved again with the agents in its way freed one at a time, the
-    most in the way first (False: all at once). Measured: docs/measurements.md#freed-one-at-a-time."""
-    formations_together: bool = True
-    """Each agent's turn is followed by its formation partners' (the other roles of the elements
-    it fills) rather than in the team's order. Measured: docs/measurements.md#formations-in-turn."""
     window: int | None = Field(default=None, ge=0)
     """Steps of a violated requirement's family (the same pair, or agent and constraint) a turn
     adds with it (None: all of them). Measured: docs/measurements.md#the-24-agent-farm."""
@@ -87,11 +76,6 @@ class RepairConfig(Section):
     """Orders of the parts a prioritized repair of a merged crowd tries with the turns' MILPs, a
     failed part moved before the parts in its way (0: no prioritized repair). Measured:
     docs/measurements.md#the-prioritized-repair."""
-    guide: bool = True
-    """A prioritized turn of one agent that moves as a single integrator in the plane first
-    searches a grid of positions in time for a path around the earlier agents, and solves once
-    with the sides that path keeps (no binaries for them); without a plan it solves as usual.
-    Measured: docs/measurements.md#guided-turns."""
     guided_orders: int = Field(default=16, ge=0)
     """Orders a prioritized repair first tries with guided parts on their guide paths only,
     before its ``repair.orders`` orders with the turns' MILPs. Measured:

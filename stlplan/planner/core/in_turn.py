@@ -9,10 +9,10 @@ plan, and the free agent's plan is solved again with the requirements it violate
 the agents already repaired (or never involved). Each of those solves is small: one agent's
 trajectory and choices. The agent is then held at its new plan. The turns go in the team's order, but an agent's formation partners (the other roles of the elements it
 fills) take theirs right after it, while few agents are yet held around the path it chose
-(``repair.formations_together``). A requirement between two repaired agents is met by the later
+(measured: docs/measurements.md#formations-in-turn). A requirement between two repaired agents is met by the later
 one, which avoided the earlier one's final plan, so when every turn succeeds the last plan meets
 every requirement. An agent that finds no plan around the agents already repaired is solved
-again together with the ones it could not avoid, added one at a time (``repair.free_one_more``):
+again together with the ones it could not avoid, added one at a time:
 first the one its violations named last and most often, so that a pair's solve, small, comes
 before the joint solve of all of them, a MILP of several agents that may not finish. Agents are
 freed only while the turn fails within its time (an infeasible solve: the free agents cannot get
@@ -156,8 +156,7 @@ class InTurn:
         turns = [n for n in names if n in around and n not in involved]  # their turns first
         involved |= set(around)
         turns += [n for n in names if n in involved and n not in turns]
-        if self.repair.formations_together:
-            turns = in_formations(self.pm, turns)
+        turns = in_formations(self.pm, turns)
         done = set(names) - involved
         self.session.clock.reached.turns(0, len(turns))
         with self.session.looking_for_a_plan(self.repair.gap):
@@ -206,17 +205,15 @@ class InTurn:
                 return free
             if waiting is None:
                 waiting = [a for a in partners if a not in free]
-            if not waiting or (self.repair.free_one_more and share.expired()):
+            if not waiting or share.expired():
                 return None  # (out of time: more agents free would be slower still)
             taken = self._to_free(waiting, partners)
             free = free | taken
             waiting = [a for a in waiting if a not in taken]
 
     def _to_free(self, waiting: list[str], partners: Collection[str]) -> set[str]:
-        """The agents to free next of ``waiting``: all of them, or with ``repair.free_one_more``
-        the first the last solve named (``partners``, most in the way first), else the first."""
-        if not self.repair.free_one_more:
-            return set(waiting)
+        """The agent to free next of ``waiting``: the first the last solve named (``partners``,
+        most in the way first), else the first."""
         named = [a for a in partners if a in waiting]
         return {(named or waiting)[0]}
 

@@ -5,7 +5,7 @@ While no plan meets every requirement, a repair (:mod:`stlplan.planner.core.repa
 where the next solve would not. After a lazy round that was long
 (``repair.after_round_seconds``) or whose violations name a crowd (``repair.crowd_agents``), or
 after any round naming two agents or more of a loop that looks for its first plan only
-(``repair.first_plan_rounds``), the round's plan is repaired in turn within ``repair.share`` of
+(measured: docs/measurements.md#first-plans-repaired-at-once), the round's plan is repaired in turn within ``repair.share`` of
 the loop's time left (``repair.first_plan_share`` in a loop that looks for its first plan only).
 A merge of parts whose collisions name a crowd (or two agents, while
 looking for a first plan) in a team of ``repair.crowd_team`` agents or more is repaired part by
@@ -90,11 +90,11 @@ class RepairPolicy:
     ) -> Planned:
         """The repairs of a lazy round of ``seconds`` whose violations name ``agents``, in a
         loop that looks for its first plan only when ``first`` (then any round that names two
-        agents or more, with ``first_plan_rounds``, within ``first_plan_share`` of its time
+        agents or more, within ``first_plan_share`` of its time
         left); once a plan meets every requirement (``proving``), :meth:`proof_repairs`."""
         if proving:
             return self.proof_repairs(seconds, first)
-        before_plan = first and self.repair.first_plan_rounds and agents >= 2
+        before_plan = first and agents >= 2
         repaired = self.after_round(seconds, agents) or before_plan
         share = self.repair.first_plan_share if first else self.repair.share
         if not repaired:
@@ -149,7 +149,7 @@ class RepairPolicy:
         """Whether a merged part of a team of ``team`` agents (None: a team large enough)
         whose collisions name ``agents`` agents is repaired in turn."""
         large = self.repair.crowd_team is None or team is None or team >= self.repair.crowd_team
-        before_plan = first and self.repair.first_plan_rounds and agents >= 2
+        before_plan = first and agents >= 2
         return large and (self.crowd(agents) or before_plan)
 
     def describe(self) -> str:
@@ -159,6 +159,5 @@ class RepairPolicy:
             triggers.append(f"round >= {self.repair.after_round_seconds:g} s")
         if self.repair.crowd_agents is not None:
             triggers.append(f">= {self.repair.crowd_agents} agents")
-        if self.repair.first_plan_rounds:
-            triggers.append("before a first plan")
+        triggers.append("before a first plan")
         return " or ".join(triggers)

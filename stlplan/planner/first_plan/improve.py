@@ -132,7 +132,7 @@ def _improved(
         within = budget.share(SWEEPS_SHARE)
         first = sweeps(team, within.share(0.5))
         before = team.copy()
-        moved = config.parts.earlier_runs and earlier_runs(team, turns, within)
+        moved = earlier_runs(team, turns, within)
         swept = sweeps(team, within) or first
         teams = [team, before] if moved and first else [team] if moved or swept else []
         return joined(whole, teams, config, budget)

@@ -166,7 +166,7 @@ class Turn:
     def guided(self) -> bool:
         """Whether the part's turns start from a guide path: one single-integrator agent."""
         agents = self.pm.problem.agents
-        return self.config.repair.guide and len(agents) == 1 and single_integrator(agents[0])
+        return len(agents) == 1 and single_integrator(agents[0])
 
     def sided(
         self,

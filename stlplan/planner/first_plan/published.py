@@ -4,7 +4,7 @@ While a large team looks for its first plan (:mod:`stlplan.planner.first_plan.pl
 ``--first-plan``), its parts are planned apart, and parts whose plans collide are merged: a
 model of the merged team is built and its plan repaired, a MILP as large as the parts together.
 Most often one part's plan is done while another's is still being repaired in turn. That repair
-can plan around it (``parts.plan_around_published``): a part whose lazy loop found its first
+can plan around it: a part whose lazy loop found its first
 plan publishes it, and the turns of a later repair in turn (:mod:`stlplan.planner.core.in_turn`) meet
 the requirements between their free agent and the published agents as well, the published
 agents' states as numbers (:mod:`stlplan.planner.first_plan.overlay`), added as the turn's plans break
@@ -160,10 +160,9 @@ class Published:
 
 
 def published_for(full: PlanModel, config: PlannerConfig) -> Published | None:
-    """Where a team's parts publish their first plans, while looking for a first plan with
-    ``parts.plan_around_published`` (None otherwise)."""
-    on = config.solver.first_plan and config.parts.plan_around_published
-    return Published(full) if on else None
+    """Where a team's parts publish their first plans, while looking for a first plan (None
+    otherwise)."""
+    return Published(full) if config.solver.first_plan else None
 
 
 def _between(requirement: Requirement, mine: set[str], fixed: Mapping[str, Any]) -> bool:
