@@ -53,9 +53,6 @@ class SolverConfig(_Section):
     first_plan: bool = False
     """Stop step 1 at the first plan that meets every requirement (``--first-plan``); its gap
     is reported beside it."""
-    strict_integrality: float = Field(default=1e-9, gt=0)
-    """HiGHS's integrality (and MIP feasibility) tolerance when step 1 is solved again strictly,
-    because its decisions, taken exactly, left the continuous stage without a plan."""
     deterministic: bool = False
     """Decisions read the solver's work, not the clock: one thread (HiGHS's, and one part at a
     time), and a lazy round's length, which decides its repairs, is its simplex iterations at
@@ -154,9 +151,8 @@ class BudgetConfig(_Section):
     """... and by at most this many seconds: they turn a plan already found into the one
     written."""
     min_solve_seconds: float = Field(default=1.0, gt=0)
-    """Every solve may run at least this long, even when the budget is spent."""
-    min_check_seconds: float = Field(default=1.0, gt=0)
-    """Every confirmation of an infeasible verdict may run at least this long."""
+    """Every solve, and every confirmation of an infeasible verdict, may run at least this long,
+    even when the budget is spent."""
 
 
 class ContinuousConfig(_Section):

@@ -37,6 +37,7 @@ from stlplan.planner.run.clock import Clock, ProgressCallback
 from stlplan.planner.run.outcome import Outcome, Plan, gap_words
 from stlplan.planner.run.reached import Reached
 from stlplan.planner.strategy import build_strategy
+from stlplan.planner.tolerances import ROUND_OFF
 from stlplan.result import Fallback, ModelSize, PlanResult, PlanStatus
 from stlplan.runtime import signals
 
@@ -49,14 +50,14 @@ def model_size(model: ConcreteModel) -> ModelSize:
 
 
 def strict(config: PlannerConfig) -> PlannerConfig:
-    """``config`` with HiGHS's integrality tolerance at ``solver.strict_integrality``."""
+    """``config`` with HiGHS's integrality tolerance at round-off (:data:`ROUND_OFF`)."""
     extra = dict(config.solver.highs_options)
-    extra["mip_feasibility_tolerance"] = config.solver.strict_integrality
+    extra["mip_feasibility_tolerance"] = ROUND_OFF
     return config.with_overrides({"solver.highs_options": extra})
 
 
 def _strict_note(config: PlannerConfig) -> str:
-    tolerance = config.solver.strict_integrality
+    tolerance = ROUND_OFF
     return (
         f"step 1 solved again with integrality tolerance {tolerance:g}: its first plan met"
         " its decisions only within HiGHS's default tolerance"
@@ -118,11 +119,11 @@ def _strict_retry(run: _Run) -> None:
     """When step 1's decisions, taken exactly, admit no plan, its plan met them only within
     HiGHS's integrality tolerance (a binary at ``1e-6`` from 0 or 1 relaxes a big-M row by
     ``M 1e-6``, more than ``EPSILON``): step 1 and the continuous stage again, with
-    ``solver.strict_integrality``. When that runs out of time without a plan, the first one is
+    an integrality tolerance of round-off. When that runs out of time without a plan, the first one is
     kept (its continuous stage failed: the step-1 plan stands, for the monitor to judge); a
     strict verdict of infeasibility stands."""
     tolerance = run.config.solver.highs_options.get("mip_feasibility_tolerance")
-    if not run.ended.infeasible or tolerance == run.config.solver.strict_integrality:
+    if not run.ended.infeasible or tolerance == ROUND_OFF:
         return
     first = dataclasses.replace(run)
     run.config, run.strictly = strict(run.config), True
@@ -306,7 +307,7 @@ def run_events(
     config, clock
         The run's configuration and its clock (the confirmations).
     strictly
-        Whether step 1 was solved again with ``solver.strict_integrality``.
+        Whether step 1 was solved again with an integrality tolerance of round-off.
 
     Returns
     -------

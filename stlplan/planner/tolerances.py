@@ -4,7 +4,9 @@ by the monitor. Every comparison of a plan's figures in the planner uses one of 
 ROUND_OFF = 1e-9
 """Float round-off: a figure better by at most this much (relative, absolute below 1) is no
 better; a gap within ``(1 + ROUND_OFF)`` of another is within it; a big-M or a broken side this
-small is none (HiGHS drops matrix values at or below it)."""
+small is none (HiGHS drops matrix values at or below it); and HiGHS's integrality tolerance
+when step 1 is solved again strictly, its first plan having met its decisions only within
+HiGHS's default one."""
 
 FEASIBILITY = 1e-7
 """HiGHS's feasibility tolerance: a lazy requirement a plan breaks by more is violated; a

@@ -33,7 +33,7 @@ def solve_confirmed(highs: Any, seed: int = 0, time_limit: float = math.inf) -> 
 
     with applied(highs, {"random_seed": seed, "time_limit": limit}):
         tick = time.perf_counter()
-        run({}, max(BudgetConfig().min_check_seconds, deadline - tick))
+        run({}, max(BudgetConfig().min_solve_seconds, deadline - tick))
         if not says_infeasible(highs):
             return None
         first = (verdict(highs), time.perf_counter() - tick)

@@ -88,7 +88,7 @@ def confirm(
     seed: int,
     time_left: Callable[[], float],
     where: str = "",
-    min_seconds: float = BudgetConfig().min_check_seconds,
+    min_seconds: float = BudgetConfig().min_solve_seconds,
 ) -> Confirmation:
     """Check the infeasible verdict of the solve ``highs`` just ran by the solves of
     :func:`attempts`.

@@ -339,7 +339,7 @@ class HighsSession:
             self.config.solver.seed,
             budget.remaining,
             where,
-            self.config.budget.min_check_seconds,
+            self.config.budget.min_solve_seconds,
         )
         self.clock.confirmations.append(confirmation)
         return last[0]
