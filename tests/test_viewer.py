@@ -3,6 +3,7 @@ headless Chromium (its traces, the slider, the play button, the hover text)."""
 
 from __future__ import annotations
 
+import json
 import re
 import shutil
 from collections.abc import Iterator
@@ -21,9 +22,13 @@ from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check
 from stlplan.outputs.plots import task_presence
 from stlplan.outputs.viewer import hover_texts, viewer_figure, write_viewer
+from stlplan.outputs.viewer.packed import unpacked
 from stlplan.result import PlanResult, Trajectory
 from tests.helpers.paths import FARM, MISSIONS
 from tests.helpers.plans import make_report, make_trajectory
+
+MOST_BYTES = 2_000_000
+"""What a page may weigh (docs/viewer.md)."""
 
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = [
@@ -67,11 +72,27 @@ def test_solve_writes_one_self_contained_page(sync_pair) -> None:
     page = (out / "plan.html").read_text(encoding="utf-8")
     assert re.findall(r"<script[^>]*\bsrc\s*=", page) == []  # every script inline
     assert re.findall(r"<link\b", page) == []  # no style sheet or font to fetch
-    assert re.search(r"plotly\.js v\d", page)  # the library itself, not a link to it
+    library = unpacked(page, "plotly-js").decode("utf-8")
+    assert re.search(r"plotly\.js v\d", library)  # the library itself, not a link to it
+    assert len(library) > 3_000_000  # plotly.js is some 4.8 MB ...
+    assert len(page.encode("utf-8")) < MOST_BYTES  # ... packed
     assert "<title>sync-pair: optimal</title>" in page
+    figure = json.loads(unpacked(page, "figure"))
     for agent in problem.agents:
-        assert agent.name in page
-    assert len(page) > 3_000_000  # plotly.js is some 4.8 MB
+        assert any(trace.get("name") == agent.name for trace in figure["data"])
+
+
+@pytest.mark.parametrize("mission", ["farm.yaml", "crowd/crowd-64.yaml"])
+def test_the_page_of_a_shipped_mission_weighs_at_most_2_mb(mission: str, tmp_path: Path) -> None:
+    # the agents standing at their starts: the page's size is plotly.js and the figure's
+    problem = load_problem(MISSIONS / mission)
+    steps = problem.horizon + 1
+    states = {a.name: np.tile(a.initial_state, (steps, 1)) for a in problem.agents}
+    inputs = {a.name: np.zeros((problem.horizon, a.m)) for a in problem.agents}
+    trajectory = Trajectory(problem.horizon, states, inputs)
+    target = tmp_path / "plan.html"
+    write_viewer(problem, trajectory, check(problem, trajectory), target)
+    assert target.stat().st_size < MOST_BYTES
 
 
 def test_write_viewer_leaves_only_the_page(farm: Problem, tmp_path: Path) -> None:

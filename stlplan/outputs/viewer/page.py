@@ -1,5 +1,5 @@
 """The viewer's page: the map and the timeline side by side, one frame per step, the slider and
-the play button, written as one HTML file with plotly.js inline."""
+the play button, written as one HTML file with plotly.js inline (packed small)."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import plotly.graph_objects as go
-import plotly.io as pio
 from plotly.subplots import make_subplots
 
 import stlplan.outputs.viewer.map as plan_map
+import stlplan.outputs.viewer.packed as packed
 import stlplan.outputs.viewer.timeline as timeline
 from stlplan.mission.problem import Problem
 from stlplan.outputs.plots.common import (
@@ -259,8 +259,8 @@ def write_viewer(
     path: str | os.PathLike[str],
     title: str | None = None,
 ) -> None:
-    """Write ``plan.html`` to ``path`` (atomically): the viewer with plotly.js inline, so the page
-    opens from disk with no network.
+    """Write ``plan.html`` to ``path`` (atomically): the viewer with plotly.js inline, packed
+    (:mod:`stlplan.outputs.viewer.packed`), so the page opens from disk with no network.
 
     Parameters
     ----------
@@ -273,10 +273,7 @@ def write_viewer(
     """
     title = title or problem.mission.name
     fig = viewer_figure(problem, trajectory, report, title)
-    page = pio.to_html(
-        fig, config=_CONFIG, auto_play=False, include_plotlyjs=True, full_html=True, div_id="plan"
-    )
-    page = page.replace("<head>", f"<head><title>{html.escape(title)}</title>", 1)
+    page = packed.page(fig.to_json(), _CONFIG, title, HEIGHT_PX)
 
     def write(tmp: Path) -> None:
         tmp.write_text(page, encoding="utf-8")
