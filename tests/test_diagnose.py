@@ -4,13 +4,17 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+import pytest
 import yaml
 
 from stlplan import api
 from stlplan.analysis.diagnose import cheap_reasons, needs
 from stlplan.formula.parser import parse
 from stlplan.mission.loader import load_problem
-from stlplan.result import PlanStatus
+from stlplan.mission.past import replanned
+from stlplan.replanning import replan
+from stlplan.result import PlanStatus, Trajectory
 from tests.helpers.paths import MISSIONS
 
 
@@ -55,3 +59,27 @@ def test_a_conflict_between_a_task_and_a_constraint_is_minimal(tmp_path: Path) -
     assert result.diagnosis is not None
     assert result.diagnosis.complete
     assert set(result.diagnosis.conflict) == {"meet", "stay_left"}
+
+
+def test_a_past_that_leaves_no_input_within_the_state_bounds_is_told_before_solving(
+    capfd: pytest.CaptureFixture[str],
+) -> None:
+    # north driven to its bound at full speed outwards by a disturbance: no input keeps it in
+    problem = load_problem(MISSIONS / "sync-pair.yaml")
+    steps = problem.horizon + 1
+    states = {a.name: np.tile(a.initial_state, (steps, 1)) for a in problem.agents}
+    states["north"][1] = [6.0, 3.5, 1.5, 0.0]
+    inputs = {a.name: np.zeros((problem.horizon, a.m)) for a in problem.agents}
+    executed = Trajectory(problem.horizon, states, inputs)
+    reasons = cheap_reasons(replanned(problem, executed, 1))
+    bounds = [r.text for r in reasons if r.item == "state bounds"]
+    assert bounds == [
+        "agent 'north' cannot keep its state bounds at step 2 after the executed past (steps "
+        "0..1): whatever its inputs, component 0 of its state is at least 7, above its bound 6"
+    ]
+    _, result = replan(problem, executed, 1)
+    assert result.status is PlanStatus.INFEASIBLE and result.diagnosis is not None
+    assert bounds[0] in result.diagnosis.reasons
+    assert "state bounds" in result.diagnosis.named()
+    printed = capfd.readouterr()
+    assert "inconsistent bounds" not in printed.out + printed.err  # nothing reached the solver

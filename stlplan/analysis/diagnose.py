@@ -31,6 +31,12 @@ from stlplan.result import Diagnosis, PlanStatus
 
 Feasibility = Callable[[Problem], PlanStatus]
 
+STATE_BOUNDS = "state bounds"
+"""The item a reason blames when an agent's state cannot keep within its bounds."""
+
+_BOX_TOLERANCE = 1e-9
+"""A reachable box emptier than this along a component is empty (round-off aside)."""
+
 
 def _meets(problem: Problem, region: str, box_lo: np.ndarray, box_hi: np.ndarray) -> bool:
     """Whether the box ``[box_lo, box_hi]`` of positions meets the region's half-spaces."""
@@ -132,6 +138,29 @@ def _decided_reasons(problem: Problem, boxes: dict, named: set[str]) -> Iterator
             )
 
 
+def _bounds_reasons(problem: Problem, boxes: dict) -> Iterator[Reason]:
+    """Agents whose state no input keeps within its bounds at some step: the first such step,
+    after an executed past (a disturbance) that left them too far out or too fast."""
+    after = (
+        "" if problem.past is None else f" after the executed past (steps 0..{problem.past.step})"
+    )
+    for agent in problem.agents:
+        lo, hi = boxes[agent.name]
+        empty = np.argwhere(lo > hi + _BOX_TOLERANCE)
+        if empty.size == 0:
+            continue
+        k, i = (int(v) for v in empty[0])
+        if lo[k, i] > agent.state_hi[i]:
+            reach = f"at least {lo[k, i]:.4g}, above its bound {agent.state_hi[i]:.4g}"
+        else:
+            reach = f"at most {hi[k, i]:.4g}, below its bound {agent.state_lo[i]:.4g}"
+        yield Reason(
+            STATE_BOUNDS,
+            f"agent '{agent.name}' cannot keep its state bounds at step {k}{after}: whatever "
+            f"its inputs, component {i} of its state is {reach}",
+        )
+
+
 def _role_boxes(boxes: dict, binding: dict[str, str]) -> dict:
     return {role: boxes[agent] for role, agent in binding.items()}
 
@@ -143,6 +172,7 @@ def cheap_reasons(problem: Problem) -> tuple[Reason, ...]:
 
     found = list(initial_reasons(problem))
     boxes = reachable_boxes(problem)
+    found += list(_bounds_reasons(problem, boxes))
     found += [r for task in problem.tasks for r in _task_reasons(problem, task, boxes)]
     found += list(_constraint_reasons(problem, boxes))
     found += list(_decided_reasons(problem, boxes, {r.item for r in found}))
@@ -150,7 +180,10 @@ def cheap_reasons(problem: Problem) -> tuple[Reason, ...]:
 
 
 def kind_of(problem: Problem, name: str) -> str:
-    """``task``, ``constraint`` or ``separation``: what ``name`` is in ``problem``."""
+    """``task``, ``constraint``, ``separation`` or ``state bounds``: what ``name`` is in
+    ``problem``."""
+    if name == STATE_BOUNDS:
+        return STATE_BOUNDS
     if any(t.name == name for t in problem.tasks):
         return "task"
     return "constraint" if any(c.name == name for c in problem.constraints) else "separation"
