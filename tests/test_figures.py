@@ -4,15 +4,19 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 from pathlib import Path
 
 import pytest
+from rich.console import Console
 from typer.testing import CliRunner
 
 from stlplan import api
 from stlplan.api import Overrides
 from stlplan.cli import app
 from stlplan.errors import SolverError
+from stlplan.outputs.render import print_plan
+from stlplan.result import Fallback, PlanResult, PlanStatus, SolverFigures
 from stlplan.verify import plan_objective, reported
 from tests.helpers.paths import DATA, MISSIONS
 
@@ -40,7 +44,8 @@ def test_stepping_stones_summary_reports_the_monitors_margin(tmp_path: Path) -> 
     problem, report = api.check(DATA / "stepping-stones.yaml", out / "trajectory.csv")
     assert report.spatial_robustness == pytest.approx(monitor, abs=1e-9)
     assert summary["objective"] == pytest.approx(monitor - 0.001 * summary["effort"]["value"])
-    assert f"margin     {monitor:.10g} (monitor)" in result.output
+    assert f"margin     {monitor:.4g} (monitor)" in result.output
+    assert _longest_figure(result.output) <= 6
 
 
 def _fail_the_continuous_stage(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -93,3 +98,42 @@ def test_a_fallbacks_shortfall_is_its_cost_and_any_other_an_error(
     assert kept.fallback.cost["margin"] == pytest.approx(1e-2)
     with pytest.raises(SolverError, match="spatial margin disagrees"):
         reported(problem, dataclasses.replace(claimed, fallback=None), result.report, 1e-4)
+
+
+def _longest_figure(text: str) -> int:
+    """The most significant digits of a number printed in ``text`` (a run's terminal output)."""
+    digits = [
+        len(mantissa.replace(".", "").lstrip("0"))
+        for mantissa in re.findall(r"(?<![\w.])(\d+\.\d+|\d+)(?:e[-+]?\d+)?(?![\w.])", text)
+    ]
+    return max(digits, default=0)
+
+
+def test_the_status_block_tells_one_story_in_figures_as_they_mean() -> None:
+    # step 2 lowered the written plan's step-1 objective; its margin is the boundary's epsilon;
+    # the fallback's cost is round-off
+    result = PlanResult(
+        PlanStatus.OPTIMAL,
+        "optimal plan; step 2 minimized the l2 effort",
+        objective=2.999230832,
+        bound=3.16267,
+        gap=0.0,
+        effort=5.419047619,
+        margin=9.999999424e-07,
+        steps=2,
+        solver=SolverFigures(3.162666248, 1e-06),
+        fallback=Fallback("step 2", "maxTimeLimit", "the step-1 plan", {"margin": -1.67e-16}),
+        stage_seconds={"step 1": 12.31, "continuous": 0.5, "verify": 0.01},
+    )
+    console = Console(record=True, width=200)
+    print_plan(console, result, seconds=14.2)
+    lines = console.export_text().splitlines()
+    assert "step 1     objective 3.163, bound 3.163, gap 0.00%" in lines
+    assert "step 2     effort 5.419; the plan written scores 2.999 on step 1's objective" in lines
+    assert "margin     1e-06 (the boundary epsilon; monitor)" in lines
+    assert any(line.endswith("costing margin 0") for line in lines)
+    assert (
+        "time       14.20 s in all: step 1 12.31 s, continuous 0.50 s, verify 0.01 s; "
+        "reading and writing 1.38 s" in lines
+    )
+    assert _longest_figure("\n".join(lines)) <= 6

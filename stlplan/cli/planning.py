@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from enum import Enum
 from pathlib import Path
@@ -230,7 +231,7 @@ def solve(
     """
     from stlplan.outputs.progress import ProgressLine
 
-    output = Output(as_json, quiet)
+    output, tick = Output(as_json, quiet), time.perf_counter()
     overrides = api.Overrides(
         time_limit=time_limit,
         gap=gap,
@@ -258,21 +259,27 @@ def solve(
             animation=not no_animation,
             viewer=not no_html,
         )
-    finish(output, result, out, verbose, lambda: api.summary(problem, result, overrides))
+    seconds = time.perf_counter() - tick
+    finish(output, result, out, verbose, lambda: api.summary(problem, result, overrides), seconds)
 
 
 def finish(
-    output: Output, result: PlanResult, out: str, verbose: bool, summary: Callable[[], Any]
+    output: Output,
+    result: PlanResult,
+    out: str,
+    verbose: bool,
+    summary: Callable[[], Any],
+    seconds: float | None = None,
 ) -> NoReturn:
     """Print a planning run's result (its ``summary`` document with ``--json``, one line with
-    ``--quiet``) and exit with its code."""
+    ``--quiet``), the run having taken ``seconds`` in all, and exit with its code."""
     from stlplan.outputs.render import print_plan
 
     code = exit_code(result)
     if output.as_json:
         output.document(summary())
     elif output.full:  # the status line and the monitor's verdict are in the plan's report
-        print_plan(output.out, result, verbose)
+        print_plan(output.out, result, verbose, seconds)
         output.line(f"outputs in {out}")
     else:  # --quiet: one line on stdout, whatever the outcome (the exit code tells it apart)
         verdict = "satisfied" if code == 0 else result.status.value

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Annotated
 
@@ -82,7 +83,7 @@ def replan(
     """
     from stlplan.outputs.progress import ProgressLine
 
-    output = Output(as_json, quiet)
+    output, tick = Output(as_json, quiet), time.perf_counter()
     overrides = api.Overrides(
         time_limit=time_limit,
         gap=gap,
@@ -99,4 +100,5 @@ def replan(
             problem, executed, at, lost or (), closed or (), out, overrides, line.update,
             animation=not no_animation, viewer=not no_html,
         )  # fmt: skip
-    finish(output, result, out, verbose, lambda: api.summary(again, result, overrides))
+    seconds = time.perf_counter() - tick
+    finish(output, result, out, verbose, lambda: api.summary(again, result, overrides), seconds)

@@ -8,6 +8,7 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
+from stlplan.formula.boundary import EPSILON
 from stlplan.monitor.dynamics import DYNAMICS_CHECKED
 from stlplan.result import (
     Confirmation,
@@ -112,9 +113,12 @@ def print_report(console: Console, report: MonitorReport, dropped: Sequence[Drop
             console.print(f"  {v.name}: {v.detail}")
 
 
-def print_plan(console: Console, result: PlanResult, verbose: bool = False) -> None:
-    """Status, objective, synchronous robustness, effort, assignments, sizes and times; with
-    ``verbose``, what happened on the way too (events, confirmations beside a plan)."""
+def print_plan(
+    console: Console, result: PlanResult, verbose: bool = False, seconds: float | None = None
+) -> None:
+    """Status, step 1's objective and bound, step 2's effort, the margin, assignments, sizes and
+    the time of the run (``seconds`` in all) and of its stages; with ``verbose``, what happened
+    on the way too (events, confirmations beside a plan)."""
     status = result.status.value
     if result.status.value == "feasible":
         status += f" (not proven optimal, gap {_num(result.gap)})"
@@ -127,8 +131,6 @@ def print_plan(console: Console, result: PlanResult, verbose: bool = False) -> N
             f"({r.seconds:.2f} s)"
         )
     print_figures(console, result)
-    if result.effort is not None:
-        console.print(f"[bold]effort[/]     {_num(result.effort, 6)} after step {result.steps}")
     for a in result.assignments:
         run = (
             ""
@@ -151,10 +153,7 @@ def print_plan(console: Console, result: PlanResult, verbose: bool = False) -> N
             f"[bold]model[/]      {counted(size.variables, 'variable')} ({size.binaries} "
             f"binary), {counted(size.constraints, 'constraint')}"
         )
-    console.print(
-        f"[bold]time[/]       build {result.build_seconds:.2f} s, solve "
-        f"{result.solve_seconds:.2f} s"
-    )
+    console.print(f"[bold]time[/]       {time_line(result, seconds)}")
     if verbose:
         for event in result.events:
             console.print(f"[bold]run[/]        {event}")
@@ -164,6 +163,20 @@ def print_plan(console: Console, result: PlanResult, verbose: bool = False) -> N
         print_report(console, result.report, result.dropped)
     if result.diagnosis is not None:
         print_diagnosis(console, result.diagnosis)
+
+
+def time_line(result: PlanResult, seconds: float | None = None) -> str:
+    """The run's time, ``seconds`` in all when given, then each stage's (step 1, the degraded
+    search, the continuous stage, the monitor's check) and the rest (reading the mission,
+    writing the outputs)."""
+    spent = result.stage_seconds
+    stages = ", ".join(f"{name} {t:.2f} s" for name, t in spent.items())
+    if not stages:
+        stages = f"build {result.build_seconds:.2f} s, solve {result.solve_seconds:.2f} s"
+    if seconds is None:
+        return stages
+    rest = max(0.0, seconds - sum(spent.values()))
+    return f"{seconds:.2f} s in all: {stages}; reading and writing {rest:.2f} s"
 
 
 def print_trace(console: Console, trace: Mapping[str, Any]) -> None:
@@ -181,29 +194,50 @@ def print_trace(console: Console, trace: Mapping[str, Any]) -> None:
         console.print(f"[bold]stages[/]     {spent}")
 
 
-def _solver_note(mine: float | None, theirs: float | None) -> str:
-    """``" (solver X)"`` when the solver's value differs from the reported one."""
-    if mine is None or theirs is None or abs(mine - theirs) <= 1e-12:
-        return ""
-    return f" (solver {theirs:.10g})"
+def figure(value: float | None) -> str:
+    """A figure as it means: four significant digits, a round-off of zero as 0 (the full
+    precision is in ``summary.json``)."""
+    return _num(value, 4)
+
+
+def _margin(value: float) -> str:
+    """The margin, named for what it is when it is the boundary's epsilon (a plan that holds
+    its predicates on their boundaries)."""
+    if abs(value - EPSILON) <= EPSILON * 1e-3:
+        return f"{EPSILON:g} (the boundary epsilon; monitor)"
+    return f"{figure(value)} (monitor)"
+
+
+def _percent(gap: float | None) -> str:
+    return "-" if gap is None else f"{gap:.2%}"
 
 
 def print_figures(console: Console, result: PlanResult) -> None:
-    """Objective and margin of the plan written (the solver's beside them when they differ),
-    and a fallback with its reason and cost."""
+    """Step 1's objective, bound and gap; step 2's effort and what the plan written scores on
+    step 1's objective when that is another figure; the monitor's margin; a fallback with its
+    reason and cost."""
     solver = result.solver
-    if result.objective is not None:
-        note = _solver_note(result.objective, solver.objective if solver else None)
+    claimed = solver.objective if solver is not None and solver.objective is not None else None
+    step1 = claimed if claimed is not None else result.objective
+    if step1 is not None:
         console.print(
-            f"[bold]objective[/]  {result.objective:.10g} of the plan written{note}; bound "
-            f"{_num(result.bound, 6)}"
+            f"[bold]step 1[/]     objective {figure(step1)}, bound {figure(result.bound)}, "
+            f"gap {_percent(result.gap)}"
         )
+    if result.effort is not None:
+        own = result.objective
+        scored = (
+            f"; the plan written scores {figure(own)} on step 1's objective"
+            if own is not None and step1 is not None and figure(own) != figure(step1)
+            else ""
+        )
+        which = "step 2" if result.steps == 2 else "effort"
+        console.print(f"[bold]{which:<10}[/] effort {figure(result.effort)}{scored}")
     if result.margin is not None:
-        note = _solver_note(result.margin, solver.margin if solver else None)
-        console.print(f"[bold]margin[/]     {result.margin:.10g} (monitor){note}")
+        console.print(f"[bold]margin[/]     {_margin(result.margin)}")
     fallback = result.fallback
     if fallback is not None:
-        cost = ", ".join(f"{k} {v:.3g}" for k, v in fallback.cost.items()) or "unknown"
+        cost = ", ".join(f"{k} {figure(v)}" for k, v in fallback.cost.items()) or "unknown"
         console.print(
             f"[bold]fallback[/]   {fallback.step} failed ({fallback.reason}); {fallback.kept} "
             f"is kept, costing {cost}"
