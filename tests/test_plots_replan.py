@@ -19,7 +19,9 @@ from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check
 from stlplan.outputs.plots import PlanAnimation, plan_figure, polygon_area, timeline_figure
 from stlplan.outputs.plots.animation import ANIMATION_DPI, MAP_INCHES, MARGINS, frame_times
+from stlplan.outputs.plots.common import task_service
 from stlplan.outputs.viewer import hover_texts, viewer_figure
+from stlplan.outputs.viewer.packed import unpacked
 from stlplan.result import MonitorReport, PlanResult, PlanStatus, Replan, Trajectory
 from tests.helpers.paths import FARM
 from tests.helpers.plans import make_replan, make_report, make_trajectory
@@ -243,4 +245,30 @@ def test_write_plan_draws_every_file_of_a_replan(replan, tmp_path: Path) -> None
     assert {"plan.png", "timeline.png", "plan.gif", "plan.html"} <= names
     with Image.open(tmp_path / "plan.png") as image:
         assert image.size[0] > 800
-    assert "replan at step 4" in (tmp_path / "plan.html").read_text(encoding="utf-8")
+    page = (tmp_path / "plan.html").read_text(encoding="utf-8")
+    assert "replan at step 4" in unpacked(page, "figure").decode("utf-8")
+
+
+@pytest.fixture(scope="module")
+def lost_in_service(farm: Problem) -> tuple[Problem, Trajectory, MonitorReport]:
+    """vis1 lost at step 4 inside C, where crop_C's synchronized run still counts it."""
+    problem, trajectory = make_replan(farm, K, ("vis1",))
+    return problem, trajectory, check(problem, trajectory)
+
+
+def test_a_lost_agents_service_is_drawn_as_the_monitor_counts_it(lost_in_service) -> None:
+    problem, trajectory, report = lost_in_service
+    crop_c = next(v for v in report.verdicts if v.name == "crop_C")
+    assert crop_c.satisfied and ("vis1",) in crop_c.group
+    served = task_service(problem, trajectory, report)["vis1"]["crop_C"]
+    assert set(range(K, problem.horizon + 1)) <= set(served)  # counted where it stays
+    fig = timeline_figure(problem, trajectory, report)
+    ax, row = fig.axes[0], _rows(fig)["vis1"]
+    lost = [p for p in ax.patches if p.get_x() == K and p.get_hatch() == "//"]
+    bars = [p for p in ax.patches if isinstance(p, Rectangle) and p.get_zorder() > lost[0].get_zorder()
+            and row - 0.5 <= p.get_y() <= row + 0.5 and p.get_x() + p.get_width() > K]  # fmt: skip
+    assert len(lost) == 1 and bars  # the bars past K drawn over the loss's mark
+    plt.close(fig)
+    viewer = viewer_figure(problem, trajectory, report)
+    greyed = [s for s in viewer.layout.shapes if s.type == "rect" and s.x0 == K and s.xref == "x2"]
+    assert len(greyed) == 1 and greyed[0].layer == "below"

@@ -3,7 +3,7 @@
 The executed steps ``0..K`` of each path are drawn solid and the new plan from ``K`` on dashed, in
 the agent's colour; a ring marks each agent's place at the replan's step ``K``, a cross the place
 where a lost agent stays, and hatching each region closed at ``K``. The timeline shades the
-executed steps, draws a dashed line at ``K`` and greys a lost agent's row from ``K`` on.
+executed steps, draws a dashed line at ``K`` and hatches a lost agent's row from ``K`` on, beneath its bars.
 """
 
 from __future__ import annotations
@@ -54,7 +54,9 @@ CLOSED: dict[str, Any] = dict(
 _EXECUTED: dict[str, Any] = dict(facecolor="0.55", alpha=0.14, linewidth=0, zorder=0.5)
 _REPLAN_LINE: dict[str, Any] = dict(color=INK, linestyle="--", linewidth=1.6, zorder=2.8)
 """The timeline's line at the replan's step: over the bars, under their labels."""
-_LOST_ROW: dict[str, Any] = dict(facecolor="0.9", edgecolor="0.6", alpha=0.8, zorder=2.5)
+_LOST_ROW: dict[str, Any] = dict(facecolor="0.93", edgecolor="0.6", hatch="//", zorder=1.5)
+"""A lost agent's row from ``K`` on: hatched, beneath its bars (the service the monitor still
+counts where it stays)."""
 _LOST_TEXT: dict[str, Any] = dict(
     ha="center", va="center", fontsize=8, style="italic", color="0.25", zorder=3
 )
@@ -171,7 +173,8 @@ def replan_handles(problem: Problem) -> list[Artist]:
 
 def timeline_marks(ax, problem: Problem, rows: Mapping[str, int]) -> list[Artist]:
     """On the timeline ``ax``: the executed steps shaded, a dashed line at ``K`` and each lost
-    agent's row greyed from ``K`` on (``rows``: agent -> row); returns the legend entries."""
+    agent's row hatched from ``K`` on beneath its bars, the service the monitor still counts
+    where it stays (``rows``: agent -> row); returns the legend entries."""
     past = problem.past
     if past is None:
         return []
@@ -186,5 +189,5 @@ def timeline_marks(ax, problem: Problem, rows: Mapping[str, int]) -> list[Artist
         Line2D([], [], label=f"replan at step {K}", **_REPLAN_LINE),
     ]
     if past.lost:
-        handles.append(Patch(label="lost agent: greyed from the replan", **_LOST_ROW))
+        handles.append(Patch(label="lost agent: hatched from the replan", **_LOST_ROW))
     return handles

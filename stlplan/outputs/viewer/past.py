@@ -2,7 +2,7 @@
 (:mod:`stlplan.outputs.plots.past`): each path's executed part solid and its new plan dashed, a
 ring at each agent's place at the replan's step ``K``, a cross where a lost agent stays, each
 closed region hatched, and on the timeline the executed steps shaded, a line at ``K`` and each
-lost agent's row greyed from ``K`` on."""
+lost agent's row greyed from ``K`` on, beneath its bars."""
 
 from __future__ import annotations
 
@@ -99,8 +99,8 @@ def _closed_trace(vertices: np.ndarray, name: str, spacing: float) -> go.Scatter
 
 def timeline_marks(problem: Problem, rows: Mapping[str, int]) -> tuple[list[dict], list[dict]]:
     """The timeline's shapes and annotations of a replan (none without a past): the executed
-    steps shaded, a line at ``K`` and each lost agent's row greyed from ``K`` on (``rows``:
-    agent -> row)."""
+    steps shaded, a line at ``K`` and each lost agent's row greyed from ``K`` on, beneath its
+    bars (``rows``: agent -> row)."""
     past = problem.past
     if past is None:
         return [], []
@@ -112,7 +112,12 @@ def timeline_marks(problem: Problem, rows: Mapping[str, int]) -> tuple[list[dict
     ]
     replan = dict(text=f"<b>replan at step {K}</b>", x=K, y=top, yanchor="bottom")
     notes = [_note(**replan, font=dict(size=11, color=INK))]
-    greyed = dict(fillcolor="rgba(230,230,230,0.85)", line=dict(color="#999", width=1))
+    # beneath the bars: the service a lost agent still gives where it stays is drawn as counted
+    greyed = dict(
+        fillcolor="rgba(200,200,200,0.35)",
+        line=dict(color="#999", width=1, dash="dot"),
+        layer="below",
+    )
     for name in sorted(past.lost):
         y = rows[name]
         shapes.append(_on_timeline("rect", (K, H + 0.6, y - 0.5, y + 0.5), **greyed))
