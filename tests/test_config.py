@@ -95,7 +95,7 @@ def test_the_strategy_line_follows_the_configuration() -> None:
     assert "; plan first if >= 10 agents, improved by elements)" in line
     unimproved = describe(PlannerConfig().with_overrides({"parts.improve_share": None}))
     assert "; plan first if >= 10 agents)" in unimproved
-    assert ", tasks kept if round >= 4 s with a plan)" in line
+    assert "tasks kept" not in line  # (no repair once a plan meets every requirement)
     assert "lazy rounds(direct, by elements before a first plan, repair in turn" in line
     assert "merge: prioritized or by elements before a first plan, in turn" in line
     off = describe(PlannerConfig().with_overrides({"repair.by_elements": None}))
@@ -107,7 +107,6 @@ def test_the_strategy_line_follows_the_configuration() -> None:
             {
                 "repair.crowd_agents": None,
                 "parts.plan_first_agents": None,
-                "repair.tasks_kept_seconds": None,
             }
         )
     )

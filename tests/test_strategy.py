@@ -174,7 +174,7 @@ def test_a_strict_retry_out_of_time_keeps_the_first_plan(
 
 
 def test_the_policy_names_the_repairs_and_their_shares() -> None:
-    from stlplan.planner.core.repairs import HeldRepair, InTurnRepair, TasksKeptRepair
+    from stlplan.planner.core.repairs import HeldRepair, InTurnRepair
     from stlplan.planner.first_plan.by_elements import ElementsRepair
     from stlplan.planner.first_plan.hooks import PrioritizedRepair
 
@@ -194,15 +194,6 @@ def test_the_policy_names_the_repairs_and_their_shares() -> None:
     assert alone.round_repairs(1.0, 2, first=True) == ((InTurnRepair(), share),)
     assert policy.round_repairs(10.0, 1, first=True) == ((InTurnRepair(), share),)
     assert policy.round_repairs(1.0, 1, first=True) == ()  # (one agent: the next round)
-    # once a plan meets every requirement, a long round's plan with its task decisions kept
-    kept = EXACT.repair.tasks_kept_seconds
-    assert kept is not None and kept > 0.1
-    tasks_kept = ((TasksKeptRepair(), EXACT.repair.share),)
-    assert policy.round_repairs(kept, 1, proving=True) == tasks_kept
-    assert policy.round_repairs(kept - 0.1, 9, proving=True) == ()  # (a crowd: not in a proof)
-    assert policy.round_repairs(100.0, 2, first=True, proving=True) == ()
-    off = policy_of(EXACT.with_overrides({"repair.tasks_kept_seconds": None}))
-    assert off.round_repairs(100.0, 9, proving=True) == ()
     crowd = EXACT.repair.crowd_agents
     assert crowd is not None
     assert [r.describe() for r, _ in policy.merge_repairs(crowd)] == [

@@ -44,14 +44,6 @@ class RepairConfig(Section):
     """The same share in a loop that looks for its first plan only (the repair is its way to
     a plan; the next round, a relaxation, rarely gives one). Measured:
     docs/measurements.md#a-first-plan-under-a-short-time-limit."""
-    tasks_kept_seconds: float | None = Field(default=4.0, ge=0)
-    """Once a plan meets every requirement, a lazy round of at least this long whose plan breaks
-    requirements has that plan repaired with its task decisions kept (every binary but the lazy
-    requirements' held), within ``repair.share`` of the time left (None: never). Measured:
-    docs/performance.md#a-rounds-plan-with-its-task-decisions-kept."""
-    tasks_kept_gap: float = Field(default=1e-6, ge=0)
-    """Relative gap of that repair's solves: its plan should be the optimum of the problem with
-    the round's task decisions, the closest it can come to the round's bound."""
     solves_per_turn: int = Field(default=10, ge=1)
     """Solves of one agent's turn at most (each after adding what the last plan violated)."""
     window: int | None = Field(default=None, ge=0)

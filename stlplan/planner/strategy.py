@@ -89,10 +89,9 @@ class LazyRounds:
         return LazySolver(pm, config, clock, self.policy, whole)
 
     def describe(self) -> str:
-        triggers, kept = self.policy.describe(), self.policy.repair.tasks_kept_seconds
+        triggers = self.policy.describe()
         in_turn = f", repair in turn if {triggers}" if triggers else ""
-        tasks = "" if kept is None else f", tasks kept if round >= {kept:g} s with a plan"
-        return f"lazy rounds(direct{_by_elements(self.policy)}{in_turn}{tasks})"
+        return f"lazy rounds(direct{_by_elements(self.policy)}{in_turn})"
 
 
 def build_strategy(config: PlannerConfig) -> Strategy:

@@ -1,7 +1,7 @@
 """Where the large-team first-plan heuristics plug into the proof path.
 
 The proof path (this package) is complete on its own: with no hooks, a run proves its optimum
-by lazy rounds, parts, merges and the repairs in turn, held and with the tasks kept. The
+by lazy rounds, parts, merges and the repairs in turn and held. The
 heuristics that only look for a large team's first plan (:mod:`stlplan.planner.first_plan`)
 come in through one :class:`FirstPlanHooks` object, which only :mod:`stlplan.planner.strategy`
 builds: it hands it to the :class:`~stlplan.planner.core.policy.RepairPolicy` (their repairs)

@@ -249,16 +249,14 @@ class LazySolver:
 
     def _repair_between_rounds(self, bad: list[int], budget: Budget, seconds: float) -> None:
         """Repair the round's plan (which violates ``bad``) in turn while no plan meets every
-        requirement and the round (of ``seconds``) was long or crowded, or with its task
-        decisions kept once one does and the round was long (the repair policy; never in a
-        trial's rounds); the watch keeps the repaired plan. The violated requirements are added
+        requirement and the round (of ``seconds``) was long or crowded (the repair policy);
+        the watch keeps the repaired plan. The violated requirements are added
         after it, for the next round (none when no round follows)."""
         pm, watch = self.pm, self.watch
         assert watch is not None
-        proving = watch.best is not None
-        if proving and self.trial:
+        if watch.best is not None:  # a plan meets every requirement: the rounds prove
             return
-        repairs = self.policy.round_repairs(seconds, len(agents_of(pm, bad)), watch.first, proving)
+        repairs = self.policy.round_repairs(seconds, len(agents_of(pm, bad)), watch.first)
         for repair, share in repairs:
             plan = repair.repair(Broken(self, bad), self.config, budget.share(share))
             if plan is not None:

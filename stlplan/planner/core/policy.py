@@ -25,9 +25,7 @@ The prioritized repair and the repair by elements are the first-plan heuristics'
 (:class:`FirstPlanRepairs`, :mod:`stlplan.planner.core.hooks`): a policy without them names
 neither.
 
-Once a plan meets every requirement, a lazy round that took ``repair.tasks_kept_seconds`` or
-longer has its plan repaired with its task decisions kept, within ``repair.share`` of the time
-left.
+Once a plan meets every requirement, no round's plan is repaired: the rounds prove.
 """
 
 from __future__ import annotations
@@ -38,7 +36,7 @@ from typing import Protocol
 from stlplan.mission.problem import Problem
 from stlplan.planner.config import PartsConfig, PlannerConfig
 from stlplan.planner.config_repair import RepairConfig
-from stlplan.planner.core.repairs import HeldRepair, InTurnRepair, Repair, TasksKeptRepair
+from stlplan.planner.core.repairs import HeldRepair, InTurnRepair, Repair
 
 Planned = tuple[tuple[Repair, float], ...]
 """Repairs to try in order, each with its share of the time left when it starts."""
@@ -85,15 +83,11 @@ class RepairPolicy:
         )
         return max(gap, by_elements_gap if chooses else 0.0)
 
-    def round_repairs(
-        self, seconds: float, agents: int, first: bool = False, proving: bool = False
-    ) -> Planned:
+    def round_repairs(self, seconds: float, agents: int, first: bool = False) -> Planned:
         """The repairs of a lazy round of ``seconds`` whose violations name ``agents``, in a
         loop that looks for its first plan only when ``first`` (then any round that names two
         agents or more, within ``first_plan_share`` of its time
-        left); once a plan meets every requirement (``proving``), :meth:`proof_repairs`."""
-        if proving:
-            return self.proof_repairs(seconds, first)
+        left). None once a plan meets every requirement: the loop does not ask then."""
         before_plan = first and agents >= 2
         repaired = self.after_round(seconds, agents) or before_plan
         share = self.repair.first_plan_share if first else self.repair.share
@@ -103,13 +97,6 @@ class RepairPolicy:
         if before_plan and self.repair.by_elements is not None and hooks is not None:
             return (hooks.by_elements(), self.repair.by_elements), (InTurnRepair(), share)
         return ((InTurnRepair(), share),)
-
-    def proof_repairs(self, seconds: float, first: bool) -> Planned:
-        """The repairs of a lazy round of ``seconds`` once a plan meets every requirement (none
-        in a loop that looks for its first plan only)."""
-        limit = self.repair.tasks_kept_seconds
-        kept = not first and limit is not None and seconds >= limit
-        return ((TasksKeptRepair(), self.repair.share),) if kept else ()
 
     def merge_repairs(
         self, agents: int, largest: int = 1, team: int | None = None, first: bool = False

@@ -12,10 +12,6 @@ requirement, or None). Two repairs here, and two of the first-plan heuristics
   collisions name held near the parts' plans (``repair.hold``), a small problem: to the run's
   gap first, then, without a plan, to the repair's gap (``repair.gap``: its bound bounds only
   the held problem).
-
-Once a plan meets every requirement, a long round's plan (its relaxation's optimum) is
-repaired with its task decisions kept (:class:`TasksKeptRepair`): a plan near the round's bound
-that meets every requirement may close the gap without another round.
 """
 
 from __future__ import annotations
@@ -30,11 +26,9 @@ from stlplan.planner.backend.values import load_values, model_values
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.core.around import Publisher
 from stlplan.planner.core.assembly import hold_plans
-from stlplan.planner.core.completion import hold_decisions
-from stlplan.planner.core.in_turn import Held, InTurn, release
+from stlplan.planner.core.in_turn import InTurn, release
 from stlplan.planner.core.watch import Watch, loaded_plan
-from stlplan.planner.encoding.deferred import neighbours
-from stlplan.planner.encoding.model import PlanModel, add_requirements
+from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
 from stlplan.planner.run.outcome import Outcome, Plan
@@ -183,40 +177,3 @@ def _held_runs(solver: Rounds, config: PlannerConfig, budget: Budget) -> Outcome
             return found
     with solver.session.looking_for_a_plan(config.repair.gap):
         return solver.run(budget, trial=True)
-
-
-@dataclass(frozen=True)
-class TasksKeptRepair:
-    """The round's plan with its task decisions kept: every binary but those of the lazy
-    requirements held at the plan's value, the requirements it violates added, and the model
-    solved in a trial of the loop to ``repair.tasks_kept_gap`` (the kept problem's optimum, not
-    a plan within the run's gap of its own bound); the watch keeps the plans that meet every
-    requirement. Each agent's path, and the side of every requirement, may change."""
-
-    def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
-        solver = broken.solver
-        pm, watch, session = solver.pm, solver.watch, solver.session
-        assert watch is not None and pm.deferral is not None  # a lazy loop's plan
-        before = watch.best
-        add_requirements(pm, neighbours(pm.deferral.lazy, broken.bad, config.lazy.window))
-        held = _hold_task_decisions(pm)
-        settings, gaps = session.solver.config, (watch.gap, session.solver.config.rel_gap)
-        trials = solver.trial, session.trial
-        watch.gap = settings.rel_gap = config.repair.tasks_kept_gap
-        with solver.clock.reached.within("tasks kept"):
-            try:
-                solver.run(budget, trial=True)
-            finally:
-                release(held)
-                watch.gap, settings.rel_gap = gaps
-                solver.trial, session.trial = trials
-        return watch.best if watch.best is not before else None
-
-    def describe(self) -> str:
-        return "tasks kept"
-
-
-def _hold_task_decisions(pm: PlanModel) -> Held:
-    """Hold every binary of ``pm`` with a loaded value at it, but the lazy requirements'."""
-    lazy = {id(v) for part in pm.parts.values() for v in (*part.binaries, *part.indicators)}
-    return hold_decisions(pm, model_values(pm.model), frozenset(lazy))

@@ -40,7 +40,6 @@ STAGES = {
     "repair in turn": "the repair in turn",
     "repair around later plans": "the repair around the plans of the parts done after it",
     "held repair": "the held repair",
-    "tasks kept": "the repair of a round's plan with its task decisions kept",
     "tightening": "the tightening of its bound",
     "assembly": "the assembly of the parts' plans",
     "improvement by elements": "the improvement of the first plan element by element",
