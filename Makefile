@@ -22,8 +22,8 @@ install: $(STAMP)  ## Create .venv and install stlplan with its development tool
 farm: $(STAMP)  ## Solve the shipped farm mission (Case I) into out/farm
 	$(BIN)/stlplan solve missions/farm.yaml --out $(OUT)
 
-TEST_WORKERS ?= 1
-test: $(STAMP)  ## Run the test suite (without the slow solves) on TEST_WORKERS processes (1; 2 halves the time), listing the 15 slowest tests
+TEST_WORKERS ?= 2
+test: $(STAMP)  ## Run the test suite (without the slow solves) on TEST_WORKERS processes (2), listing the 15 slowest tests
 	$(BIN)/pytest -q -m "not slow" -n $(TEST_WORKERS) --durations=15
 
 test-slow: $(STAMP)  ## Run only the slow tests (full farm solves, the STL suite against its reference)
