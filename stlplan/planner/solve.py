@@ -267,7 +267,10 @@ def step1_message(step1: Outcome, config: PlannerConfig, clock: Clock) -> str:
             else f"a plan, not proven optimal: HiGHS stopped ({step1.stop}; {where})"
         ),
         PlanStatus.INFEASIBLE: "the tasks and constraints cannot be met together",
-        PlanStatus.NO_PLAN: f"no plan found within the time limit of {config.solver.time_limit:g} s",
+        PlanStatus.NO_PLAN: (
+            f"no plan found within the time limit of {config.solver.time_limit:g} s: give it "
+            "more time (--time-limit) or ask for a first plan only (--first-plan)"
+        ),
         PlanStatus.ERROR: f"HiGHS failed: {step1.stop}",
         PlanStatus.INTERRUPTED: f"the best plan found before the stop request ({where})",
         PlanStatus.INTERRUPTED_NO_PLAN: "interrupted before a plan meeting every requirement was found",
@@ -276,18 +279,24 @@ def step1_message(step1: Outcome, config: PlannerConfig, clock: Clock) -> str:
 
 
 def _without_plan(step1: Outcome, clock: Clock) -> str:
-    """Why a step 1 without a plan ended so, and how far it got (empty for a verdict)."""
-    text = ""
+    """What a user may need to know of a step 1 without a plan beyond its status: a verdict of
+    infeasibility left unconfirmed (how far it got is among the run's events)."""
     if "undecided" in [c.outcome for c in clock.confirmations]:
-        text += " (HiGHS said infeasible, but a confirmation solve ended without a verdict)"
-    if step1.completed:
-        text += (
-            "; at the time limit the last round's plan violated requirements that its "
-            "decisions, fixed, cannot meet"
+        return " (HiGHS said infeasible, but a confirmation solve ended without a verdict)"
+    return ""
+
+
+def _how_far(step1: Outcome, clock: Clock) -> list[str]:
+    """How far a step 1 without a plan got, for the run's events (none for a verdict)."""
+    found = []
+    if step1.completed and not step1.status.has_plan:
+        found.append(
+            "at the time limit the last round's plan violated requirements that its decisions, "
+            "fixed, cannot meet"
         )
     if step1.status in _UNFINISHED:
-        text += f"; {clock.reached.describe()}"
-    return text
+        found.append(f"step 1 ended without a plan: {clock.reached.describe()}")
+    return found
 
 
 _UNFINISHED = (PlanStatus.NO_PLAN, PlanStatus.INTERRUPTED_NO_PLAN, PlanStatus.ERROR)
@@ -323,6 +332,7 @@ def run_events(
         events.append(line)
     if step1.completed and step1.status.has_plan:
         events.append("the last round's plan completed with its step-1 decisions fixed")
+    events += _how_far(step1, clock)
     overturned = [c for c in clock.confirmations if c.outcome == "overturned"]
     if overturned:
         events.append(f"{len(overturned)} infeasible verdict(s) of HiGHS overturned by a check")
