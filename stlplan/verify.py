@@ -28,6 +28,7 @@ from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.planner.run.outcome import gap_words, relative_gap
 from stlplan.result import (
+    Assignment,
     Dropped,
     MonitorReport,
     PlanResult,
@@ -105,6 +106,7 @@ def reported(problem: Problem, result: PlanResult, report: MonitorReport, gap: f
     said = gap_words(result.gap, result.bound)  # the message speaks of the written plan too
     out = dataclasses.replace(
         result,
+        assignments=tuple(_monitors_run(a, report) for a in result.assignments),
         objective=objective,
         gap=gap_of_plan,
         message=result.message.replace(said, gap_words(gap_of_plan, result.bound)),
@@ -125,6 +127,23 @@ def reported(problem: Problem, result: PlanResult, report: MonitorReport, gap: f
         }
         out = dataclasses.replace(out, fallback=dataclasses.replace(out.fallback, cost=cost))
     return out
+
+
+def _monitors_run(assignment: Assignment, report: MonitorReport) -> Assignment:
+    """A synchronous task's assignment with the run the monitor names (its longest, the
+    earliest of those, of the group that keeps it), so the task line and the monitor's table
+    name one run; the solver may have counted a shorter one (a run capped at gamma, agents
+    starting in the region)."""
+    verdict = next((v for v in report.verdicts if v.name == assignment.task), None)
+    if verdict is None or verdict.kind != "synchronous" or verdict.run_start is None:
+        return assignment
+    return dataclasses.replace(
+        assignment,
+        group=verdict.group or assignment.group,
+        rho_s=verdict.rho_s,
+        run_start=verdict.run_start,
+        run_length=verdict.run_length,
+    )
 
 
 def _plan_gap(result: PlanResult, objective: float | None) -> float | None:

@@ -8,6 +8,7 @@ import re
 from pathlib import Path
 
 import pytest
+import yaml
 from rich.console import Console
 from typer.testing import CliRunner
 
@@ -137,3 +138,21 @@ def test_the_status_block_tells_one_story_in_figures_as_they_mean() -> None:
         "reading and writing 1.38 s" in lines
     )
     assert _longest_figure("\n".join(lines)) <= 6
+
+
+def test_the_task_line_and_the_monitor_name_one_synchronized_run(tmp_path: Path) -> None:
+    # agents starting in the goal, their run counted up to gamma = 1: the solver needs only a
+    # short run, the plan keeps a longer one, and both lines name the monitor's
+    data = yaml.safe_load((MISSIONS / "sync-pair.yaml").read_text(encoding="utf-8"))
+    for agent, start in zip(data["agents"], ([4.5, 1.5, 0, 0], [5.0, 2.5, 0, 0]), strict=True):
+        agent["initial_state"] = start
+    data["tasks"]["meet"]["synchronous"].update(within=[0, 5], gamma=1)
+    mission = tmp_path / "in-goal.yaml"
+    mission.write_text(yaml.safe_dump(data), encoding="utf-8")
+    _, result = api.plan(mission, overrides=Overrides(threads=1))
+    assert result.report is not None and result.report.satisfied
+    (meet,) = result.assignments
+    verdict = result.report.verdict("meet")
+    assert (meet.run_start, meet.run_length) == (verdict.run_start, verdict.run_length) == (0, 9)
+    assert meet.rho_s == verdict.rho_s == result.rho_s["meet"]
+    assert result.solver is not None and result.solver.rho_s["meet"] <= verdict.rho_s
