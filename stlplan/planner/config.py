@@ -152,7 +152,7 @@ class BudgetConfig(_Section):
     written."""
     min_solve_seconds: float = Field(default=1.0, gt=0)
     """Every solve, and every confirmation of an infeasible verdict, may run at least this long,
-    even when the budget is spent."""
+    even when the budget is spent (or the grace, when a short time limit makes that smaller)."""
 
 
 class ContinuousConfig(_Section):

@@ -32,7 +32,7 @@ from pyomo.environ import ConcreteModel
 from stlplan.planner.backend import confirm, uncaptured
 from stlplan.planner.backend.values import ColumnKeys
 from stlplan.planner.config import PlannerConfig
-from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.budget import Budget, least_solve
 from stlplan.planner.run.clock import Clock, Phase
 from stlplan.planner.run.outcome import Plan, of_solve
 from stlplan.result import PlanStatus
@@ -298,9 +298,9 @@ class HighsSession:
 
     def solve_once(self, seconds: float, settings: confirm.Settings | None = None) -> Results:
         """One HiGHS solve through Pyomo within ``seconds`` (at least
-        ``budget.min_solve_seconds``), with extra options."""
+        one least solve, :func:`~stlplan.planner.run.budget.least_solve`), with extra options."""
         config = self.solver.config
-        config.time_limit = max(self.config.budget.min_solve_seconds, seconds)
+        config.time_limit = max(least_solve(self.config), seconds)
         self._fresh = True
         use_threads(self.config.solver.used_threads())
         usual = config.solver_options
@@ -339,7 +339,7 @@ class HighsSession:
             self.config.solver.seed,
             budget.remaining,
             where,
-            self.config.budget.min_solve_seconds,
+            least_solve(self.config),
         )
         self.clock.confirmations.append(confirmation)
         return last[0]

@@ -45,7 +45,7 @@ from stlplan.planner.core.watch import Watch, load_plan, pending_violations
 from stlplan.planner.encoding.deferred import kind, neighbours
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.run import outcome
-from stlplan.planner.run.budget import Budget
+from stlplan.planner.run.budget import Budget, least_solve
 from stlplan.planner.run.clock import Clock
 from stlplan.planner.run.outcome import Outcome, Plan, lowest, relative_gap
 from stlplan.result import PlanStatus
@@ -79,7 +79,7 @@ class LazySolver:
     ) -> None:
         self.pm, self.config, self.clock, self.whole = pm, config, clock, whole
         self.policy = policy or RepairPolicy.of(config)
-        self.min_solve = config.budget.min_solve_seconds
+        self.min_solve = least_solve(config)
         self.session = HighsSession(pm.model, config, clock, "step1")
         self.watch: Watch | None = None
         if pm.deferral is not None:

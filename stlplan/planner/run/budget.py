@@ -11,8 +11,9 @@ deadline; a stage or strategy that shares its time out hands each piece a child 
 * :meth:`Budget.finishing`: to the run's deadline plus its grace, for the solves that turn a
   plan already found into the one written (step 2, a completion, the assembly).
 
-A child never ends after its parent. Every solve runs at least ``budget.min_solve_seconds``
-(:meth:`Budget.limit`); :meth:`Budget.expired` says when less than that is left. The budgets of
+A child never ends after its parent. Every solve runs at least one least solve
+(:func:`least_solve`: ``budget.min_solve_seconds``, or the grace when a short time limit's is
+smaller, so that a run ends within its time limit and grace; :meth:`Budget.limit`); :meth:`Budget.expired` says when less than that is left. The budgets of
 one run share a ledger of the seconds each stage spent (:meth:`Budget.stage`), which
 ``summary.json`` records.
 """
@@ -26,6 +27,20 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 from stlplan.planner.config import BudgetConfig, PlannerConfig
+
+
+def grace_of(config: PlannerConfig) -> float:
+    """How long the finishing solves may run past the deadline: ``budget.grace_share`` of the
+    time limit, at most ``budget.grace_max_seconds``."""
+    settings = config.budget
+    return min(settings.grace_max_seconds, settings.grace_share * config.solver.time_limit)
+
+
+def least_solve(config: PlannerConfig) -> float:
+    """The least time limit of one solve: ``budget.min_solve_seconds``, or the grace when it is
+    smaller (a time limit under ``min_solve_seconds / grace_share``, 10 s by default), so that no
+    solve started at the deadline runs past the grace."""
+    return min(config.budget.min_solve_seconds, grace_of(config))
 
 
 @dataclass(frozen=True)
@@ -53,16 +68,15 @@ class Budget:
     def for_run(cls, config: PlannerConfig, deadline: float | None = None) -> Budget:
         """The budget of a run starting now: ``solver.time_limit`` (or to ``deadline`` when
         earlier), with the grace of ``budget.grace_share`` and ``budget.grace_max_seconds``."""
-        now, limit, settings = time.perf_counter(), config.solver.time_limit, config.budget
+        now, limit = time.perf_counter(), config.solver.time_limit
         end = now + limit if deadline is None else min(deadline, now + limit)
-        grace = min(settings.grace_max_seconds, settings.grace_share * limit)
-        return cls(end, end + grace, settings.min_solve_seconds)
+        return cls(end, end + grace_of(config), least_solve(config))
 
     @classmethod
     def of_seconds(cls, seconds: float, config: PlannerConfig | None = None) -> Budget:
         """A budget of ``seconds`` from now, no grace (a solve outside a planning run)."""
         end = time.perf_counter() + seconds
-        return cls(end, end, (config or PlannerConfig()).budget.min_solve_seconds)
+        return cls(end, end, least_solve(config or PlannerConfig()))
 
     def remaining(self) -> float:
         """Seconds left (negative once the deadline has passed)."""
