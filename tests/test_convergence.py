@@ -205,7 +205,7 @@ def test_the_trials_ran_and_would_have_leaked(guarded: list[str]) -> None:
         follow(highs, lambda: False, recorder, plans)
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr("stlplan.planner.core.lazy.follow", careless)
+        patch.setattr("stlplan.planner.backend.session.follow", careless)
         plan(crossing_problem(), EXACT.with_overrides({"repair.after_round_seconds": 0.0}))
     assert any("trial" in leak for leak in guarded)
 

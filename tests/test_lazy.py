@@ -317,18 +317,16 @@ def test_the_best_sides_at_once_take_the_first_of_equal_half_planes() -> None:
 def test_a_lent_session_solves_without_the_loops_watch_and_gets_it_back() -> None:
     config = PlannerConfig()
     solver = LazySolver(build_model(swap_problem(0.5, horizon=3), config), config, Clock(0.0, None))
-    highs, usual = solver.session.highs, solver.session.solver.config.rel_gap
+    usual, watch = solver.session.rel_gap, solver.watch
+    assert watch is not None and solver.session.listening(watch.on_plan, watch.maybe_stop)
     with pytest.raises(RuntimeError), solver.lent(0.05) as session:
         assert session is solver.session and session.trial
-        assert session.solver.config.rel_gap == max(0.05, usual)
-        assert solver.watch is not None
-        assert solver.watch.on_plan not in highs.cbMipImprovingSolution.callbacks
-        assert solver.watch.maybe_stop not in highs.cbMipInterrupt.callbacks
+        assert session.rel_gap == max(0.05, usual)
+        assert not session.listening(watch.on_plan, watch.maybe_stop)
         session.solve(Budget.of_seconds(10.0))  # a plan, without offering it to the watch
         assert solver.watch.best is None
         raise RuntimeError  # the session comes back however the block ends
-    assert solver.watch.on_plan in highs.cbMipImprovingSolution.callbacks
-    assert solver.watch.maybe_stop in highs.cbMipInterrupt.callbacks
-    assert not solver.session.trial and solver.session.solver.config.rel_gap == usual
+    assert solver.session.listening(watch.on_plan, watch.maybe_stop)
+    assert not solver.session.trial and solver.session.rel_gap == usual
     assert solver.run(Budget.of_seconds(10.0)).objective is not None
     assert solver.watch.best is not None  # the loop's own solves offer their plans again

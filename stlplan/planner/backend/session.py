@@ -30,6 +30,7 @@ from pyomo.contrib.solver.solvers.highs import Highs
 from pyomo.environ import ConcreteModel
 
 from stlplan.planner.backend import confirm, uncaptured
+from stlplan.planner.backend.progress import follow
 from stlplan.planner.backend.values import ColumnKeys
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.run.budget import Budget, least_solve
@@ -43,6 +44,34 @@ SolverEvent = highspy.HighsCallbackEvent
 
 Listener = Callable[[SolverEvent], None]
 """What HiGHS calls during a MIP search, with the event."""
+
+
+@dataclass(frozen=True)
+class Searching:
+    """A MIP search's news, as the planner reads it whatever the solver: its bound, an improving
+    plan's objective and point (HiGHS's column vector, by :attr:`HighsSession.keys`) when it
+    found one, and a way to stop the search."""
+
+    bound: float
+    objective: float | None = None
+    point: np.ndarray | None = None
+    stop: Callable[[], None] = lambda: None
+
+
+Heard = Callable[[Searching], None]
+"""What the planner does with a search's news."""
+
+
+def _searching(event: SolverEvent, found: bool) -> Searching:
+    """HiGHS's ``event`` as the planner reads it (``found``: an improving plan's event)."""
+    out = event.data_out
+    return Searching(
+        float(out.mip_dual_bound),
+        float(out.objective_function_value) if found else None,
+        np.array(out.mip_solution) if found else None,
+        event.interrupt,
+    )
+
 
 _STATUS: dict[TerminationCondition, tuple[PlanStatus, PlanStatus]] = {
     # termination condition: (status with a plan, status without one)
@@ -194,6 +223,7 @@ class HighsSession:
         """Whether an infeasible verdict is taken as it is (a trial solve, whose verdict decides
         nothing about the mission)."""
         self._start: tuple[np.ndarray, np.ndarray] | None = None
+        self._listeners: dict[tuple[Heard, Heard], tuple[Listener, Listener]] = {}
         self.keys = ColumnKeys(model, self.columns)
         """The key of each HiGHS column (plans are values by key)."""
         self.highs.cbMipUserSolution.subscribe(self._give_start)
@@ -206,16 +236,57 @@ class HighsSession:
             callbacks.subscribe(self._stop_if_asked)
         _watch(self.highs, clock, phase)
 
-    def listen(self, on_plan: Listener, on_progress: Listener) -> None:
-        """Call ``on_plan`` at every improving plan of HiGHS's MIP search and ``on_progress``
-        at its regular interrupt checks (until :meth:`unlisten`)."""
-        self.highs.cbMipImprovingSolution.subscribe(on_plan)
-        self.highs.cbMipInterrupt.subscribe(on_progress)
+    def listen(self, on_plan: Heard, on_progress: Heard) -> None:
+        """Call ``on_plan`` at every improving plan of the MIP search and ``on_progress`` at
+        its regular checks (until :meth:`unlisten`)."""
+        plan, progress = self._listeners.setdefault(
+            (on_plan, on_progress),
+            (lambda e: on_plan(_searching(e, True)), lambda e: on_progress(_searching(e, False))),
+        )
+        self.highs.cbMipImprovingSolution.subscribe(plan)
+        self.highs.cbMipInterrupt.subscribe(progress)
 
-    def unlisten(self, on_plan: Listener, on_progress: Listener) -> None:
+    def unlisten(self, on_plan: Heard, on_progress: Heard) -> None:
         """Stop calling what :meth:`listen` gave."""
-        self.highs.cbMipImprovingSolution.unsubscribe(on_plan)
-        self.highs.cbMipInterrupt.unsubscribe(on_progress)
+        plan, progress = self._listeners[(on_plan, on_progress)]
+        self.highs.cbMipImprovingSolution.unsubscribe(plan)
+        self.highs.cbMipInterrupt.unsubscribe(progress)
+
+    def listening(self, on_plan: Heard, on_progress: Heard) -> bool:
+        """Whether the search's news go to ``on_plan`` and ``on_progress`` (:meth:`listen`)."""
+        heard = self._listeners.get((on_plan, on_progress))
+        return heard is not None and (
+            heard[0] in self.highs.cbMipImprovingSolution.callbacks
+            and heard[1] in self.highs.cbMipInterrupt.callbacks
+        )
+
+    def set_gaps(self, rel: float | None = None, abs_gap: float | None = None) -> None:
+        """The relative gap at which solves stop (None keeps it), or the absolute one alone
+        (``abs_gap``: the relative one is then 0)."""
+        settings = self.solver.config
+        if abs_gap is not None:
+            settings.abs_gap, settings.rel_gap = abs_gap, 0.0
+        elif rel is not None:
+            settings.rel_gap = rel
+
+    @property
+    def rel_gap(self) -> float:
+        """The relative gap at which solves stop."""
+        return float(self.solver.config.rel_gap or 0.0)
+
+    def first_plan_only(self) -> None:
+        """Stop each solve at its first improving plan (a model holding every requirement:
+        that plan meets them all)."""
+        options = self.solver.config.solver_options
+        self.solver.config.solver_options = {**options, "mip_max_improving_sols": 1}
+
+    def last_point(self) -> np.ndarray:
+        """The point the last solve ended at (HiGHS's column vector; empty without one)."""
+        return np.asarray(self.highs.getSolution().col_value)
+
+    def follow(self, trial: Callable[[], bool], recorder: Clock, plans: bool) -> None:
+        """Record the whole problem's figures while it solves (:func:`~.progress.follow`)."""
+        follow(self.highs, trial, recorder, plans)
 
     def _stop_if_asked(self, event: highspy.HighsCallbackEvent) -> None:
         """Interrupt HiGHS when the user asked to stop (:mod:`stlplan.runtime.signals`)."""

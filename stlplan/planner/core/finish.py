@@ -151,9 +151,8 @@ def _held_rows(pm: PlanModel, enforced: list[Enforced], config: PlannerConfig) -
 
 def _target(session: HighsSession, model: ConcreteModel) -> dict[Any, float] | None:
     """The inputs of the point HiGHS ended at, by key of ``model.u`` (None without one)."""
-    highs = session.highs
     columns = session.columns()
-    point = highs.getSolution().col_value
+    point = session.last_point()
     if len(point) == 0 or any(id(u) not in columns for u in model.u.values()):
         return None
     return {key: float(point[columns[id(u)]]) for key, u in model.u.items()}

@@ -33,7 +33,6 @@ from collections.abc import Callable, Iterator
 
 from pyomo.contrib.solver.common.results import TerminationCondition
 
-from stlplan.planner.backend.progress import follow
 from stlplan.planner.backend.session import HighsSession, Solved, has_solution, plan_status
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.core.around import Publisher
@@ -86,19 +85,18 @@ class LazySolver:
             self.watch = Watch(pm, self.session.keys, config.solver.gap)
             self.watch.first = config.solver.first_plan
             if config.solver.first_plan:
-                self.session.solver.config.rel_gap = self._first_gap(config.solver.gap)
+                self.session.set_gaps(self._first_gap(config.solver.gap))
             self.session.listen(self.watch.on_plan, self.watch.maybe_stop)
             self.watch.found = self._kept
         elif config.solver.first_plan:  # every requirement in the model: HiGHS's first plan
-            options = self.session.solver.config.solver_options
-            self.session.solver.config.solver_options = {**options, "mip_max_improving_sols": 1}
+            self.session.first_plan_only()
         self.trial = False
         self.rounded: Callable[[], None] | None = None
         """Called at the end of every round but a trial's (the parts record the whole's bound)."""
         self.published: Publisher | None = None
         """Other parts' first plans for the repairs to plan around (:mod:`.around`)."""
         if whole:
-            follow(self.session.highs, lambda: self.session.trial, clock, pm.deferral is None)
+            self.session.follow(lambda: self.session.trial, clock, pm.deferral is None)
 
     def _kept(self, objective: float) -> None:
         """The watch kept a plan with ``objective``: credited to the stage the part is in, and
@@ -121,7 +119,7 @@ class LazySolver:
         self.watch.first = first
         gap = self.config.solver.gap
         loose = max(gap, self.config.repair.gap)
-        self.session.solver.config.rel_gap = self._first_gap(loose) if first else gap
+        self.session.set_gaps(self._first_gap(loose) if first else gap)
 
     def _first_gap(self, gap: float) -> float:
         """The gap of the rounds of a loop that looks for its first plan: ``gap``, or the looser
@@ -172,8 +170,7 @@ class LazySolver:
         """A run that is a ``trial`` or not, to the relative gap or to ``abs_gap`` alone."""
         self.trial = self.session.trial = trial
         if abs_gap is not None:  # the absolute gap alone decides
-            self.session.solver.config.abs_gap = abs_gap
-            self.session.solver.config.rel_gap = 0.0
+            self.session.set_gaps(abs_gap=abs_gap)
             if self.watch is not None:
                 self.watch.abs_gap, self.watch.gap = abs_gap, 0.0
 

@@ -15,7 +15,7 @@ import numpy as np
 from pyomo.core.base.var import VarData
 from pyomo.environ import value
 
-from stlplan.planner.backend.session import SolverEvent
+from stlplan.planner.backend.session import Searching
 from stlplan.planner.backend.values import ColumnKeys, load_values, plan_of
 from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.deferred import best_side
@@ -108,12 +108,13 @@ class Watch:
             out[agent.name] = np.array(rows)
         return out
 
-    def on_plan(self, event: SolverEvent) -> None:
+    def on_plan(self, news: Searching) -> None:
         """An improving plan: keep it when it violates no requirement left out of the model."""
-        assert self.pm.deferral is not None
-        objective = float(event.data_out.objective_function_value)
+        assert self.pm.deferral is not None and news.objective is not None
+        assert news.point is not None
+        objective = news.objective
         if self.best is None or objective > self.best.objective:
-            x = np.array(event.data_out.mip_solution)
+            x = news.point
             margin = self.pm.margin
             by_id = self.columns.columns()
             r = margin if isinstance(margin, float) else _value(margin, x, by_id)
@@ -122,7 +123,7 @@ class Watch:
             if all(n in self.pm.added for n in bad) and (self.also is None or self.also(states)):
                 values = self.columns.values(x)
                 self.offer(Plan(objective, values, frozenset(self.pm.added)))
-        self.maybe_stop(event)
+        self.maybe_stop(news)
 
     def closed(self, bound: float | None) -> bool:
         """Whether the best full plan is within the gap (relative, or absolute) of ``bound``."""
@@ -143,12 +144,11 @@ class Watch:
         """Whether the first plan is all that is asked for, and found."""
         return self.first and self.best is not None
 
-    def maybe_stop(self, event: SolverEvent) -> None:
+    def maybe_stop(self, news: Searching) -> None:
         """Interrupt the round once the best full plan is within the gap of its bound."""
-        bound = float(event.data_out.mip_dual_bound)
-        self.stopped = self.stopped or self.closed(bound) or self.done()
+        self.stopped = self.stopped or self.closed(news.bound) or self.done()
         if self.stopped:
-            event.interrupt()
+            news.stop()
 
 
 def _value(var: VarData, x: np.ndarray, by_id: Mapping[int, int]) -> float:
