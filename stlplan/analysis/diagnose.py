@@ -23,7 +23,7 @@ from collections.abc import Callable, Iterator
 import numpy as np
 
 from stlplan.analysis.decided import upper_robustness
-from stlplan.analysis.initial import Reason, initial_reasons
+from stlplan.analysis.initial import TOLERANCE, Reason, initial_reasons
 from stlplan.analysis.reach import needs, reachable_boxes
 from stlplan.formula.boundary import HOLDS_AT
 from stlplan.mission.problem import Problem, TaskModel
@@ -33,9 +33,6 @@ Feasibility = Callable[[Problem], PlanStatus]
 
 STATE_BOUNDS = "state bounds"
 """The item a reason blames when an agent's state cannot keep within its bounds."""
-
-_BOX_TOLERANCE = 1e-9
-"""A reachable box emptier than this along a component is empty (round-off aside)."""
 
 
 def _meets(problem: Problem, region: str, box_lo: np.ndarray, box_hi: np.ndarray) -> bool:
@@ -146,7 +143,7 @@ def _bounds_reasons(problem: Problem, boxes: dict) -> Iterator[Reason]:
     )
     for agent in problem.agents:
         lo, hi = boxes[agent.name]
-        empty = np.argwhere(lo > hi + _BOX_TOLERANCE)
+        empty = np.argwhere(lo > hi + TOLERANCE)
         if empty.size == 0:
             continue
         k, i = (int(v) for v in empty[0])

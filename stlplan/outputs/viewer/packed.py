@@ -17,6 +17,7 @@ import base64
 import functools
 import html
 import json
+import re
 import zlib
 from pathlib import Path
 
@@ -24,6 +25,8 @@ import plotly
 
 _SWAPS = str.maketrans("<>&", ".,:")
 """Python's base-85 characters that could open a tag or an entity, and what stands for them."""
+
+_SWAPS_BACK = str.maketrans(".,:", "<>&")
 
 _ALPHABET = (
     "0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz!#$%&()*+-;<=>?@^_`{|}~"
@@ -101,8 +104,9 @@ def page(figure_json: str, config: dict[str, object], title: str, height_px: int
 
 def unpacked(page_text: str, element_id: str) -> bytes:
     """What the script element ``element_id`` of a packed page carries (for checks)."""
-    start = page_text.index(f'id="{element_id}"')
-    length = int(page_text[page_text.index('data-length="', start) + 13 :].split('"', 1)[0])
-    text = page_text[page_text.index(">", start) + 1 : page_text.index("</script>", start)]
-    swapped_back = text.translate(str.maketrans(".,:", "<>&"))
-    return zlib.decompress(base64.b85decode(swapped_back)[:length])
+    found = re.search(rf'id="{element_id}" data-length="(\d+)">([^<]*)</script>', page_text)
+    if found is None:
+        raise ValueError(f"no packed script {element_id!r} in the page")
+    length, text = int(found.group(1)), found.group(2)
+    deflated = base64.b85decode(text.translate(_SWAPS_BACK))[:length]
+    return zlib.decompress(deflated)

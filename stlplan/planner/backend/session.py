@@ -24,13 +24,12 @@ from dataclasses import dataclass
 
 import highspy
 import numpy as np
-from highspy import cb
 from pyomo.contrib.solver.common.results import Results, SolutionStatus, TerminationCondition
 from pyomo.contrib.solver.solvers.highs import Highs
 from pyomo.environ import ConcreteModel
 
 from stlplan.planner.backend import confirm, uncaptured
-from stlplan.planner.backend.progress import follow
+from stlplan.planner.backend.progress import Heard, Listener, follow, report_progress, searching
 from stlplan.planner.backend.values import ColumnKeys
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.run.budget import Budget, least_solve
@@ -38,40 +37,6 @@ from stlplan.planner.run.clock import Clock, Phase
 from stlplan.planner.run.outcome import Plan, of_solve
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
-
-SolverEvent = highspy.HighsCallbackEvent
-"""What HiGHS reports during a search: its figures (``data_out``) and a way to stop it."""
-
-Listener = Callable[[SolverEvent], None]
-"""What HiGHS calls during a MIP search, with the event."""
-
-
-@dataclass(frozen=True)
-class Searching:
-    """A MIP search's news, as the planner reads it whatever the solver: its bound, an improving
-    plan's objective and point (HiGHS's column vector, by :attr:`HighsSession.keys`) when it
-    found one, and a way to stop the search."""
-
-    bound: float
-    objective: float | None = None
-    point: np.ndarray | None = None
-    stop: Callable[[], None] = lambda: None
-
-
-Heard = Callable[[Searching], None]
-"""What the planner does with a search's news."""
-
-
-def _searching(event: SolverEvent, found: bool) -> Searching:
-    """HiGHS's ``event`` as the planner reads it (``found``: an improving plan's event)."""
-    out = event.data_out
-    return Searching(
-        float(out.mip_dual_bound),
-        float(out.objective_function_value) if found else None,
-        np.array(out.mip_solution) if found else None,
-        event.interrupt,
-    )
-
 
 _STATUS: dict[TerminationCondition, tuple[PlanStatus, PlanStatus]] = {
     # termination condition: (status with a plan, status without one)
@@ -99,28 +64,6 @@ def plan_status(results: Results, stopped: bool = False) -> PlanStatus:
 def has_solution(results: Results) -> bool:
     """Whether HiGHS returned a primal feasible point."""
     return results.solution_status in (SolutionStatus.optimal, SolutionStatus.feasible)
-
-
-def _watch(highs: highspy.Highs, clock: Clock, phase: Phase) -> None:
-    """Report HiGHS's MIP progress to ``clock`` (callbacks on the ``highspy.Highs`` object)."""
-    if clock.progress is None:
-        return
-    last = [0.0]
-
-    def on_event(event: highspy.HighsCallbackEvent) -> None:
-        now = time.perf_counter()
-        improving = event.callback_type == cb.HighsCallbackType.kCallbackMipImprovingSolution
-        if improving or now - last[0] >= 0.5:
-            last[0] = now
-            out = event.data_out
-            found = abs(out.mip_primal_bound) < 1e30
-            incumbent = out.objective_function_value if found else None
-            clock.report(phase, incumbent, out.mip_dual_bound, out.mip_gap if found else None)
-        if clock.error is not None:
-            event.interrupt()  # the callback failed: stop HiGHS, re-raise after the solve
-
-    highs.cbMipImprovingSolution.subscribe(on_event)
-    highs.cbMipInterrupt.subscribe(on_event)
 
 
 _SCHEDULER: dict[str, int | None] = {}
@@ -234,14 +177,14 @@ class HighsSession:
             self.highs.cbIpmInterrupt,
         ):
             callbacks.subscribe(self._stop_if_asked)
-        _watch(self.highs, clock, phase)
+        report_progress(self.highs, clock, phase)
 
     def listen(self, on_plan: Heard, on_progress: Heard) -> None:
         """Call ``on_plan`` at every improving plan of the MIP search and ``on_progress`` at
         its regular checks (until :meth:`unlisten`)."""
         plan, progress = self._listeners.setdefault(
             (on_plan, on_progress),
-            (lambda e: on_plan(_searching(e, True)), lambda e: on_progress(_searching(e, False))),
+            (lambda e: on_plan(searching(e, True)), lambda e: on_progress(searching(e, False))),
         )
         self.highs.cbMipImprovingSolution.subscribe(plan)
         self.highs.cbMipInterrupt.subscribe(progress)

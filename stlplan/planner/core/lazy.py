@@ -150,7 +150,7 @@ class LazySolver:
         (no plan then).
         """
         tick, watch, first = time.perf_counter(), self.watch, len(self.clock.round_log)
-        self._set_gap(abs_gap, trial)
+        self._begin(abs_gap, trial)
         while True:
             if watch is not None:
                 watch.stopped = False  # (the session clears HiGHS's stale interrupt flag)
@@ -166,8 +166,8 @@ class LazySolver:
             if ended is not None:
                 return self._capped(ended)
 
-    def _set_gap(self, abs_gap: float | None, trial: bool) -> None:
-        """A run that is a ``trial`` or not, to the relative gap or to ``abs_gap`` alone."""
+    def _begin(self, abs_gap: float | None, trial: bool) -> None:
+        """Begin a run that is a ``trial`` or not, to the relative gap or to ``abs_gap`` alone."""
         self.trial = self.session.trial = trial
         if abs_gap is not None:  # the absolute gap alone decides
             self.session.set_gaps(abs_gap=abs_gap)

@@ -15,7 +15,7 @@ import numpy as np
 from pyomo.core.base.var import VarData
 from pyomo.environ import value
 
-from stlplan.planner.backend.session import Searching
+from stlplan.planner.backend.progress import Searching
 from stlplan.planner.backend.values import ColumnKeys, load_values, plan_of
 from stlplan.planner.encoding.alphas import violated
 from stlplan.planner.encoding.deferred import best_side
