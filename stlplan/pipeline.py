@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from stlplan.analysis.diagnose import cheap_diagnosis, cheap_reasons, diagnose
+from stlplan.analysis.recovery import restored_later, with_recoveries
 from stlplan.analysis.size import check_size
 from stlplan.degraded import degrade
 from stlplan.mission.loader import check_enumerable, load_problem
@@ -71,7 +72,7 @@ def plan(
     problem = mission if isinstance(mission, Problem) else load_problem(mission)
     problem = problem.with_inter_sample(overrides.inter_sample)
     config = PlannerConfig.from_mission(problem.mission, overrides.dotted())
-    problem = problem.robust(config.model.robust_to)
+    problem = with_recoveries(problem.robust(config.model.robust_to))
     if config.model.tasks == "groups":
         check_enumerable(problem)
     run = Budget.for_run(config)
@@ -129,7 +130,27 @@ def _when_infeasible(
     if result.status is not PlanStatus.INFEASIBLE:
         return problem, result
     with run.stage("degraded"):
-        return _degraded(problem, result, how)
+        problem, result = _degraded(problem, result, how)
+        return _restored_later(problem, result, how)
+
+
+def _restored_later(
+    problem: Problem, result: PlanResult, how: _Solving
+) -> tuple[Problem, PlanResult]:
+    """A replan infeasible even with tasks dropped, whose pairs left too close by its past are
+    apart again as soon as their reachable boxes allow: planned again (and degraded) with
+    them apart one step later each time (:func:`stlplan.analysis.recovery.restored_later`), while
+    that is infeasible and the run has time."""
+    from stlplan.planner.solve import plan as solve_plan
+
+    later = restored_later(problem)
+    while result.status is PlanStatus.INFEASIBLE and later is not None and not how.run.expired():
+        found = solve_plan(later, how.config, progress=how.progress, budget=how.run)
+        problem, result = later, found
+        if found.status is PlanStatus.INFEASIBLE:
+            problem, result = _degraded(later, found, how)
+        later = restored_later(later)
+    return problem, result
 
 
 def _infeasible_before_solving(problem: Problem) -> PlanResult | None:
@@ -214,7 +235,7 @@ def _smaller_margins(
     for n, fraction in enumerate(fractions):
         if run.expired() or signals.requested():
             break
-        smaller = problem.robust(asked * fraction)
+        smaller = with_recoveries(problem.robust(asked * fraction))
         if _infeasible_before_solving(smaller) is not None:
             continue
         found = solve(smaller, run.share(1 / (len(fractions) - n + 1)))

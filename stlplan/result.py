@@ -340,6 +340,10 @@ class PlanResult:
     """For a replan: its step, events and time (None for a plan from the initial states)."""
     dropped: tuple[Dropped, ...] = ()
     """For a degraded plan: the tasks given up, each with its reason."""
+    broken_by_the_past: tuple[str, ...] = ()
+    """For a replan: the constraints (and the separation) its executed past broke. They fail on
+    the whole trajectory, so the plan is degraded; the plan keeps them from getting worse (a
+    separation: no closer, and restored as soon as it can be)."""
     robust_to: float = 0.0
     """The disturbance bound the plan's margins withstand (``model.robust_to``; lower than asked
     when keeping every task needed smaller margins, ``diagnosis.margin_fractions``)."""

@@ -29,7 +29,6 @@ from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.planner.run.outcome import gap_words, relative_gap
 from stlplan.result import (
     Assignment,
-    Dropped,
     MonitorReport,
     PlanResult,
     PlanStatus,
@@ -181,9 +180,10 @@ def verified(problem: Problem, result: PlanResult, gap: float) -> PlanResult:
 
 
 def _broken_by_the_past(result: PlanResult, failed: list[Verdict]) -> PlanResult:
-    """``result`` degraded by the constraints the executed past broke (``failed``)."""
-    broken = tuple(Dropped(v.name, f"broken by the executed past: {v.detail}") for v in failed)
-    message = f"the executed past breaks {', '.join(v.name for v in failed)}; {result.message}"
+    """``result`` degraded by the constraints the executed past broke (``failed``, named once:
+    in the monitor's report, with what the plan did about them)."""
+    names = tuple(v.name for v in failed)
+    message = f"the executed past breaks {', '.join(names)}; {result.message}"
     return dataclasses.replace(
-        result, status=PlanStatus.DEGRADED, dropped=result.dropped + broken, message=message
+        result, status=PlanStatus.DEGRADED, broken_by_the_past=names, message=message
     )

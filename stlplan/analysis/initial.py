@@ -145,8 +145,8 @@ def _task_reasons(problem: Problem) -> Iterator[Reason]:
 
 
 def _separation_reasons(problem: Problem) -> Iterator[Reason]:
-    if problem.separation is None:
-        return
+    if problem.separation is None or problem.past is not None:
+        return  # (a replan's pair its past left too close recovers: stlplan.analysis.recovery)
     agents = problem.agents
     for i, first in enumerate(agents):
         for second in agents[i + 1 :]:

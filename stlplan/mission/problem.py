@@ -99,6 +99,18 @@ class ConstraintModel:
 
 
 @dataclass(frozen=True)
+class Recovery:
+    """A pair the executed past left closer than the separation at the replan's step
+    (:mod:`stlplan.analysis.recovery`)."""
+
+    closest: float
+    """Their infinity-norm distance at ``K``: the plan keeps them at least this far apart."""
+    restored: int | None
+    """The first step from which the full separation holds again (None: none before the
+    horizon the dynamics allow)."""
+
+
+@dataclass(frozen=True)
 class Past:
     """The executed past of a replan and its events.
 
@@ -112,12 +124,16 @@ class Past:
         Agents lost at ``K``: no inputs from ``K`` on, the state of ``K`` kept to the end.
     closed
         Regions closed at ``K``: an obstacle for every agent not lost, from ``K`` on.
+    recovering
+        The pairs ``(p, q)`` (in the agents' order) closer than the separation at ``K`` (a part
+        of the team reads those of its own agents).
     """
 
     step: int
     states: Mapping[str, np.ndarray]
     lost: frozenset[str] = frozenset()
     closed: tuple[str, ...] = ()
+    recovering: Mapping[tuple[str, str], Recovery] = field(default_factory=dict)
 
     def known_through(self, agent: str, horizon: int) -> int:
         """The last step whose state is data: ``K``, or ``H`` for a lost agent."""
@@ -196,6 +212,15 @@ class Problem:
         data, not planned (constraints and separation are planned from ``K``, whose part starts
         the segment to ``K+1``)."""
         return self.past is not None and k + horizon(part) < self.past.step
+
+    def separated_from(self, p: str, q: str) -> int:
+        """The first step at which ``p`` and ``q`` (in the agents' order) are held to the full
+        separation: 0, or for a pair the executed past left too close, the step it is restored
+        (``H + 1``: never; :mod:`stlplan.analysis.recovery`)."""
+        recovery = None if self.past is None else self.past.recovering.get((p, q))
+        if recovery is None:
+            return 0
+        return self.horizon + 1 if recovery.restored is None else recovery.restored
 
     def tightening(self, node: Predicate, k: int) -> float:
         """How much the planner raises ``node``'s margin at step ``k``: ``W sum |coef|`` (the

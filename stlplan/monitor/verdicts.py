@@ -40,9 +40,10 @@ from stlplan.formula.boundary import holds
 from stlplan.formula.tree import Formula, Linear, atoms, horizon, step_parts
 from stlplan.mission.groups import best_group
 from stlplan.mission.problem import ConstraintModel, Problem, TaskModel
-from stlplan.monitor.crossings import separation_ends, separation_segments, worst_segment
+from stlplan.monitor.crossings import worst_segment
 from stlplan.monitor.dynamics import dynamics_verdict
 from stlplan.monitor.robustness import robustness
+from stlplan.monitor.separation import separation_verdict
 from stlplan.result import Element, MonitorReport, Trajectory, Verdict
 from stlplan.words import counted
 
@@ -86,7 +87,7 @@ def check(
     for constraint in problem.constraints:
         verdicts.append(_constraint_verdict(problem, trajectory, constraint, slack, first))
     if problem.separation is not None:
-        verdicts.append(_separation_verdict(problem, trajectory, problem.separation, slack, first))
+        verdicts.append(separation_verdict(problem, trajectory, slack, first))
     for agent in problem.agents:
         verdicts.append(dynamics_verdict(agent, trajectory, tol, problem.past))
     return MonitorReport(tuple(verdicts), known=trajectory.known, tolerance=tol)
@@ -331,41 +332,3 @@ def _constraint_verdict(
         some = f"{failing} of {counted(len(values), 'binding')}"
         detail = f"fails for {some}; worst {who} reaches {value:.3g}"
     return Verdict(constraint.name, "constraint", failing == 0, value, detail=detail)
-
-
-def _separation_verdict(
-    problem: Problem, trajectory: Trajectory, separation: float, slack: float, first: int = 0
-) -> Verdict:
-    # rho = min_{p<q} min_k ||z_p(k) - z_q(k)||_inf - separation
-    name = "separation"
-    agents = problem.agents
-    if len(agents) < 2:
-        return Verdict(name, "separation", True, float("inf"), detail="fewer than two agents")
-    z = np.stack([trajectory.position(a.name, a.position) for a in agents])  # (P, H+1, 2)
-    gap = np.max(np.abs(z[:, None] - z[None, :]), axis=3) - separation  # (P, P, H+1)
-    upper = np.triu(np.ones((len(agents), len(agents)), dtype=bool), k=1)
-    gap = np.where(upper[:, :, None], np.nan_to_num(gap, nan=-np.inf), np.inf)
-    planned = bool(first)
-    if planned:  # what the plan decided: the steps after ``first`` (the executed state's own)
-        gap[:, :, : first + 1] = np.inf
-    p, q, k = np.unravel_index(int(np.argmin(gap)), gap.shape)
-    value = float(gap[p, q, k])
-    pair = f"{agents[p].name} and {agents[q].name} at step {k}"
-    first = 0 if problem.past is None else problem.past.step  # a replan's segments from K
-    if problem.inter_sample and gap.shape[2] > first + 1:
-        seg = separation_segments(z[:, first:], separation)
-        if planned:  # the segment from the executed state, by its end
-            seg[:, :, 0] = separation_ends(z, separation, first)
-        seg = np.where(upper[:, :, None], np.nan_to_num(seg, nan=-np.inf), np.inf)
-        sp, sq, sk = np.unravel_index(int(np.argmin(seg)), seg.shape)
-        if seg[sp, sq, sk] < value - 1e-12:
-            value = float(seg[sp, sq, sk])
-            sk += first
-            pair = f"{agents[sp].name} and {agents[sq].name} on the segment {sk} -> {sk + 1}"
-    satisfied = holds(value, slack)
-    detail = (
-        f"every pair keeps {separation:g} apart; closest {pair} with margin {value:.3g}"
-        if satisfied
-        else f"{pair} are closer than {separation:g} by {-value:.3g}"
-    )
-    return Verdict(name, "separation", satisfied, value, detail=detail)

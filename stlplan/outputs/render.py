@@ -94,16 +94,18 @@ def report_line(report: MonitorReport) -> str:
     )
 
 
-def print_report(console: Console, report: MonitorReport, dropped: Sequence[Dropped] = ()) -> None:
+def print_report(
+    console: Console,
+    report: MonitorReport,
+    dropped: Sequence[Dropped] = (),
+    broken: Sequence[str] = (),
+) -> None:
     """The per-task table, how the dynamics were checked, a one-line verdict and what fails;
-    for a degraded plan, each task dropped and why."""
+    for a degraded plan, each task dropped and why, and what the executed past broke."""
     console.print(verdict_table(report, dropped=dropped))
     console.print(f"{DYNAMICS_CHECKED[report.known]}; tolerance {report.tolerance:g}")
-    if dropped:
-        console.print(
-            f"[yellow]degraded[/]: not satisfied, {counted(len(dropped), 'task')} dropped; "
-            "the plan meets every other task and every constraint"
-        )
+    if dropped or broken:
+        console.print(f"[yellow]degraded[/]: not satisfied, {degraded_words(dropped, broken)}")
         for d in dropped:
             console.print(f"  {d.task} dropped: {d.reason}")
     else:
@@ -111,6 +113,15 @@ def print_report(console: Console, report: MonitorReport, dropped: Sequence[Drop
     for v in report.verdicts:
         if not v.satisfied:
             console.print(f"  {v.name}: {v.detail}")
+
+
+def degraded_words(dropped: Sequence[Dropped], broken: Sequence[str]) -> str:
+    """What a degraded plan gave up and what the executed past broke, and what the plan meets."""
+    given_up = [f"the executed past broke {', '.join(broken)}"] if broken else []
+    given_up += [f"{counted(len(dropped), 'task')} dropped"] if dropped else []
+    tasks = "every other task" if dropped else "every task"
+    constraints = "every other constraint" if broken else "every constraint"
+    return f"{' and '.join(given_up)}; the plan meets {tasks} and {constraints}"
 
 
 def print_plan(
@@ -160,7 +171,7 @@ def print_plan(
         print_trace(console, result.trace)
     print_confirmations(console, result, verbose)
     if result.report is not None:
-        print_report(console, result.report, result.dropped)
+        print_report(console, result.report, result.dropped, result.broken_by_the_past)
     if result.diagnosis is not None:
         print_diagnosis(console, result.diagnosis)
 

@@ -105,6 +105,7 @@ def summary_dict(problem: Problem, result: PlanResult, options: dict[str, Any]) 
         "fallback": fallback_dict(result.fallback),
         "replan": None if result.replan is None else dataclasses.asdict(result.replan),
         "dropped": [dataclasses.asdict(d) for d in result.dropped],
+        "broken_by_the_past": list(result.broken_by_the_past),
         "robust_to": result.robust_to,
         "assignments": [
             {

@@ -34,8 +34,8 @@ from typing import Any
 
 import numpy as np
 
-from stlplan.formula.boundary import HOLDS_AT
-from stlplan.formula.tree import Formula, Or, Predicate, step_parts
+from stlplan.formula.boundary import HOLDS_AT, required_margin
+from stlplan.formula.tree import Distance, Formula, Or, Predicate, step_parts
 from stlplan.mission.problem import Problem
 from stlplan.planner.encoding.alphas import Flat, alpha_values, flatten
 from stlplan.planner.encoding.segments import require_on_steps
@@ -181,10 +181,10 @@ def _all_parts(problem: Problem) -> Iterator[tuple[Formula, int, Mapping[str, st
             for part, k in step_parts(lowered, 0):
                 if not problem.in_past(part, k):
                     yield part, k, binding, constraint.name
-    if problem.separation is not None:
+    if problem.separation is not None:  # (a pair the past left too close: from its restoring)
         for p, q in itertools.combinations([a.name for a in problem.agents], 2):
             formula = separation_formula(problem, p, q)
-            for k in range(problem.horizon + 1):
+            for k in range(problem.separated_from(p, q), problem.horizon + 1):
                 if not problem.in_past(formula, k):
                     yield formula, k, {"p": p, "q": q}, SEPARATION
 
@@ -215,9 +215,12 @@ def on_segments(requirements: Sequence[Requirement], first: int = 0) -> list[Req
     return out
 
 
-def step_requirements(problem: Problem) -> tuple[list[Requirement], list[Part]]:
+def step_requirements(
+    problem: Problem, floors: bool = True
+) -> tuple[list[Requirement], list[Part]]:
     """The problem's constraints and separation as step requirements (segments with
-    inter-sample safety), and the parts with temporal structure below a disjunction."""
+    inter-sample safety; with ``floors``, a replan's :func:`floor_requirements` too), and the
+    parts with temporal structure below a disjunction."""
     found: list[Requirement] = []
     eager: list[Part] = []
     for part, k, binding, source in _all_parts(problem):
@@ -231,7 +234,8 @@ def step_requirements(problem: Problem) -> tuple[list[Requirement], list[Part]]:
     now = [r for r in found if r.k == K]  # data: each becomes, at most, its segment's end
     later = [r for r in found if r.k != K]
     ends = [e for e in (segment_end(problem, r) for r in now) if e is not None]
-    return ((on_segments(later, K + 1) + ends) if problem.inter_sample else later), eager
+    kept = (on_segments(later, K + 1) + ends) if problem.inter_sample else later
+    return kept + (floor_requirements(problem) if floors else []), eager
 
 
 def segment_end(problem: Problem, requirement: Requirement) -> Requirement | None:
@@ -251,13 +255,69 @@ def segment_end(problem: Problem, requirement: Requirement) -> Requirement | Non
     return dataclasses.replace(requirement, formula=formula, k=requirement.k + 1)
 
 
+def floor_requirements(problem: Problem) -> list[Requirement]:
+    """The floors of the pairs a replan's executed past left closer than the separation.
+
+    Such a pair (``c`` apart at ``K``) is held to the full separation from the step it is
+    restored, ``R`` (:mod:`stlplan.analysis.recovery`), and before that to a floor at ``c`` on
+    every step and segment from ``K`` to ``R``: the separation's four half-planes with
+    ``c - r_min`` in place of ``d``, so that the margin ``r >= r_min`` (and a robust
+    tightening) lands on ``c``. With inter-sample safety: ``x(K+1)`` on a side ``x(K)`` holds
+    at ``c`` (the segment from the executed state stays on it), then one half-plane at both
+    ends of each segment up to ``[R-1, R]``; else the steps ``K+1 .. R-1``.
+    """
+    past = problem.past
+    if past is None or not past.recovering:
+        return []
+    margin = required_margin(problem.mission.objective.margin.minimum)
+    found: list[Requirement] = []
+    for p, q in itertools.combinations([a.name for a in problem.agents], 2):
+        recovery = past.recovering.get((p, q))
+        if recovery is None:
+            continue
+        binding = {"p": p, "q": q}
+        floor = problem.lowered(Distance("p", "q", ">=", recovery.closest - margin), binding)
+        last = min(problem.separated_from(p, q), problem.horizon + 1)
+        steps = range(past.step + 1, last)
+        if problem.inter_sample:
+            found += [
+                Requirement(floor, k, binding, SEPARATION, 1, problem.tightening)
+                for k in steps
+                if k + 1 <= min(last, problem.horizon)
+            ]
+            found += _first_floor(problem, floor, binding, margin)
+        else:
+            found += [
+                Requirement(floor, k, binding, SEPARATION, 0, problem.tightening) for k in steps
+            ]
+    return found
+
+
+def _first_floor(
+    problem: Problem, floor: Formula, binding: Mapping[str, str], margin: float
+) -> list[Requirement]:
+    """``x(K+1)`` on a side of the floor the executed ``x(K)`` holds with the margin (the
+    pair's closest axes)."""
+    past = problem.past
+    assert past is not None and isinstance(floor, Or)
+    K = past.step  # (< H: a pair recovers only then)
+    at = Requirement(floor, K, binding, SEPARATION)
+    states = {name: past.states[name] for name in binding.values()}
+    alpha = alpha_values(at, states)
+    held = [p for p, a in zip(at.alternatives, alpha, strict=True) if a >= margin - HOLDS_AT]
+    formula: Formula = held[0] if len(held) == 1 else Or(tuple(held))
+    return [Requirement(formula, K + 1, binding, SEPARATION, 0, problem.tightening)]
+
+
 def segment_requirements(problem: Problem) -> list[Requirement]:
     """The requirements on segments alone (added to a model that encodes every step), and a
-    replan's segment ends (:func:`segment_end`)."""
+    replan's segment ends (:func:`segment_end`) and floors (:func:`floor_requirements`)."""
+    floors = floor_requirements(problem)
     if not problem.inter_sample:
-        return []
+        return floors
     K = None if problem.past is None else problem.past.step + 1
-    return [req for req in step_requirements(problem)[0] if req.span > 0 or req.k == K]
+    found = step_requirements(problem, floors=False)[0]
+    return [req for req in found if req.span > 0 or req.k == K] + floors
 
 
 def defer(problem: Problem, boxes: Boxes, margin_ceiling: float) -> Deferral:

@@ -197,13 +197,13 @@ def encode_constraints(ctx: StlContext, problem: Problem) -> None:
 
 def encode_separation(ctx: StlContext, problem: Problem) -> None:
     """``|dx| >= r or |dy| >= r`` (four half-planes) for every pair of agents and step ``0..H``
-    (a replan's from ``K+1``)."""
+    (a replan's from ``K+1``; a pair its past left too close from the step it is restored)."""
     if problem.separation is None:
         return
     for p, q in itertools.combinations([a.name for a in problem.agents], 2):
         formula = separation_formula(problem, p, q)
         scope = ctx.bound({"p": p, "q": q})
-        for k in range(problem.horizon + 1):
+        for k in range(problem.separated_from(p, q), problem.horizon + 1):
             if not executed(problem, formula, k):
                 require(formula, k, scope)
 
