@@ -154,3 +154,19 @@ def test_a_pair_its_constraints_keep_close_is_apart_again_as_late_as_they_need()
     assert rel[1:, 0].min() >= 0.2 - 1e-6
     assert result.report is not None
     assert "never apart again" in result.report.verdict("separation").detail
+
+
+def test_the_replan_bench_accepts_what_the_past_broke_and_nothing_else() -> None:
+    from stlplan.replan_bench import row  # noqa: PLC0415
+    from stlplan.result import MonitorReport, Verdict
+
+    report = MonitorReport(
+        (
+            Verdict("meet", "synchronous", True, 0.2),
+            Verdict("separation", "separation", False, -0.07),
+        )
+    )
+    broken = PlanResult(PlanStatus.DEGRADED, "", report=report, broken_by_the_past=("separation",))
+    assert row("moved", 4, broken, 1.0)["accepted"] is True
+    unexplained = dataclasses.replace(broken, broken_by_the_past=())
+    assert row("moved", 4, unexplained, 1.0)["accepted"] is False
