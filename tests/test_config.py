@@ -93,8 +93,6 @@ def test_the_strategy_line_follows_the_configuration() -> None:
     line = describe(PlannerConfig())
     assert "parts(lazy rounds(" in line and ">= 7 agents" in line
     assert "; plan first if >= 10 agents, improved by elements)" in line
-    unimproved = describe(PlannerConfig().with_overrides({"parts.improve_share": None}))
-    assert "; plan first if >= 10 agents)" in unimproved
     assert "tasks kept" not in line  # (no repair once a plan meets every requirement)
     assert "lazy rounds(direct, by elements before a first plan, repair in turn" in line
     assert "merge: prioritized or by elements before a first plan, in turn" in line

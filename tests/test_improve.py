@@ -24,7 +24,7 @@ from stlplan.planner.first_plan import improve
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
 from stlplan.planner.run.outcome import Outcome, Plan
-from stlplan.planner.tolerances import FEASIBILITY
+from stlplan.planner.tolerances import FEASIBILITY, HOLD
 from stlplan.result import PlanStatus
 from tests.test_by_elements import QUICK, meeting, solved_part
 
@@ -300,7 +300,7 @@ def test_a_late_synchronous_run_is_started_earlier() -> None:
     _later(solver)
     late = check(problem, trajectory(pm))
     assert late.satisfied and late.rho_s is not None
-    held = hold_agents(pm, [a.name for a in problem.agents], QUICK.repair.hold)
+    held = hold_agents(pm, [a.name for a in problem.agents], HOLD)
     try:
         done = LazySolver(pm, QUICK, Clock(0.0, None)).run(Budget.of_seconds(60))
     finally:

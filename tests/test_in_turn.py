@@ -31,6 +31,7 @@ from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
 from stlplan.planner.run.outcome import Plan
 from stlplan.planner.solve import plan
+from stlplan.planner.tolerances import HOLD
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model
 from tests.helpers.missions import crossing_problem, detour_for_free
@@ -76,7 +77,7 @@ def test_a_round_repaired_in_turn_meets_every_requirement() -> None:
 def test_held_agents_keep_their_plan_and_are_released() -> None:
     pm, _ = _first_round(crossing_problem())
     before = {key: v.bounds for key, v in pm.model.x.items()}
-    held = hold_agents(pm, ["a"], PlannerConfig().repair.hold)
+    held = hold_agents(pm, ["a"], HOLD)
     for (name, _, _), v in pm.model.x.items():
         if name == "a" and not v.fixed:
             lo, hi = v.bounds

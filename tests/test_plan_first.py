@@ -44,17 +44,19 @@ def test_the_configuration_plans_first_from_ten_agents_in_a_part() -> None:
 
 def test_only_a_team_with_a_large_part_plans_first() -> None:
     swap = swap_problem(0.5)  # two parts of one agent
-    assert FirstPlan().plans_first(swap, EXACT, 1)
-    assert not FirstPlan().plans_first(swap, EXACT, 2)
-    assert not FirstPlan().plans_first(swap, EXACT.with_overrides({"solver.first_plan": True}), 1)
-    assert FirstPlan().plans_first(detour_for_free(), EXACT, 2)  # parts (a, b) and (e)
-    assert not FirstPlan().plans_first(detour_for_free(), EXACT, 3)
+    assert FirstPlan.of(EXACT).plans_first(swap, EXACT, 1)
+    assert not FirstPlan.of(EXACT).plans_first(swap, EXACT, 2)
+    assert not FirstPlan.of(EXACT).plans_first(
+        swap, EXACT.with_overrides({"solver.first_plan": True}), 1
+    )
+    assert FirstPlan.of(EXACT).plans_first(detour_for_free(), EXACT, 2)  # parts (a, b) and (e)
+    assert not FirstPlan.of(EXACT).plans_first(detour_for_free(), EXACT, 3)
     one_part = mission(
         horizon=2,
         agents=[{"name": n, "dynamics": "si", "initial_state": [i, 0]} for i, n in enumerate("ab")],
         objective={"margin": {"maximize": True}},
     )
-    assert not FirstPlan().plans_first(one_part, EXACT, 1)
+    assert not FirstPlan.of(EXACT).plans_first(one_part, EXACT, 1)
 
 
 def test_without_a_first_plan_the_second_solve_stands_as_it_is() -> None:
@@ -128,7 +130,10 @@ def test_the_parts_not_proven_go_on_from_their_first_plans(monkeypatch: pytest.M
     monkeypatch.setattr(components, "solve_apart", first_plans)
     problem, clock, budget = detour_for_free(), Clock(0.0, None), Budget.of_seconds(60)
     parts = [build_part(problem, names, EXACT, clock, budget) for names in (("a", "b"), ("e",))]
-    assert components.first_plan_of_parts(problem, parts, EXACT, clock, budget, FirstPlan()) is None
+    assert (
+        components.first_plan_of_parts(problem, parts, EXACT, clock, budget, FirstPlan.of(EXACT))
+        is None
+    )
     assert seen == [[True, True, True]]  # every loop stopped at its first plan
     assert [p.solver.watch.first for p in parts] == [False, False]
     assert parts[0].step1 is None  # (a, b) goes on towards its proof

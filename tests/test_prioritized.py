@@ -195,7 +195,7 @@ def test_the_32_and_64_agent_crowds_have_a_first_plan_within_a_minute(agents: in
 def test_the_solve_joining_the_turns_plans_may_use_all_the_repairs_time(
     small_crowd: Any, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    # the orders take parts.crowd_repair_share of the time; when every part has a plan, the
+    # the orders take budget.search_share of the time; when every part has a plan, the
     # solve that joins them is the likeliest plan, and 2 s short of 3 s lost crowd-64's
     deadlines: dict[str, float] = {}
     order, held = prioritized.plan_in_order, prioritized.held_plan

@@ -123,7 +123,7 @@ def test_while_looking_for_a_first_plan_a_part_plans_around_those_done(around: b
         "repair.orders": 0,
     })  # fmt: skip
     clock = Clock(0.0, None)
-    hooks = FirstPlan()  # (without the first-plan hooks nothing is published)
+    hooks = FirstPlan.of(options)  # (without the first-plan hooks nothing is published)
     inner = LazyRounds(RepairPolicy.of(options, hooks))
     parts = Parts(inner, hooks=hooks if around else None)
     found = parts.solve(problem, options, clock, Budget.of_seconds(60))

@@ -15,9 +15,10 @@ from stlplan.planner.encoding.model import build_model
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
 from stlplan.planner.run.outcome import Outcome
-from stlplan.planner.run.reached import Reached, agent_names
+from stlplan.planner.run.reached import Reached
 from stlplan.planner.solve import run_events, step1_message
 from stlplan.result import PlanStatus
+from stlplan.words import agent_names
 from tests.helpers.paths import MISSIONS
 
 CROWD = tuple(f"a{i:02d}" for i in range(1, 17))

@@ -179,12 +179,12 @@ def test_the_policy_names_the_repairs_and_their_shares() -> None:
     from stlplan.planner.first_plan.hooks import PrioritizedRepair
 
     policy = policy_of(EXACT)
-    assert policy.round_repairs(10.0, 1) == ((InTurnRepair(), EXACT.repair.share),)
+    assert policy.round_repairs(10.0, 1) == ((InTurnRepair(), EXACT.budget.side_share),)
     assert policy.round_repairs(1.0, 1) == ()
     # a loop that looks for its first plan only repairs every round naming two agents or more,
     # within a share of its own
-    share = EXACT.repair.first_plan_share
-    assert share != EXACT.repair.share
+    share = EXACT.budget.search_share
+    assert share != EXACT.budget.side_share
     # ... the round's choices planned element by element first, within a share of their own
     elements = EXACT.repair.by_elements
     assert elements is not None
@@ -205,12 +205,12 @@ def test_the_policy_names_the_repairs_and_their_shares() -> None:
     # may take all the time left
     assert [share for _, share in policy.merge_repairs(crowd)] == [
         1.0,
-        EXACT.parts.crowd_repair_share,
-        EXACT.parts.held_repair_share,
+        EXACT.budget.search_share,
+        EXACT.budget.side_share,
     ]
     first = policy.merge_repairs(crowd)[0][0]
-    assert first == PrioritizedRepair(EXACT.parts.crowd_repair_share)
-    assert policy.merge_repairs(crowd - 1) == ((HeldRepair(), EXACT.parts.held_repair_share),)
+    assert first == PrioritizedRepair(EXACT.budget.search_share)
+    assert policy.merge_repairs(crowd - 1) == ((HeldRepair(), EXACT.budget.side_share),)
     # a merge of large parts while looking for a first plan: their choices planned element by
     # element first (the prioritized repair takes a crowd's small parts as they are)
     elements = EXACT.repair.by_elements

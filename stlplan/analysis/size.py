@@ -25,7 +25,7 @@ models and the whole team's, for the assembly, are all built first), the step re
 listed and checked against the reachable boxes (:data:`SECONDS_PER_REQUIREMENT`,
 :data:`BYTES_PER_REQUIREMENT`), and each agent's effort-floor LP set up, dense in the horizon
 (:data:`SECONDS_PER_FLOOR_CELL`, :data:`FLOOR_BYTES_PER_CELL` per cell of its matrix). Not
-counted: the floors' LPs, which stop at their share of the time (``model.floors_share``), and
+counted: the floors' LPs, which stop at their share of the time (``budget.side_share``), and
 the requirements lazy rounds add, each within the time limit. The constants were measured on
 the shipped farm and crowd missions, the farm at horizons 50 and 200 and ``sync-pair`` at
 horizons 500 to 2000 (docs/measurements.md#validation-size-and-building).

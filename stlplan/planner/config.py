@@ -78,8 +78,6 @@ class ModelConfig(_Section):
     floors: bool = True
     """Add the effort floors (valid inequalities on effort, per agent, per pair of tasks an
     agent serves and per element). Measured: docs/performance.md#where-the-speed-comes-from."""
-    floors_share: float = Field(default=0.25, gt=0, le=1)
-    """Share of the time left that computing the effort floors of one model may take."""
     max_options: int = Field(default=256, ge=1)
     """A pair of tasks one agent serves gets no joint floor when its unions of predicates
     number more than this."""
@@ -119,23 +117,11 @@ class PartsConfig(_Section):
     merge_reserve: float = Field(default=0.1, ge=0, lt=1)
     """Share of the time left that the parts' first solves leave for merging parts that
     collide. Measured: docs/dropped.md#parts-and-merges."""
-    held_repair_share: float = Field(default=0.25, gt=0, le=1)
-    """Share of the time left the held repair of a merged part may take."""
-    crowd_repair_share: float = Field(default=0.75, gt=0, le=1)
-    """Share of the time left that each repair of a merged crowd (prioritized, then in turn) may
-    take; the solve that joins the prioritized repair's plans may take all of it. Measured:
-    docs/dropped.md#parts-and-merges."""
     assembly_seconds: float = Field(default=60.0, gt=0)
     """Time limit of the solve that assembles the parts' plans in one model, s."""
     plan_first_agents: int | None = Field(default=10, ge=1)
     """When the largest part has this many agents, the parts look for a plan of the whole team
     before their proofs (null: never). Measured: docs/measurements.md#a-first-plan-before-the-proof."""
-    plan_first_share: float = Field(default=0.75, gt=0, lt=1)
-    """Share of the time left that looking for that first plan may take."""
-    improve_share: float | None = Field(default=0.25, gt=0, le=1)
-    """Share of the time left after that first plan in which its elements are planned again,
-    each around all the others, while that lowers the effort (None: never). Measured:
-    docs/measurements.md#the-first-plan-improved-element-by-element."""
     side_by_side: int | None = Field(default=None, ge=1)
     """Parts solved at the same time, each in a thread (None: ``solver.threads``, one when
     HiGHS decides). Measured: docs/performance.md#parts-side-by-side."""
@@ -153,6 +139,20 @@ class BudgetConfig(_Section):
     min_solve_seconds: float = Field(default=1.0, gt=0)
     """Every solve, and every confirmation of an infeasible verdict, may run at least this long,
     even when the budget is spent (or the grace, when a short time limit makes that smaller)."""
+    side_share: float = Field(default=0.25, gt=0, lt=1)
+    """Share of the time left that a step beside the search may take: computing a model's
+    effort floors, a repair between lazy rounds, the held repair of a merged part, and the
+    improvement of a large team's first plan element by element (each around all the others,
+    while that lowers the effort). Measured (the improvement's):
+    docs/measurements.md#the-first-plan-improved-element-by-element."""
+    search_share: float = Field(default=0.75, gt=0, lt=1)
+    """Share of the time left that a search for a first plan may take: a repair between the
+    rounds of a loop that looks for its first plan only (the repair is its way to a plan; the
+    next round, a relaxation, rarely gives one), each repair of a merged crowd (prioritized,
+    then in turn; the solve that joins the prioritized repair's plans may take all of it), a
+    large team's plan before the parts' proofs, and the improvement's sweeps within its share.
+    Measured: docs/measurements.md#a-first-plan-under-a-short-time-limit,
+    docs/dropped.md#parts-and-merges."""
 
 
 class ContinuousConfig(_Section):

@@ -38,12 +38,6 @@ class RepairConfig(Section):
     choose, while the repair by elements is on: the repair takes a round's choices, not its
     optimum. Measured:
     docs/measurements.md#the-repair-by-elements."""
-    share: float = Field(default=0.25, gt=0, le=1)
-    """Share of the lazy loop's time left that one repair between rounds may spend."""
-    first_plan_share: float = Field(default=0.75, gt=0, le=1)
-    """The same share in a loop that looks for its first plan only (the repair is its way to
-    a plan; the next round, a relaxation, rarely gives one). Measured:
-    docs/measurements.md#a-first-plan-under-a-short-time-limit."""
     solves_per_turn: int = Field(default=10, ge=1)
     """Solves of one agent's turn at most (each after adding what the last plan violated)."""
     window: int | None = Field(default=None, ge=0)
@@ -79,6 +73,3 @@ class RepairConfig(Section):
     """A prioritized repair runs only when the parts of the merge have at most this many agents
     each: a larger part's turn is a MILP of its own that does not finish. Measured:
     docs/measurements.md#guided-turns."""
-    hold: float = Field(default=1e-4, gt=0)
-    """How far a held state or input may move from its plan (room for HiGHS's integrality
-    tolerance, ``big-M * 1e-6``)."""

@@ -39,9 +39,9 @@ from stlplan.planner.run.outcome import Outcome, Plan
 
 
 def _built(problem: Problem, config: PlannerConfig, clock: Clock, budget: Budget) -> PlanModel:
-    """The model as ``config`` declares it, its effort floors within ``model.floors_share``."""
+    """The model as ``config`` declares it, its effort floors within ``budget.side_share``."""
     with clock.building():
-        return build_model(problem, config, budget.share(config.model.floors_share).deadline)
+        return build_model(problem, config, budget.share(config.budget.side_share).deadline)
 
 
 @dataclass(frozen=True)

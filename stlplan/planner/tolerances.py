@@ -12,6 +12,11 @@ FEASIBILITY = 1e-7
 """HiGHS's feasibility tolerance: a lazy requirement a plan breaks by more is violated; a
 continuous stage's margins and an effort floor are lowered by it."""
 
+HOLD = 1e-4
+"""How far a held agent's state or input may move from its plan in a repair: room for HiGHS's
+integrality tolerance (``big-M * 1e-6``); holding exactly (1e-9) leaves the turns no plan
+(docs/dropped.md, the repair in turn)."""
+
 MONITOR = 1e-6
 """The monitor's tolerance (its dynamics check): a predicate value above ``-MONITOR`` holds for
 a witness, and an effort lower by at most this much is no lower."""

@@ -19,6 +19,7 @@ from stlplan.planner.encoding.deferred import requirement_key
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
+from stlplan.planner.tolerances import HOLD
 from stlplan.runtime import signals
 
 
@@ -48,7 +49,7 @@ def hold_plans(
     width: float,
     free: frozenset[str] = frozenset(),
 ) -> Held:
-    """Bound ``x`` and ``u`` of ``target`` to within ``width`` (``repair.hold``) of the parts'
+    """Bound ``x`` and ``u`` of ``target`` to within ``width`` (``tolerances.HOLD``) of the parts'
     plans (but those of the agents in ``free``); returns what :func:`release` restores."""
     held: Held = []
     for var, planned in plan_values(target, parts, free):
@@ -73,7 +74,7 @@ def assemble(
     index = {requirement_key(r): n for n, r in enumerate(full.deferral.lazy)}
     keys = set().union(*(added_keys(p) for p in parts))
     add_requirements(full, [index[k] for k in keys if k in index])
-    held = hold_plans(full, parts, config.repair.hold)
+    held = hold_plans(full, parts, HOLD)
     with signals.finishing():  # the plan is found: a stop request lets this solve end
         session = HighsSession(full.model, config, clock, "step1")
         solved = session.solve(budget.seconds(config.parts.assembly_seconds))

@@ -42,7 +42,7 @@ first plan only, in a model of the whole team of its own, before the parts go on
 proofs (:mod:`stlplan.planner.first_plan.hooks`). While looking for a first plan, a part's
 repairs plan around the plans the parts done published (:func:`_solve_part`), and before parts
 whose plans collide are merged, each is repaired around the others' plans. That first plan is
-then improved element by element (by the hooks, within ``parts.improve_share`` of the time
+then improved element by element (by the hooks, within ``budget.side_share`` of the time
 left).
 """
 
@@ -289,12 +289,12 @@ def first_plan_of_parts(
     hooks: FirstPlanHooks,
 ) -> Solved | None:
     """A plan of the whole team from the parts' first plans, merged where they collide, in a
-    model of its own, within ``parts.plan_first_share`` of the time
+    model of its own, within ``budget.search_share`` of the time
     (:mod:`stlplan.planner.first_plan.hooks`); None without one. The parts not proven are left
     to go on from their first plans: unsolved, with the requirements they added."""
     tick = time.perf_counter()
     quick = config.with_overrides({"solver.first_plan": True})
-    share = budget.share(config.parts.plan_first_share)
+    share = budget.share(config.budget.search_share)
     with clock.building():
         full = build_model(problem, config.with_overrides({"model.floors": False}))
     _stop_at_first_plans(parts, True)

@@ -27,7 +27,7 @@ nothing but a held problem and are never recorded. Requirements added on the way
 model: the full problem has them.
 
 The knobs are the ``repair`` section of :class:`stlplan.planner.config.PlannerConfig`: a turn
-solves one agent's plan around held ones (``repair.hold`` of room each), at most
+solves one agent's plan around held ones (``tolerances.HOLD`` of room each), at most
 ``repair.solves_per_turn`` times, adding every step of a violated requirement's family
 (``repair.window``), to the loose ``repair.gap``.
 """
@@ -55,6 +55,7 @@ from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.encoding.readout import partners
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.outcome import Plan
+from stlplan.planner.tolerances import HOLD
 
 _log = logging.getLogger(__name__)
 
@@ -73,7 +74,7 @@ def hold_near(var: VarData, value: float, held: Held, width: float) -> None:
 
     HiGHS accepts binaries within 1e-6 of 0 or 1, so a plan may miss an enforced predicate by
     ``big-M * 1e-6``; a solve that holds it (an assembly, whose indicators are exact, or a turn)
-    needs room to repair that (``repair.hold``)."""
+    needs room to repair that (``tolerances.HOLD``)."""
     lo, hi = var.bounds
     held.append((var, lo, hi))
     low = value - width if lo is None else max(lo, value - width)
@@ -254,7 +255,7 @@ def solve_free(
     assert pm.deferral is not None
     lazy, named = pm.deferral.lazy, list[list[int]]()
     others = (a.name for a in pm.problem.agents if a.name not in free)
-    held = hold_agents(pm, others, repair.hold)
+    held = hold_agents(pm, others, HOLD)
     try:
         for _ in range(repair.solves_per_turn):
             solved = session.solve(budget)
@@ -284,7 +285,7 @@ def broken_requirements(
 ) -> tuple[list[int], list[int]]:
     """The requirements the loaded plan breaks among the agents ``free`` and ``done`` (lazy
     indices of ``pm``), and those between the agents ``outside`` and ``free`` or ``done`` (its
-    indices): a held agent moves within ``repair.hold``, enough to break a requirement its
+    indices): a held agent moves within ``tolerances.HOLD``, enough to break a requirement its
     plan met exactly, and a row keeps it from that."""
     mine = [n for n in pending_violations(pm) if agents_of(pm, [n]) <= done | free]
     theirs = outside.broken(trajectory_states(pm), free | done) if outside else []

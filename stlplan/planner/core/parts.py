@@ -89,7 +89,7 @@ def build_part(
     agents, when given)."""
     sub = sub_problem(problem, agents)
     with clock.building():
-        pm = build_model(sub, config, budget.share(config.model.floors_share).deadline, deferral)
+        pm = build_model(sub, config, budget.share(config.budget.side_share).deadline, deferral)
     assert pm.deferral is not None
     add_requirements(pm, [n for n, r in enumerate(pm.deferral.lazy) if requirement_key(r) in seed])
     whole = len(sub.agents) == len(problem.agents)  # a merge of every part: the whole problem

@@ -5,16 +5,16 @@ While no plan meets every requirement, a repair (:mod:`stlplan.planner.core.repa
 where the next solve would not. After a lazy round that was long
 (``repair.after_round_seconds``) or whose violations name a crowd (``repair.crowd_agents``), or
 after any round naming two agents or more of a loop that looks for its first plan only
-(measured: docs/measurements.md#first-plans-repaired-at-once), the round's plan is repaired in turn within ``repair.share`` of
-the loop's time left (``repair.first_plan_share`` in a loop that looks for its first plan only).
+(measured: docs/measurements.md#first-plans-repaired-at-once), the round's plan is repaired in turn within ``budget.side_share`` of
+the loop's time left (``budget.search_share`` in a loop that looks for its first plan only).
 A merge of parts whose collisions name a crowd (or two agents, while
 looking for a first plan) in a team of ``repair.crowd_team`` agents or more is repaired part by
 part, each part in its own model around
 those before it (up to ``repair.orders`` orders; none when 0, or when a part has more than
-``repair.part_agents`` agents; its orders within ``parts.crowd_repair_share`` of the time left
+``repair.part_agents`` agents; its orders within ``budget.search_share`` of the time left
 and the solve that joins their plans within all of it), then in turn, within
-``parts.crowd_repair_share`` of the time left; then, without a plan, with the other agents held
-(within ``parts.held_repair_share``).
+``budget.search_share`` of the time left; then, without a plan, with the other agents held
+(within ``budget.side_share``).
 
 In a loop that looks for its first plan only, a round naming two agents or more is repaired by
 elements first (:mod:`stlplan.planner.first_plan.by_elements`: its task choices as parts of their own,
@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from stlplan.mission.problem import Problem
-from stlplan.planner.config import PartsConfig, PlannerConfig
+from stlplan.planner.config import BudgetConfig, PartsConfig, PlannerConfig
 from stlplan.planner.config_repair import RepairConfig
 from stlplan.planner.core.repairs import HeldRepair, InTurnRepair, Repair
 
@@ -60,18 +60,19 @@ class FirstPlanRepairs(Protocol):
 
 @dataclass(frozen=True)
 class RepairPolicy:
-    """When to repair, and with what share of the time: the ``repair`` and ``parts`` sections
+    """When to repair, and with what share of the time: the ``repair``, ``parts`` and ``budget`` sections
     of the run's configuration, read as they are (None: never on that count), and the
     first-plan heuristics' repairs (None: none)."""
 
     repair: RepairConfig
     parts: PartsConfig
+    budget: BudgetConfig
     first_plan: FirstPlanRepairs | None = None
 
     @classmethod
     def of(cls, config: PlannerConfig, first_plan: FirstPlanRepairs | None = None) -> RepairPolicy:
         """The policy of ``config``, with the first-plan heuristics of ``first_plan``."""
-        return cls(config.repair, config.parts, first_plan)
+        return cls(config.repair, config.parts, config.budget, first_plan)
 
     def first_gap(self, problem: Problem, gap: float, by_elements_gap: float) -> float:
         """The gap of the rounds of a loop that looks for its first plan: ``gap``, or the looser
@@ -86,11 +87,11 @@ class RepairPolicy:
     def round_repairs(self, seconds: float, agents: int, first: bool = False) -> Planned:
         """The repairs of a lazy round of ``seconds`` whose violations name ``agents``, in a
         loop that looks for its first plan only when ``first`` (then any round that names two
-        agents or more, within ``first_plan_share`` of its time
+        agents or more, within ``budget.search_share`` of its time
         left). None once a plan meets every requirement: the loop does not ask then."""
         before_plan = first and agents >= 2
         repaired = self.after_round(seconds, agents) or before_plan
-        share = self.repair.first_plan_share if first else self.repair.share
+        share = self.budget.search_share if first else self.budget.side_share
         if not repaired:
             return ()
         hooks = self.first_plan
@@ -104,16 +105,16 @@ class RepairPolicy:
         """The repairs of a merged part of a team of ``team`` agents (None: a team large enough)
         whose collisions name ``agents`` agents, from parts of at most ``largest`` agents, while
         looking for a first plan only when ``first``."""
-        held: Planned = ((HeldRepair(), self.parts.held_repair_share),)
+        held: Planned = ((HeldRepair(), self.budget.side_share),)
         if not self.on_merge(agents, team, first):
             return held
         ordered, hooks = self.ordered(largest), self.first_plan
         ahead: Planned = ()
         if hooks is not None and ordered:  # its last solve: any time left
-            ahead = ((hooks.prioritized(self.parts.crowd_repair_share), 1.0),)
+            ahead = ((hooks.prioritized(self.budget.search_share), 1.0),)
         elif hooks is not None and first and self.repair.by_elements is not None:
             ahead = ((hooks.by_elements(), self.repair.by_elements),)
-        return (*ahead, (InTurnRepair(), self.parts.crowd_repair_share), *held)
+        return (*ahead, (InTurnRepair(), self.budget.search_share), *held)
 
     def ordered(self, largest: int) -> bool:
         """Whether a merge of parts of at most ``largest`` agents is repaired part by part."""

@@ -9,7 +9,7 @@ requirement, or None). Two repairs here, and two of the first-plan heuristics
 * :class:`InTurnRepair`: the agents the broken requirements name are solved again one at a
   time around the others, as prioritized planners do (:mod:`stlplan.planner.core.in_turn`);
 * :class:`HeldRepair`: the model of a merged part solved with every agent but those the
-  collisions name held near the parts' plans (``repair.hold``), a small problem: to the run's
+  collisions name held near the parts' plans (``tolerances.HOLD``), a small problem: to the run's
   gap first, then, without a plan, to the repair's gap (``repair.gap``: its bound bounds only
   the held problem).
 """
@@ -32,6 +32,7 @@ from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock
 from stlplan.planner.run.outcome import Outcome, Plan
+from stlplan.planner.tolerances import HOLD
 
 
 class Rounds(Protocol):
@@ -152,7 +153,7 @@ class HeldRepair:
     def repair(self, broken: Broken, config: PlannerConfig, budget: Budget) -> Plan | None:
         solver = broken.solver
         reached = solver.clock.reached
-        held = hold_plans(solver.pm, broken.parts, config.repair.hold, broken.free)
+        held = hold_plans(solver.pm, broken.parts, HOLD, broken.free)
         with reached.within("held repair"):
             try:
                 found = _held_runs(solver, config, budget)

@@ -193,7 +193,7 @@ def element_part(
     key = (agents, tuple((t.name, t.formula) for t in sub.tasks))
     if key not in built:
         with solver.clock.building():
-            floors = budget.share(config.model.floors_share).deadline
+            floors = budget.share(config.budget.side_share).deadline
             pm = build_model(sub, config, floors)
         load_values(pm.model, states)
         built[key] = solver.sibling(pm)

@@ -8,7 +8,7 @@ union of the parts' plans is a plan of the whole only once no requirement betwee
 With parts of ten agents or more a proof takes minutes, and the team's first plan waits for it
 (``farm-x2`` from the bench's state 0: 275 s of a 300 s run). When the largest part has at least
 ``parts.plan_first_agents`` agents, :func:`~stlplan.planner.core.components.solve_parts` therefore
-looks for a plan first, within ``parts.plan_first_share`` of the time:
+looks for a plan first, within ``budget.search_share`` of the time:
 
 1. each part's lazy loop stops at its first plan that meets every requirement (as with
    ``solver.first_plan``); parts whose plans collide are merged and repaired as for a first plan,
@@ -57,14 +57,14 @@ from stlplan.planner.run.outcome import Plan
 class FirstPlan:
     """The heuristics that look for a large team's first plan
     (:class:`~stlplan.planner.core.hooks.FirstPlanHooks`), the first plan improved element by
-    element within ``improve_share`` of the time left (None: never)."""
+    element within ``improve_share`` of the time left."""
 
-    improve_share: float | None = None
+    improve_share: float
 
     @classmethod
     def of(cls, config: PlannerConfig) -> FirstPlan:
-        """The heuristics as ``config`` sets them (``parts.improve_share``)."""
-        return cls(config.parts.improve_share)
+        """The heuristics as ``config`` sets them (``budget.side_share``)."""
+        return cls(config.budget.side_share)
 
     def chooses(self, problem: Problem) -> bool:
         return has_choices(problem)
@@ -109,12 +109,10 @@ class FirstPlan:
         budget: Budget,
         policy: RepairPolicy,
     ) -> Solved:
-        if self.improve_share is None:
-            return early
         return improved(problem, early, config, clock, budget.share(self.improve_share), policy)
 
     def describe(self) -> str:
-        return "" if self.improve_share is None else "improved by elements"
+        return "improved by elements"
 
 
 @dataclass(frozen=True)

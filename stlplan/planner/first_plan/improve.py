@@ -21,7 +21,8 @@ moving obstacles (a prioritized turn, :class:`~stlplan.planner.first_plan.priori
   kept when every part planned again finds a plan (one step more synchronous robustness, often
   for more effort), left as it was otherwise;
 
-Sweeps run first, within half of ``SWEEPS_SHARE`` of ``parts.improve_share`` of the time left;
+Sweeps run first, within half of ``budget.search_share`` of the improvement's time (itself
+``budget.side_share`` of the time left);
 then the earlier runs and, after them, sweeps again within the rest. The plans of the team after
 the first sweeps and after the earlier runs are each joined in the model of the whole team,
 solved once with every agent held near its plan
@@ -129,7 +130,7 @@ def _improved(
     with contextlib.ExitStack() as lent:
         turns = Turns(problem, groups, full, whole, config, budget, lent)
         team = Team.of(turns.of(elements, saved))
-        within = budget.share(SWEEPS_SHARE)
+        within = budget.share(config.budget.search_share)  # the join may take the rest
         first = sweeps(team, within.share(0.5))
         before = team.copy()
         moved = earlier_runs(team, turns, within)
@@ -367,8 +368,3 @@ def sweeps(team: Team, budget: Budget) -> bool:
         if gained <= 0:
             break
     return lowered
-
-
-SWEEPS_SHARE = 0.75
-"""Share of the improvement's time the earlier runs and the sweeps may take; the solve that
-joins their plans may take the rest."""

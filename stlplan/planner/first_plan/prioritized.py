@@ -15,7 +15,7 @@ raises the priority of a robot that failed; the parts an order starts with as th
 keep their plans. The first ``repair.guided_orders`` orders take guided parts on their guide
 paths only, the next ``repair.orders`` with their MILPs too. When every part
 found one, the union of their plans meets every requirement between them; the merged model is
-then solved once with every agent held near its plan (``repair.hold``), which sets every
+then solved once with every agent held near its plan (``tolerances.HOLD``), which sets every
 indicator, and its plan is returned when it meets every requirement (the watch of the loop
 takes it as any other plan of the full problem).
 
@@ -54,7 +54,7 @@ from stlplan.planner.first_plan.guide import guide_path, single_integrator, task
 from stlplan.planner.first_plan.overlay import States, overlay_context
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.outcome import Plan
-from stlplan.planner.tolerances import FEASIBILITY
+from stlplan.planner.tolerances import FEASIBILITY, HOLD
 
 _log = logging.getLogger(__name__)
 
@@ -367,9 +367,9 @@ def held_plan(
     # a requirement the turns' plans meet with less to spare than the holds allow to move
     # (both agents of a pair) would be broken by the held solve: it goes in with them
     assert pm.deferral is not None
-    close = -HELD_ROOM * config.repair.hold
+    close = -HELD_ROOM * HOLD
     add_requirements(pm, violated(pm.deferral.lazy, trajectory_states(pm), least_margin(pm), close))
-    held = hold_agents(pm, [a.name for a in pm.problem.agents], config.repair.hold)
+    held = hold_agents(pm, [a.name for a in pm.problem.agents], HOLD)
     try:
         found = merged.run(budget, trial=True)
     finally:

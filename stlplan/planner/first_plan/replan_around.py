@@ -13,7 +13,7 @@ collisions name take turns, each solved around the other parts' plans as around 
 own repaired before it, until its plan meets every requirement with them. A part whose repair
 finds a plan takes it (its objective is that plan's, its bound stays) and publishes it;
 whatever collisions are left are merged as before. The parts go in the order they published,
-each once, within ``repair.share`` of the time left each. A merge the prioritized repair takes
+each once, within ``budget.side_share`` of the time left each. A merge the prioritized repair takes
 (parts of at most ``repair.part_agents`` agents, a crowd's) is left to it.
 """
 
@@ -56,7 +56,7 @@ def replanned_around(
             break
         if not _named(part, crossing):
             continue
-        if _repaired(part, published, config, budget.share(config.repair.share)):
+        if _repaired(part, published, config, budget.share(config.budget.side_share)):
             changed = True
             crossing = crossing_requirements(full, parts)
             if not crossing:

@@ -18,9 +18,10 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from stlplan.planner.run.convergence import Convergence
-from stlplan.planner.run.reached import Reached, agent_names
+from stlplan.planner.run.reached import Reached
 from stlplan.planner.run.trace import Incumbent, Trace
 from stlplan.result import Confirmation
+from stlplan.words import agent_names
 
 Phase = Literal["build", "step1", "step2", "polish", "done"]
 

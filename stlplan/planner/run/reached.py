@@ -27,10 +27,7 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 
 from stlplan.planner.run.trace import Trace
-from stlplan.words import counted
-
-SHOWN = 3
-"""Agents named when a part's agents are not a run of the mission's order."""
+from stlplan.words import agent_names, counted
 
 STAGES = {
     "up front": "its one solve, every requirement in the model",
@@ -46,18 +43,6 @@ STAGES = {
     "completion": "the completion of the last round's plan",
 }
 """Each stage of a part, as the message names it."""
-
-
-def agent_names(agents: Sequence[str], order: Sequence[str]) -> str:
-    """A part's agents in a few words: all of them up to :data:`SHOWN`, ``16 agents a01..a16``
-    for a run of the mission's ``order``, else the first :data:`SHOWN` and how many."""
-    if len(agents) <= SHOWN:
-        return ", ".join(agents)
-    place = {name: i for i, name in enumerate(order)}
-    steps = [place.get(b, -2) - place.get(a, -2) for a, b in zip(agents, agents[1:], strict=False)]
-    if all(step == 1 for step in steps):
-        return f"{len(agents)} agents {agents[0]}..{agents[-1]}"
-    return f"{len(agents)} agents {', '.join(agents[:SHOWN])}, ..."
 
 
 @dataclass
