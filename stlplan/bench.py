@@ -64,8 +64,6 @@ FORMULATIONS: dict[str, dict[str, Any]] = {
     "in-turn-always": {"repair.after_round_seconds": 0.0},
     "no-parts": {"parts.enabled": False},
     "lazy-only": {"parts.enabled": False, "model.floors": False},
-    "pair-window": {"lazy.window": None},
-    "window1": {"lazy.window": 1},
     "deterministic": {"solver.deterministic": True},
     "log": {"model.encoding": "log"},
     "groups": {"model.tasks": "groups"},

@@ -177,7 +177,7 @@ def _prober(
     confirmations: list[Confirmation],
     plans: dict[int, PlanResult] | None = None,
 ) -> Callable[[Problem], PlanStatus]:
-    """A feasibility solve of a sub-mission within ``diagnosis.probe_seconds`` and the run's
+    """A feasibility solve of a sub-mission within a quarter of ``diagnosis.seconds`` and the run's
     deadline, its confirmations recorded as a diagnosis probe's (and its result in ``plans``,
     by the sub-mission's ``id``, when it has a plan); a stop request raises
     :class:`_DiagnosisStopped`."""
@@ -210,7 +210,7 @@ def _diagnosed(
 ) -> PlanResult:
     """``result`` with a minimal conflict found by feasibility solves (deletion filter), each
     infeasible verdict confirmed (recorded as a diagnosis probe), all within the ``run``'s
-    budget (``diagnosis.seconds`` of it at most, ``diagnosis.probe_seconds`` a probe)."""
+    budget (``diagnosis.seconds`` of it at most, a quarter of it a probe)."""
     confirmations = list(result.confirmations)
     feasibility = _prober(config, run, confirmations)
     try:

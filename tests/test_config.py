@@ -65,10 +65,10 @@ def test_a_wrong_value_is_an_error_that_names_the_knob(dotted: dict, expected: s
 def test_the_mission_sets_its_solver_settings_and_overrides_come_last() -> None:
     mission = load_problem(PAIR).mission
     config = PlannerConfig.from_mission(
-        mission, Overrides(gap=0.5, config={"lazy.window": 2}).dotted()
+        mission, Overrides(gap=0.5, config={"repair.orders": 2}).dotted()
     )
     assert config.solver.time_limit == mission.solver.time_limit
-    assert config.solver.gap == 0.5 and config.lazy.window == 2
+    assert config.solver.gap == 0.5 and config.repair.orders == 2
     assert config.continuous.two_step is mission.objective.two_step
 
 

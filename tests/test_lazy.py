@@ -22,7 +22,7 @@ from stlplan.planner.encoding.deferred import (
     SEPARATION,
     best_side,
     defer,
-    neighbours,
+    families,
 )
 from stlplan.planner.encoding.model import build_model
 from stlplan.planner.run.budget import Budget
@@ -73,22 +73,18 @@ def test_collision_binds_and_lazy_matches_up_front(encoding: str) -> None:
     assert accepted(problem, lazy) and accepted(problem, up_front)
 
 
-@pytest.mark.parametrize("window", [0, 1, None])
-def test_obstacle_binds_and_lazy_matches_up_front(window: int | None) -> None:
+def test_obstacle_binds_and_lazy_matches_up_front() -> None:
     problem = detour_problem(with_obstacle=True)
     free, _ = solve(detour_problem(with_obstacle=False))
     lazy, rounds = solve(
         problem,
         {
             "lazy.enabled": True,
-            "lazy.window": window,
             "repair.after_round_seconds": None,
             "repair.crowd_agents": None,
         },
     )
-    repaired, _ = solve(
-        problem, {"lazy.enabled": True, "lazy.window": window, "repair.after_round_seconds": 0.0}
-    )
+    repaired, _ = solve(problem, {"lazy.enabled": True, "repair.after_round_seconds": 0.0})
     up_front, _ = solve(problem, {"lazy.enabled": False, "model.floors": False})
     assert lazy.status is repaired.status is up_front.status is PlanStatus.OPTIMAL
     assert lazy.objective is not None and up_front.objective is not None
@@ -161,7 +157,7 @@ def test_defer_joins_steps_into_segments() -> None:
     assert {r.span for r in deferral.lazy} == {1}
 
 
-def test_violations_and_neighbours() -> None:
+def test_violations_and_their_families() -> None:
     problem = swap_problem(separation=0.5, horizon=4)
     deferral = defer(problem, reachable_boxes(problem), margin_ceiling=0.0)
     assert {r.source for r in deferral.lazy} == {SEPARATION}
@@ -172,9 +168,7 @@ def test_violations_and_neighbours() -> None:
     }
     bad = violated(deferral.lazy, states, margin=0.0, tolerance=1e-9)
     assert [deferral.lazy[n].k for n in bad] == [2]  # both at x = 1 at step 2
-    assert [deferral.lazy[n].k for n in neighbours(deferral.lazy, bad, 1)] == [1, 2, 3]
-    assert len(neighbours(deferral.lazy, bad, None)) == len(deferral.lazy)
-    assert neighbours(deferral.lazy, bad, 0) == bad
+    assert len(families(deferral.lazy, bad)) == len(deferral.lazy)
 
 
 def test_segment_violations_between_safe_samples() -> None:

@@ -103,9 +103,6 @@ class LazyConfig(_Section):
     """Leave the step requirements of constraints and separation out of the MILP and add those a
     round's plan violates, solving again until none is (False: encode them all up front).
     Measured: docs/performance.md#where-the-speed-comes-from."""
-    window: int | None = Field(default=0, ge=0)
-    """A violated requirement also brings the requirements of the same agent (or pair) within
-    this many steps (None: every step). Measured: docs/dropped.md#the-lazy-loop."""
 
 
 class PartsConfig(_Section):
@@ -138,7 +135,10 @@ class BudgetConfig(_Section):
     written."""
     min_solve_seconds: float = Field(default=1.0, gt=0)
     """Every solve, and every confirmation of an infeasible verdict, may run at least this long,
-    even when the budget is spent (or the grace, when a short time limit makes that smaller)."""
+    even when the budget is spent (or the grace, when a short time limit makes that smaller);
+    and a solve of a prioritized repair's turn this long at most before its best plan is taken
+    (the turn looks for a plan, not for its optimum; measured:
+    docs/measurements.md#the-prioritized-repair)."""
     side_share: float = Field(default=0.25, gt=0, lt=1)
     """Share of the time left that a step beside the search may take: computing a model's
     effort floors, a repair between lazy rounds, the held repair of a merged part, and the
@@ -173,10 +173,16 @@ class ContinuousConfig(_Section):
 class DiagnosisConfig(_Section):
     """Finding a minimal conflict of an infeasible mission (a deletion filter)."""
 
-    probe_seconds: float = Field(default=30.0, gt=0)
-    """Time limit of one feasibility solve of the diagnosis, s."""
     seconds: float = Field(default=120.0, gt=0)
-    """Time limit of the whole diagnosis, s (within what the run has left)."""
+    """Time limit of the whole diagnosis, s (within what the run has left); each of its
+    feasibility solves may take a quarter of it."""
+
+    @property
+    def probe_seconds(self) -> float:
+        """Time limit of one feasibility solve of the diagnosis, s: a quarter of
+        :attr:`seconds`."""
+        return self.seconds / 4
+
     degrade: bool = False
     """When the mission is infeasible, plan as many tasks as possible instead (by priority, else
     by count), naming each task dropped and why (on for a replan)."""

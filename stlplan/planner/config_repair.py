@@ -40,9 +40,6 @@ class RepairConfig(Section):
     docs/measurements.md#the-repair-by-elements."""
     solves_per_turn: int = Field(default=10, ge=1)
     """Solves of one agent's turn at most (each after adding what the last plan violated)."""
-    window: int | None = Field(default=None, ge=0)
-    """Steps of a violated requirement's family (the same pair, or agent and constraint) a turn
-    adds with it (None: all of them). Measured: docs/measurements.md#the-24-agent-farm."""
     gap: float = Field(default=0.01, ge=0)
     """Relative gap of a repair's solves (a turn's, the held repair's rounds): the repair looks
     for a plan, the rounds prove. Measured: docs/measurements.md#where-farm-x2s-first-plan-comes-from."""
@@ -50,10 +47,6 @@ class RepairConfig(Section):
     """Share of its time the held repair of a merged part spends solving to the run's gap (its
     plan may then prove the merged part); the rest, when that found no plan, goes to solving
     to ``repair.gap``. Measured: docs/measurements.md#where-farm-x2s-first-plan-comes-from."""
-    solve_seconds: float = Field(default=1.0, gt=0)
-    """Time limit of one solve of a prioritized repair's turn, s: its best plan within it is
-    taken (the turn looks for a plan, not for its optimum). Measured:
-    docs/measurements.md#the-prioritized-repair."""
     near: float = Field(default=0.3, ge=0)
     """A prioritized turn adds, with the requirements against earlier parts its plan violates,
     those it meets by less than this (fewer solves per turn). Measured:

@@ -28,8 +28,8 @@ class Around(Protocol):
         """The requirements naming one of ``agents`` that ``states`` break, by index."""
         ...
 
-    def add(self, found: Sequence[int], window: int | None) -> None:
-        """Encode the requirements ``found`` (and their neighbours within ``window``)."""
+    def add(self, found: Sequence[int]) -> None:
+        """Encode the requirements ``found`` with every step of their families."""
         ...
 
     def excuse(self, agents: Collection[str]) -> bool:

@@ -28,8 +28,8 @@ model: the full problem has them.
 
 The knobs are the ``repair`` section of :class:`stlplan.planner.config.PlannerConfig`: a turn
 solves one agent's plan around held ones (``tolerances.HOLD`` of room each), at most
-``repair.solves_per_turn`` times, adding every step of a violated requirement's family
-(``repair.window``), to the loose ``repair.gap``.
+``repair.solves_per_turn`` times, adding every step of a violated requirement's family,
+to the loose ``repair.gap``.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ from stlplan.planner.core.watch import (
     pending_violations,
     trajectory_states,
 )
-from stlplan.planner.encoding.deferred import neighbours
+from stlplan.planner.encoding.deferred import families
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.encoding.readout import partners
 from stlplan.planner.run.budget import Budget
@@ -230,7 +230,7 @@ def solve_free(
 ) -> list[str]:
     """One solve of a turn: the agents ``free`` solved again, every other agent held near its
     loaded plan, at most ``repair.solves_per_turn`` times, each time adding the requirements the
-    plan violates among ``free`` and ``done`` (every step of their families, ``repair.window``),
+    plan violates among ``free`` and ``done`` (every step of their families),
     and those it violates with the agents ``outside``.
 
     Parameters
@@ -272,9 +272,9 @@ def solve_free(
             named.append(mine)
             if budget.expired():
                 break
-            add_requirements(pm, neighbours(lazy, mine, repair.window))
+            add_requirements(pm, families(lazy, mine))
             if outside is not None:
-                outside.add(theirs, repair.window)
+                outside.add(theirs)
         return in_the_way(pm, free, named)
     finally:
         release(held)

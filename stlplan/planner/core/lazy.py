@@ -4,8 +4,7 @@ The loop runs around HiGHS, on one model kept loaded
 (:class:`stlplan.planner.backend.session.HighsSession`). Round ``i`` solves problem (step1) with only the
 step requirements (:mod:`stlplan.planner.encoding.deferred`) added so far: a relaxation of the
 full problem, so its dual bound ``U_i`` bounds the full optimum from above, and so does the least
-of them. The requirements its plan violates (found with numpy on the trajectory, with their
-neighbours in time per ``lazy.window``) are then encoded exactly as the up-front formulation
+of them. The requirements its plan violates (found with numpy on the trajectory) are then encoded exactly as the up-front formulation
 encodes them, and the next round starts, given the best plan so far that meets every
 requirement (it meets the new ones too) to start from. Each round adds at least one
 requirement, so the loop ends. While no plan meets every requirement and rounds are long, a
@@ -41,7 +40,7 @@ from stlplan.planner.core.in_turn import agents_of
 from stlplan.planner.core.policy import RepairPolicy
 from stlplan.planner.core.repairs import Broken
 from stlplan.planner.core.watch import Watch, load_plan, pending_violations
-from stlplan.planner.encoding.deferred import kind, neighbours
+from stlplan.planner.encoding.deferred import kind
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.run import outcome
 from stlplan.planner.run.budget import Budget, least_solve
@@ -58,7 +57,7 @@ class LazySolver:
     pm
         A model built with ``lazy=True`` (or without: then a run is one solve).
     config
-        The run's configuration (solver settings, ``lazy.window``, the repair's share).
+        The run's configuration (solver settings, the repairs' shares).
     clock
         Progress reporting; every solve is recorded in ``clock.round_log``.
     policy
@@ -231,7 +230,7 @@ class LazySolver:
             return self._from_best(solved, tick, rounds, PlanStatus.OPTIMAL)
         if watch.done():  # a repair found the first plan
             return self._from_best(solved, tick, rounds, PlanStatus.FEASIBLE)
-        add_requirements(pm, neighbours(pm.deferral.lazy, bad, self.config.lazy.window))
+        add_requirements(pm, bad)
         return None
 
     def _recorded(self, bound: float | None) -> None:

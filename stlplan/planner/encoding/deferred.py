@@ -343,21 +343,8 @@ def best_side(requirement: Requirement, states: Mapping[str, np.ndarray]) -> int
     return int(np.argmax(alpha_values(requirement, states)))
 
 
-def neighbours(
-    requirements: Sequence[Requirement], chosen: Sequence[int], window: int | None
-) -> list[int]:
-    """``chosen`` with every requirement of the same family within ``window`` steps.
-
-    ``window = 0`` keeps ``chosen``; None takes the whole family (every step of the pair or agent).
-    """
-    if window == 0:
-        return sorted(set(chosen))
-    wanted: dict[tuple[object, ...], list[int]] = {}
-    for n in chosen:
-        wanted.setdefault(requirements[n].family, []).append(requirements[n].k)
-    picked = set(chosen)
-    for n, req in enumerate(requirements):
-        steps = wanted.get(req.family)
-        if steps and (window is None or any(abs(req.k - k) <= window for k in steps)):
-            picked.add(n)
-    return sorted(picked)
+def families(requirements: Sequence[Requirement], chosen: Sequence[int]) -> list[int]:
+    """``chosen`` with every requirement of their families (every step of the pair, or of the
+    agent and constraint)."""
+    wanted = {requirements[n].family for n in chosen}
+    return sorted({*chosen, *(n for n, r in enumerate(requirements) if r.family in wanted)})

@@ -7,7 +7,7 @@ the parts before it as moving obstacles. Its requirements against an earlier par
 or a constraint binding agents of both) are encoded exactly as the full model encodes them
 (:meth:`~stlplan.planner.encoding.deferred.Requirement.encode`), with the earlier agents'
 states as numbers: the rows read the later agents' variables only. They are added lazily, as
-the part's plans violate them, with every step of their family (``repair.window``), and so are
+the part's plans violate them, with every step of their family, and so are
 the part's own requirements. A part that finds no plan around those before it is moved ahead,
 before the last part in its way (the guide names them), at its next failure before the one
 before that, then to the front, and the parts are taken again, as revised prioritized planning
@@ -48,7 +48,7 @@ from stlplan.planner.core.watch import (
     trajectory_states,
 )
 from stlplan.planner.encoding.alphas import best_sides, half_plane_values, violated
-from stlplan.planner.encoding.deferred import Requirement, neighbours
+from stlplan.planner.encoding.deferred import Requirement, families
 from stlplan.planner.encoding.model import PlanModel, add_requirements
 from stlplan.planner.first_plan.guide import guide_path, single_integrator, task_planes
 from stlplan.planner.first_plan.overlay import States, overlay_context
@@ -116,9 +116,8 @@ class Turn:
                 [lazy[mine[i]] for i in found], states, least_margin(self.pm), FEASIBILITY
             ):
                 return {a: states[a] for a in self.agents}
-            window = self.config.repair.window
-            add_requirements(self.pm, neighbours(self._own_lazy(), own, window))
-            for n in set(neighbours(lazy, [mine[i] for i in found], window)) & set(mine) - added:
+            add_requirements(self.pm, families(self._own_lazy(), own))
+            for n in set(families(lazy, [mine[i] for i in found])) & set(mine) - added:
                 lazy[n].encode(ctx.bound(lazy[n].binding))
                 added.add(n)
             if budget.expired():
@@ -191,7 +190,7 @@ class Turn:
             for n in pending:
                 wanted[n].encode_side(ctx, sides[n])
             held.update(pending)
-            solved = self.session.solve(budget.seconds(self.config.repair.solve_seconds))
+            solved = self.session.solve(budget.seconds(self.config.budget.min_solve_seconds))
             if solved.stopped or not has_solution(solved.results):
                 _log.debug("prioritized: a guided solve ended %s", self.session.verdict)
                 return None
@@ -205,9 +204,9 @@ class Turn:
         return {a: found[a] for a in self.agents}
 
     def _solved(self, budget: Budget, fallback: bool = True) -> bool:
-        """Whether a solve found a plan: within ``repair.solve_seconds`` or, with none by then
-        and ``fallback``, within the turn's ``budget``."""
-        first = budget.seconds(self.config.repair.solve_seconds)
+        """Whether a solve found a plan: within ``budget.min_solve_seconds`` or, with none by
+        then and ``fallback``, within the turn's ``budget``."""
+        first = budget.seconds(self.config.budget.min_solve_seconds)
         for limit in (first, budget) if fallback else (first,):
             solved = self.session.solve(limit)
             if solved.stopped or has_solution(solved.results):

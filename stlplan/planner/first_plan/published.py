@@ -30,7 +30,7 @@ from pyomo.common.modeling import unique_component_name
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.core.watch import least_margin
 from stlplan.planner.encoding.alphas import violated
-from stlplan.planner.encoding.deferred import Requirement, neighbours
+from stlplan.planner.encoding.deferred import Requirement, families
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.first_plan.overlay import States, overlay_context
 from stlplan.planner.tolerances import FEASIBILITY
@@ -81,10 +81,10 @@ class Outside:
             if a not in self.fixed
         })  # fmt: skip
 
-    def add(self, indices: Sequence[int], window: int | None) -> None:
-        """Encode the requirements ``indices`` with every step of their families within
-        ``window`` (:func:`neighbours`)."""
-        for n in neighbours(self.requirements, indices, window):
+    def add(self, indices: Sequence[int]) -> None:
+        """Encode the requirements ``indices`` with every step of their families
+        (:func:`families`)."""
+        for n in families(self.requirements, indices):
             if n not in self.encoded:
                 self.requirements[n].encode(self._context(self._owner(n)))
                 self.encoded.add(n)
