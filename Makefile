@@ -44,7 +44,7 @@ bench: $(STAMP)  ## Benchmark Cases I-III (30 states, straightforward on 2), the
 	$(BIN)/python -m stlplan.replan_bench --out bench-results/replan
 	$(BIN)/python -m stlplan.sim_bench --out bench-results/simulation --curves
 
-bench-replan: $(STAMP)  ## Replanning Case I after drift (K = 2..7, W = 0.05) and after losing vis1 at step 4 (~5 min)
+bench-replan: $(STAMP)  ## Replanning Case I after drift (K = 2..7, W = 0.05), after losing vis1 at 4 or uv1 at 2, after closing A2 at 3 (~6 min)
 	$(BIN)/python -m stlplan.replan_bench --out bench-results/replan
 
 bench-simulate: $(STAMP)  ## Case I executed 20 times under W = 0.02: robust vs nominal, replanning vs open loop, vis1 lost; fraction satisfied against W (~1 h)

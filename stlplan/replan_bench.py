@@ -1,4 +1,4 @@
-"""Benchmark of replanning: how fast a plan comes back after a drift or a lost agent.
+"""Benchmark of replanning: how fast a plan comes back after a drift, a lost agent or a closed region.
 
 The mission (Case I by default) is planned once from its shipped initial states. For each step
 ``K``, the plan is replanned from ``K`` as it is (nothing changed: the plan is its own start),
@@ -6,7 +6,9 @@ then with its positions at ``K`` moved by a uniform draw in ``[-W, W]`` per comp
 (fixed seed, clipped to the state bounds), and the mission is replanned from ``K`` twice: once
 stopping at the first plan that meets every requirement (``--first-plan``: the time to a plan
 the monitor accepts) and once to the proven optimum. Then the plan is replanned with one agent
-lost at a step, nothing moved. Every plan goes through the monitor.
+lost at a step (``vis1`` at 4, which drops nothing; ``uv1`` at 2, which drops a task), then
+with a region closed at a step (``A2`` at 3, which drops its task), nothing moved. Every plan
+goes through the monitor.
 
 This is a benchmark, not a test: it only measures. Rows go to ``replan.csv`` as they come and
 the table, with the median and max per kind, to ``replan.md``, in ``bench-results/`` by default.
@@ -68,10 +70,15 @@ def row(kind: str, step: int, result: PlanResult, seconds: float) -> dict[str, o
 
 
 def _timed(
-    problem: Problem, executed: Trajectory, step: int, overrides: Overrides, lost: Sequence[str]
+    problem: Problem,
+    executed: Trajectory,
+    step: int,
+    overrides: Overrides,
+    events: tuple[tuple[str, ...], tuple[str, ...]],
 ) -> tuple[PlanResult, float]:
     tick = time.perf_counter()
-    _, result = replan(problem, executed, step, lost=lost, overrides=overrides)
+    lost, closed = events
+    _, result = replan(problem, executed, step, lost, closed, overrides=overrides)
     return result, time.perf_counter() - tick
 
 
@@ -87,17 +94,18 @@ def run(args: argparse.Namespace) -> list[dict[str, object]]:
     with (out / "replan.csv").open("w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=FIELDS)
         writer.writeheader()
-        jobs: list[tuple[str, int | str, tuple[str, ...]]]
-        jobs = [("unchanged", k, ()) for k in args.steps]
-        jobs += [(f"moved {args.drift:g}", k, ()) for k in args.steps]
-        jobs += [(f"{a} lost", k, (a,)) for a, k in (s.split("@") for s in args.lose)]
-        for kind, k, lost in jobs:
+        jobs: list[tuple[str, int | str, tuple[tuple[str, ...], tuple[str, ...]]]]
+        jobs = [("unchanged", k, ((), ())) for k in args.steps]
+        jobs += [(f"moved {args.drift:g}", k, ((), ())) for k in args.steps]
+        jobs += [(f"{a} lost", k, ((a,), ())) for a, k in (s.split("@") for s in args.lose)]
+        jobs += [(f"{r} closed", k, ((), (r,))) for r, k in (s.split("@") for s in args.close)]
+        for kind, k, events in jobs:
             k = int(k)
             width = args.drift if kind.startswith("moved") else 0.0
             executed = moved(problem, first.trajectory, k, width, args.seed)
             for label, first_plan in (("first plan", True), ("optimum", False)):
                 overrides = dataclasses.replace(base, first_plan=first_plan or None)
-                result, seconds = _timed(problem, executed, k, overrides, lost)
+                result, seconds = _timed(problem, executed, k, overrides, events)
                 rows.append(row(f"{kind}, {label}", k, result, seconds))
                 writer.writerow(rows[-1])
                 f.flush()
@@ -139,7 +147,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--mission", default="missions/farm.yaml")
     parser.add_argument("--steps", type=int, nargs="+", default=[2, 3, 4, 5, 6, 7])
     parser.add_argument("--drift", type=float, default=0.05, help="W: positions moved by up to W")
-    parser.add_argument("--lose", nargs="*", default=["vis1@4"], metavar="AGENT@K")
+    parser.add_argument("--lose", nargs="*", default=["vis1@4", "uv1@2"], metavar="AGENT@K")
+    parser.add_argument("--close", nargs="*", default=["A2@3"], metavar="REGION@K")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--time-limit", type=float, default=300.0)
     parser.add_argument("--threads", type=int, default=2)

@@ -101,7 +101,7 @@ def reported(problem: Problem, result: PlanResult, report: MonitorReport, gap: f
     margin = report.spatial_robustness
     rho_s = {t: report.verdict(t).rho_s for t in result.rho_s}
     objective = plan_objective(problem, result.trajectory, report)
-    gap_of_plan = _plan_gap(result, objective)
+    gap_of_plan = _plan_gap(result, objective, gap)
     said = gap_words(result.gap, result.bound)  # the message speaks of the written plan too
     out = dataclasses.replace(
         result,
@@ -145,11 +145,15 @@ def _monitors_run(assignment: Assignment, report: MonitorReport) -> Assignment:
     )
 
 
-def _plan_gap(result: PlanResult, objective: float | None) -> float | None:
+def _plan_gap(result: PlanResult, objective: float | None, gap: float) -> float | None:
     """The gap of the written plan to the solver's bound when step 1 was not proven (a plan
     improved after the solver's gap was taken, by a polish or a whole team's solve, gets its
-    own); a proven step 1 keeps the solver's."""
-    if result.status is PlanStatus.OPTIMAL or result.bound is None:
+    own); a proven step 1 (optimal, or a degraded plan's within the run's ``gap``) keeps the
+    solver's."""
+    proven = result.status is PlanStatus.OPTIMAL or (
+        result.status is PlanStatus.DEGRADED and result.gap is not None and result.gap <= gap
+    )
+    if proven or result.bound is None:
         return result.gap
     if not math.isfinite(result.bound):
         return result.gap

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from stlplan.analysis.diagnose import cheap_reasons
 from stlplan.errors import EventError, TrajectoryError
 from stlplan.mission.past import replanned
 from stlplan.mission.problem import Problem
@@ -214,3 +215,19 @@ def test_a_drifted_replan_of_a_mission_with_a_margin_floor_is_judged_by_what_it_
     _, result = replan(problem, executed, step, overrides=Overrides(time_limit=60))
     assert result.status.has_plan and result.report is not None
     assert result.margin is not None and result.margin >= 0.2 - 1e-6
+
+
+def test_a_task_in_a_closed_region_is_dropped_without_a_solve() -> None:
+    # R closed at step 1, before a could get there: the task's region is out of bounds for good
+    problem = _visit()
+    executed = _walk(problem, {})
+    again = replanned(problem, executed, 1, closed=["R"])
+    reasons = cheap_reasons(again)
+    assert [r.item for r in reasons] == ["visit"]
+    assert "constraint 'closed R'" in reasons[0].text
+    assert not cheap_reasons(replanned(problem, executed, 1, closed=["C"]))
+    _, result = _replan(problem, executed, 1, closed=["R"])
+    assert result.status is PlanStatus.DEGRADED
+    assert [d.task for d in result.dropped] == ["visit"]
+    assert "constraint 'closed R'" in result.dropped[0].reason
+    assert not any("diagnosis probe" in c.where for c in result.confirmations)

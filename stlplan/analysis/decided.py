@@ -6,28 +6,48 @@ reachable boxes (:func:`stlplan.analysis.reach.reachable_boxes`) bounds it from 
 trajectory the dynamics allow. When that bound is below ``HOLDS_AT``, the formula is decided
 false. A replan's executed past makes its boxes points, so a ``G`` the past broke, or an ``F``
 whose window closed unmet, is found here at once.
+
+A constraint ``G[a,b] !in(p, R)`` (an obstacle, a region a replan closed) keeps ``in(p, R)``
+false at steps ``a..b`` for any plan that meets it: given as ``barred``, the region's lowered
+conjunction is bounded by ``-HOLDS_AT`` there, so a task that needs an agent in a closed region
+is decided false too.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from types import MappingProxyType
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+from stlplan.formula.boundary import HOLDS_AT
 from stlplan.formula.tree import Always, And, Eventually, Formula, Or, Predicate, Until
 
 Boxes = Mapping[str, tuple[np.ndarray, np.ndarray]]
 """Role name to the (H+1, n) lower and upper bounds of its agent's states."""
 
+Barred = Mapping[Formula, np.ndarray]
+"""A lowered ``in(role, region)`` to the steps (a boolean per step ``0..H``) at which a
+constraint keeps it false."""
 
-def upper_robustness(formula: Formula, boxes: Boxes, horizon: int) -> np.ndarray:
-    """An upper bound of ``rho(formula, k)`` over every trajectory within ``boxes``, for
-    ``k = 0 .. H - horizon(formula)`` (a lowered formula, as the monitor evaluates)."""
-    return _EVALUATORS[type(formula)](formula, boxes, horizon)
+_NONE: Barred = MappingProxyType({})
 
 
-def _predicate(node: Formula, boxes: Boxes, horizon: int) -> np.ndarray:
+def upper_robustness(
+    formula: Formula, boxes: Boxes, horizon: int, barred: Barred = _NONE
+) -> np.ndarray:
+    """An upper bound of ``rho(formula, k)`` over every trajectory within ``boxes`` that meets
+    the constraints behind ``barred``, for ``k = 0 .. H - horizon(formula)`` (a lowered formula,
+    as the monitor evaluates)."""
+    values = _EVALUATORS[type(formula)](formula, boxes, horizon, barred)
+    steps = barred.get(formula)
+    if steps is not None:
+        values = np.where(steps[: len(values)], np.minimum(values, -HOLDS_AT), values)
+    return values
+
+
+def _predicate(node: Formula, boxes: Boxes, horizon: int, barred: Barred) -> np.ndarray:
     # max over the box of sum_i coef_i x_i - bound: each term at its larger end
     assert isinstance(node, Predicate)
     value = np.full(horizon + 1, -float(node.bound))
@@ -38,9 +58,9 @@ def _predicate(node: Formula, boxes: Boxes, horizon: int) -> np.ndarray:
     return value
 
 
-def _children(node: Formula, boxes: Boxes, horizon: int) -> np.ndarray:
+def _children(node: Formula, boxes: Boxes, horizon: int, barred: Barred) -> np.ndarray:
     assert isinstance(node, And | Or)
-    values = [upper_robustness(c, boxes, horizon) for c in node.children]
+    values = [upper_robustness(c, boxes, horizon, barred) for c in node.children]
     length = min(len(v) for v in values)
     stacked = np.stack([v[:length] for v in values])
     return stacked.min(axis=0) if isinstance(node, And) else stacked.max(axis=0)
@@ -53,18 +73,18 @@ def _windows(child: np.ndarray, lo: int, hi: int) -> np.ndarray:
     return sliding_window_view(child, hi - lo + 1)[lo : lo + len(child) - hi]
 
 
-def _temporal(node: Formula, boxes: Boxes, horizon: int) -> np.ndarray:
+def _temporal(node: Formula, boxes: Boxes, horizon: int, barred: Barred) -> np.ndarray:
     assert isinstance(node, Always | Eventually)
-    child = upper_robustness(node.child, boxes, horizon)
+    child = upper_robustness(node.child, boxes, horizon, barred)
     windows = _windows(child, node.interval.lo, node.interval.hi)
     return windows.min(axis=1) if isinstance(node, Always) else windows.max(axis=1)
 
 
-def _until(node: Formula, boxes: Boxes, horizon: int) -> np.ndarray:
+def _until(node: Formula, boxes: Boxes, horizon: int, barred: Barred) -> np.ndarray:
     # max_{t in [a,b]} min(right(k+t), min of left over [k, k+t] (strict: [k, k+t)))
     assert isinstance(node, Until)
-    left = upper_robustness(node.left, boxes, horizon)
-    right = upper_robustness(node.right, boxes, horizon)
+    left = upper_robustness(node.left, boxes, horizon, barred)
+    right = upper_robustness(node.right, boxes, horizon, barred)
     lo, hi = node.interval.lo, node.interval.hi
     length = max(0, min(len(left), len(right)) - hi)
     prefix, best = np.full(length, np.inf), np.full(length, -np.inf)
@@ -78,7 +98,7 @@ def _until(node: Formula, boxes: Boxes, horizon: int) -> np.ndarray:
     return best
 
 
-_EVALUATORS: dict[type, Callable[[Formula, Boxes, int], np.ndarray]] = {
+_EVALUATORS: dict[type, Callable[[Formula, Boxes, int, Barred], np.ndarray]] = {
     Predicate: _predicate,
     And: _children,
     Or: _children,

@@ -26,6 +26,7 @@ from stlplan.analysis.decided import upper_robustness
 from stlplan.analysis.initial import TOLERANCE, Reason, initial_reasons
 from stlplan.analysis.reach import needs, reachable_boxes
 from stlplan.formula.boundary import HOLDS_AT
+from stlplan.formula.tree import Always, Formula, InRegion, Not, atoms
 from stlplan.mission.problem import Problem, TaskModel
 from stlplan.result import Diagnosis, PlanStatus
 
@@ -112,27 +113,62 @@ def _constraint_reasons(problem: Problem, boxes: dict) -> Iterator[Reason]:
 
 def _decided_reasons(problem: Problem, boxes: dict, named: set[str]) -> Iterator[Reason]:
     """Ordinary tasks (not named yet) that fewer elements than their count can still satisfy,
-    whatever the plan (:mod:`stlplan.analysis.decided`); a replan's past decides most."""
+    whatever the plan (:mod:`stlplan.analysis.decided`), the constraints that keep agents out of
+    regions (obstacles, a replan's closed regions) met; a replan's past decides most."""
     after = (
         "" if problem.past is None else f" after the executed past (steps 0..{problem.past.step})"
     )
     for task in problem.tasks:
         if task.sync is not None or task.name in named:
             continue
-        able = sum(
-            upper_robustness(
-                problem.lowered(task.formula, b), _role_boxes(boxes, b), problem.horizon
-            )[0]
-            >= HOLDS_AT
-            for b in map(task.binding, task.elements)
-        )
+        able, barring = 0, set()
+        read = {a.region for a in atoms(task.formula) if isinstance(a, InRegion)}
+        for binding in map(task.binding, task.elements):
+            lowered, roles = problem.lowered(task.formula, binding), _role_boxes(boxes, binding)
+            barred, names = _barred(problem, binding, read)
+            if upper_robustness(lowered, roles, problem.horizon, barred)[0] >= HOLDS_AT:
+                able += 1
+            elif upper_robustness(lowered, roles, problem.horizon)[0] >= HOLDS_AT:
+                barring |= names
         wanted = 1 if task.reuse_agents else task.count
         if able < wanted:
+            kept_out = f" and {_listed(sorted(barring))}" if barring else ""
             yield Reason(
                 task.name,
-                f"task '{task.name}' can no longer be met{after}: {able} of its "
+                f"task '{task.name}' can no longer be met{after}{kept_out}: {able} of its "
                 f"{len(task.elements)} element(s) can still satisfy it, {wanted} needed",
             )
+
+
+def _barred(
+    problem: Problem, binding: dict[str, str], regions: set[str]
+) -> tuple[dict[Formula, np.ndarray], set[str]]:
+    """For the roles of ``binding``: each of ``regions`` a constraint ``G[a,b] !in(p, R)``
+    keeps its agent out of (as the role's lowered ``in(role, R)``), with the steps ``a..b``;
+    and the names of those constraints."""
+    barred: dict[Formula, np.ndarray] = {}
+    names: set[str] = set()
+    for constraint in problem.constraints:
+        keeps = constraint.formula
+        if not isinstance(keeps, Always) or not isinstance(keeps.child, Not):
+            continue
+        atom = keeps.child.atom
+        if not isinstance(atom, InRegion) or atom.region not in regions:
+            continue
+        agents = {b[atom.role] for b in constraint.bindings}
+        for role, agent in binding.items():
+            if agent in agents:
+                key = problem.lowered(InRegion(role, atom.region), {role: agent})
+                steps = barred.setdefault(key, np.zeros(problem.horizon + 1, dtype=bool))
+                steps[keeps.interval.lo : keeps.interval.hi + 1] = True
+                names.add(constraint.name)
+    return barred, names
+
+
+def _listed(names: list[str]) -> str:
+    """``constraint 'a'``, ``constraints 'a', 'b'``."""
+    quoted = ", ".join(f"'{n}'" for n in names)
+    return f"constraint{'s' if len(names) > 1 else ''} {quoted}"
 
 
 def _bounds_reasons(problem: Problem, boxes: dict) -> Iterator[Reason]:
