@@ -190,9 +190,15 @@ def _prober(
             "continuous.two_step": False,
         }
     )  # (a probe with parts falls back to the whole team when their plans do not assemble)
+    whole = probe.with_overrides({"parts.enabled": False})
+    large = config.parts.plan_first_agents
 
     def feasibility(subset: Problem) -> PlanStatus:
-        found = solve_plan(subset, probe, budget=Budget.for_run(probe, run.deadline))
+        # a team smaller than a large one's part is probed whole: its parts' first plans
+        # collide, and their merges' repairs cost more than the team's own lazy rounds
+        small = large is None or len(subset.agents) < large
+        settings = whole if small else probe
+        found = solve_plan(subset, settings, budget=Budget.for_run(settings, run.deadline))
         confirmations.extend(
             dataclasses.replace(c, where=f"diagnosis probe, {c.where}") for c in found.confirmations
         )
