@@ -69,12 +69,12 @@ def test_only_requirements_with_published_agents_are_outside() -> None:
         assert outside is not None
         named = [set(r.binding.values()) for r in outside.requirements]
         assert named and all(agents in ({"a", "c"}, {"a", "d"}) for agents in named)
-        outside.add(outside.naming(["c"]), 0)  # c's rows in a block of its own
+        outside.add(outside.naming(["c"]))  # c's rows in a block of its own
         assert len(set(pm.model.component_map()) - components) == 1
         assert outside.excuse(["c"]) and not outside.excuse(["c"])  # removed, once
         assert outside.naming(["c"]) == [] and outside.naming(["d"])
         assert not outside.excuse(["d"]) and outside.naming(["d"])  # no rows: not excused
-        outside.add(outside.naming(["d"]), 0)
+        outside.add(outside.naming(["d"]))
     assert set(pm.model.component_map()) == components  # every block removed
 
 
@@ -142,9 +142,9 @@ def test_blocks_keep_their_names_apart_when_an_earlier_one_is_removed() -> None:
     with published.around(pm) as outside:
         assert outside is not None
         for agent in "bc":
-            outside.add(outside.naming([agent]), 0)
+            outside.add(outside.naming([agent]))
         assert outside.excuse(["b"])
-        outside.add(outside.naming(["d"]), 0)  # a name of its own, not c's
+        outside.add(outside.naming(["d"]))  # a name of its own, not c's
         assert sorted(outside.blocks) == ["c", "d"]
 
 

@@ -137,6 +137,7 @@ def _decided_reasons(problem: Problem, boxes: dict, named: set[str]) -> Iterator
                 task.name,
                 f"task '{task.name}' can no longer be met{after}{kept_out}: {able} of its "
                 f"{len(task.elements)} element(s) can still satisfy it, {wanted} needed",
+                tuple(sorted(barring)),
             )
 
 
@@ -224,7 +225,7 @@ def kind_of(problem: Problem, name: str) -> str:
 
 def cheap_diagnosis(problem: Problem, reasons: tuple[Reason, ...]) -> Diagnosis:
     """The diagnosis the cheap reasons make: their texts, and the items they blame."""
-    conflict = tuple(dict.fromkeys(r.item for r in reasons))
+    conflict = tuple(dict.fromkeys(n for r in reasons for n in (r.item, *r.others)))
     return Diagnosis(
         reasons=tuple(r.text for r in reasons),
         conflict=conflict,

@@ -41,6 +41,8 @@ class Reason(NamedTuple):
     """The task, constraint or ``separation`` that cannot be met."""
     text: str
     """The explanation: who, at which step, which requirement, which numbers."""
+    others: tuple[str, ...] = ()
+    """The constraints it cannot be met with (none: it cannot be met on its own)."""
 
 
 def _all_known(parts: list[Formula | None]) -> list[Formula] | None:
