@@ -78,12 +78,12 @@ class ModelConfig(_Section):
     floors: bool = True
     """Add the effort floors (valid inequalities on effort, per agent, per pair of tasks an
     agent serves and per element). Measured: docs/performance.md#where-the-speed-comes-from."""
-    max_options: int = Field(default=256, ge=1)
-    """A pair of tasks one agent serves gets no joint floor when its unions of predicates
-    number more than this."""
     max_combinations: int = Field(default=64, ge=1)
-    """An element's floor takes one child of every disjunction together while there are at
-    most this many combinations, else the largest single floor."""
+    """Most linear programs one effort floor may solve: a pair of tasks one agent serves gets
+    no joint floor when its unions of predicates number more, and an element's floor takes one
+    child of every disjunction together while there are at most this many combinations, else
+    the largest single floor. Measured: no shipped mission reaches it (the pairs' unions at most
+    64, the elements' combinations at most 9; docs/measurements.md#the-floors-work-bound)."""
     robust_to: float = Field(default=0.0, ge=0)
     """W: keep every predicate's margin above what one step of an additive disturbance bounded
     by W per state component can use up (the mission's ``execution.disturbance``,

@@ -45,7 +45,7 @@ holds at every plan: serving one task it is a cut above; serving both, its right
 ``F_T1 + J_p - F_T1``. Unlike the cuts above it adds the floors of two tasks up, so it binds when
 the agent's shares of the tasks are fractional too, whenever the way between the tasks costs at
 least the smaller floor. The same with ``T1`` and ``T2`` swapped, and ``e_p >= J_p (a_T1 + a_T2 -
-1)``, which is tight when both shares are 1; ``a_T1 + a_T2 <= 1`` when no union can be met. Pairs with more than ``model.max_options`` unions get no cut.
+1)``, which is tight when both shares are 1; ``a_T1 + a_T2 <= 1`` when no union can be met. Pairs with more than ``model.max_combinations`` unions get no cut.
 """
 
 from __future__ import annotations
@@ -84,8 +84,8 @@ class FloorGraph:
     cache: dict[tuple[str, frozenset[AgentPredicate]], float] = field(default_factory=dict)
     deadline: float = math.inf
     """``time.perf_counter()`` time after which no more LPs run: a floor of 0 (no cut) is valid."""
-    max_options: int = ModelConfig().max_options
-    """Most option unions (LPs) one agent and pair of tasks may take (``model.max_options``)."""
+    max_options: int = ModelConfig().max_combinations
+    """Most option unions (LPs) one agent and pair of tasks may take (``model.max_combinations``)."""
 
     def __post_init__(self) -> None:
         for z, (node, k, binding) in self.ledger.guarded:
@@ -149,12 +149,12 @@ def add_effort_floors(
     ``model.s[p, k, j]`` are the absolute inputs; ``margin`` is the smallest admissible ``r``.
     After ``deadline`` (``time.perf_counter()`` time) no more floor LPs run and the remaining
     indicators get no cut (the floors are valid inequalities: fewer of them keep the optimum).
-    ``settings`` bound the work (``model.max_options``, ``model.max_combinations``).
+    ``settings`` bound the work (``model.max_combinations``).
     """
     settings = settings or ModelConfig()
     names = [a.name for a in problem.agents]
     lps = {a.name: EffortLp(a, problem.horizon, margin) for a in problem.agents}
-    graph = FloorGraph(ledger, lps, deadline=deadline, max_options=settings.max_options)
+    graph = FloorGraph(ledger, lps, deadline=deadline, max_options=settings.max_combinations)
     model.e = Var(names, bounds=(0.0, None))
     model.effort_floors = ConstraintList()
     for p in names:
