@@ -82,8 +82,8 @@ class ModelConfig(_Section):
     """Most linear programs one effort floor may solve: a pair of tasks one agent serves gets
     no joint floor when its unions of predicates number more, and an element's floor takes one
     child of every disjunction together while there are at most this many combinations, else
-    the largest single floor. Measured: no shipped mission reaches it (the pairs' unions at most
-    64, the elements' combinations at most 9; docs/measurements.md#the-floors-work-bound)."""
+    the largest single floor. No shipped mission reaches it (the pairs' unions at most 64, the
+    elements' combinations at most 9). Measured: docs/measurements.md#the-floors-work-bound."""
     robust_to: float = Field(default=0.0, ge=0)
     """W: keep every predicate's margin above what one step of an additive disturbance bounded
     by W per state component can use up (the mission's ``execution.disturbance``,
@@ -137,22 +137,22 @@ class BudgetConfig(_Section):
     """Every solve, and every confirmation of an infeasible verdict, may run at least this long,
     even when the budget is spent (or the grace, when a short time limit makes that smaller);
     and a solve of a prioritized repair's turn this long at most before its best plan is taken
-    (the turn looks for a plan, not for its optimum; measured:
-    docs/measurements.md#the-prioritized-repair)."""
+    (the turn looks for a plan, not for its optimum). Measured:
+    docs/measurements.md#the-prioritized-repair."""
     side_share: float = Field(default=0.25, gt=0, lt=1)
     """Share of the time left that a step beside the search may take: computing a model's
     effort floors, a repair between lazy rounds, the held repair of a merged part, and the
     improvement of a large team's first plan element by element (each around all the others,
-    while that lowers the effort). Measured (the improvement's):
+    while that lowers the effort; the share that improvement was measured with). Measured:
     docs/measurements.md#the-first-plan-improved-element-by-element."""
     search_share: float = Field(default=0.75, gt=0, lt=1)
     """Share of the time left that a search for a first plan may take: a repair between the
     rounds of a loop that looks for its first plan only (the repair is its way to a plan; the
     next round, a relaxation, rarely gives one), each repair of a merged crowd (prioritized,
-    then in turn; the solve that joins the prioritized repair's plans may take all of it), a
-    large team's plan before the parts' proofs, and the improvement's sweeps within its share.
-    Measured: docs/measurements.md#a-first-plan-under-a-short-time-limit,
-    docs/dropped.md#parts-and-merges."""
+    then in turn; the solve that joins the prioritized repair's plans may take all of it: see
+    docs/dropped.md, parts and merges), a large team's plan before the parts' proofs, and the
+    improvement's sweeps within its share. Measured:
+    docs/measurements.md#a-first-plan-under-a-short-time-limit."""
 
 
 class ContinuousConfig(_Section):
