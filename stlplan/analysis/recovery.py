@@ -42,7 +42,8 @@ def with_recoveries(problem: Problem) -> Problem:
         closest = _distance(problem, p, q, K)
         if closest >= problem.separation:
             continue
-        boxes = boxes or reachable_boxes(problem)
+        if boxes is None:
+            boxes = reachable_boxes(problem)
         found[(p, q)] = Recovery(closest, _restored(problem, boxes, p, q))
     if not found:
         return problem
@@ -63,9 +64,9 @@ def _restored(
     assert problem.past is not None and problem.separation is not None
     K, H = problem.past.step, problem.horizon
     margin = required_margin(problem.mission.objective.margin.minimum)
+    need = problem.separation + margin + 2 * problem.robust_to + EPSILON
     restored = None
     for k in range(H, K, -1):
-        need = problem.separation + margin + 2 * problem.robust_to + EPSILON
         if _widest(problem, boxes, p, q, k) < need:
             break
         restored = k

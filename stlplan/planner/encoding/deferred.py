@@ -238,17 +238,19 @@ def step_requirements(
     return kept + (floor_requirements(problem) if floors else []), eager
 
 
-def segment_end(problem: Problem, requirement: Requirement) -> Requirement | None:
+def segment_end(
+    problem: Problem, requirement: Requirement, least: float = HOLDS_AT
+) -> Requirement | None:
     """A requirement at a replan's step ``K`` (executed data) as what the segment from ``K``
-    to ``K+1`` asks of the plan: ``x(K+1)`` in one of the half-planes ``x(K)`` is in (the
-    segment then stays in it). None when ``x(K)`` is in none: the past broke it."""
+    to ``K+1`` asks of the plan: ``x(K+1)`` in one of the half-planes ``x(K)`` is in, at
+    ``least`` (the segment then stays in it). None when ``x(K)`` is in none: the past broke it."""
     past = problem.past
     assert past is not None and requirement.k == past.step
     if requirement.k + 1 > problem.horizon:
         return None
     states = {name: past.states[name] for name in requirement.binding.values()}
     alpha = alpha_values(requirement, states)
-    held = [p for p, a in zip(requirement.alternatives, alpha, strict=True) if a >= HOLDS_AT]
+    held = [p for p, a in zip(requirement.alternatives, alpha, strict=True) if a >= least]
     if not held:
         return None
     formula: Formula = held[0] if len(held) == 1 else Or(tuple(held))
@@ -263,8 +265,8 @@ def floor_requirements(problem: Problem) -> list[Requirement]:
     every step and segment from ``K`` to ``R``: the separation's four half-planes with
     ``c - r_min`` in place of ``d``, so that the margin ``r >= r_min`` (and a robust
     tightening) lands on ``c``. With inter-sample safety: ``x(K+1)`` on a side ``x(K)`` holds
-    at ``c`` (the segment from the executed state stays on it), then one half-plane at both
-    ends of each segment up to ``[R-1, R]``; else the steps ``K+1 .. R-1``.
+    at ``c`` (:func:`segment_end`: the segment from the executed state stays on it), then one
+    half-plane at both ends of each segment up to ``[R-1, R]``; else the steps ``K+1 .. R-1``.
     """
     past = problem.past
     if past is None or not past.recovering:
@@ -277,36 +279,21 @@ def floor_requirements(problem: Problem) -> list[Requirement]:
             continue
         binding = {"p": p, "q": q}
         floor = problem.lowered(Distance("p", "q", ">=", recovery.closest - margin), binding)
-        last = min(problem.separated_from(p, q), problem.horizon + 1)
-        steps = range(past.step + 1, last)
-        if problem.inter_sample:
-            found += [
-                Requirement(floor, k, binding, SEPARATION, 1, problem.tightening)
-                for k in steps
-                if k + 1 <= min(last, problem.horizon)
-            ]
-            found += _first_floor(problem, floor, binding, margin)
-        else:
+        steps = range(past.step + 1, problem.separated_from(p, q))
+        if not problem.inter_sample:
             found += [
                 Requirement(floor, k, binding, SEPARATION, 0, problem.tightening) for k in steps
             ]
+            continue
+        found += [
+            Requirement(floor, k, binding, SEPARATION, 1, problem.tightening)
+            for k in steps
+            if k + 1 <= problem.horizon
+        ]
+        at = Requirement(floor, past.step, binding, SEPARATION, 0, problem.tightening)
+        end = segment_end(problem, at, margin - HOLDS_AT)  # x(K) holds its closest side at c
+        found += [end] if end is not None else []
     return found
-
-
-def _first_floor(
-    problem: Problem, floor: Formula, binding: Mapping[str, str], margin: float
-) -> list[Requirement]:
-    """``x(K+1)`` on a side of the floor the executed ``x(K)`` holds with the margin (the
-    pair's closest axes)."""
-    past = problem.past
-    assert past is not None and isinstance(floor, Or)
-    K = past.step  # (< H: a pair recovers only then)
-    at = Requirement(floor, K, binding, SEPARATION)
-    states = {name: past.states[name] for name in binding.values()}
-    alpha = alpha_values(at, states)
-    held = [p for p, a in zip(at.alternatives, alpha, strict=True) if a >= margin - HOLDS_AT]
-    formula: Formula = held[0] if len(held) == 1 else Or(tuple(held))
-    return [Requirement(formula, K + 1, binding, SEPARATION, 0, problem.tightening)]
 
 
 def segment_requirements(problem: Problem) -> list[Requirement]:
