@@ -190,6 +190,27 @@ CATALOGUE: dict[str, tuple[type[StlplanError], tuple[str, ...]]] = {
         FormulaError,
         ("line 18,", "tasks.meet.formula", "in(Goal, p) has its arguments swapped", "in(p, Goal)"),
     ),
+    "count_above_team": (
+        FormulaError,
+        ("line 18,", "tasks.meet.formula", "can never hold", "1 agent(s) with lidar", "1 to 1"),
+    ),
+    "count_unknown_capability": (
+        FormulaError,
+        ("line 18,", "tasks.meet.formula", "'lidarr'", "did you mean 'lidar'"),
+    ),
+    "count_fraction": (
+        FormulaError,
+        ("line 18,", "tasks.meet.formula", "whole number", "found 1.5"),
+    ),
+    "count_negative": (FormulaError, ("line 18,", "tasks.meet.formula", "whole number", "-1")),
+    "count_always_holds": (
+        FormulaError,
+        ("line 18,", "tasks.meet.formula", "count(Obs) <= 2", "always holds", "below 2"),
+    ),
+    "visits_beyond_reach": (
+        FormulaError,
+        ("line 18,", "tasks.meet.formula", "enter at most 4 times", "from 1 to 4"),
+    ),
     "roles_pinned_same_agent": (
         MissionError,
         ("line 20,", "tasks.meet.roles.q", "both pinned to agent 'a1'"),

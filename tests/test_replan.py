@@ -231,3 +231,31 @@ def test_a_task_in_a_closed_region_is_dropped_without_a_solve() -> None:
     assert [d.task for d in result.dropped] == ["visit"]
     assert "constraint 'closed R'" in result.dropped[0].reason
     assert not any("diagnosis probe" in c.where for c in result.confirmations)
+
+
+def test_a_replan_keeps_a_constraints_eventually_that_starts_at_its_step() -> None:
+    """``G[0,5] F[0,1] in(p, A)`` at step K = 5, outside A: the agent must be back in A at 6
+    (the part at K reads step K+1, which is planned, not data)."""
+    from stlplan.mission.past import replanned
+    from stlplan.monitor.verdicts import check as judge
+    from stlplan.result import Trajectory
+    from tests.helpers.dynamics import single_integrator
+    from tests.helpers.missions import mission
+    from tests.helpers.solving import up_front_optimum
+
+    problem = mission(
+        horizon=8,
+        agents=[{"name": "a", "dynamics": "si", "capabilities": ["c"], "initial_state": [2.5, 0]}],
+        regions={"A": {"box": [[2, 3], [-1, 1]]}, "Far": {"box": [[4.8, 6], [-1, 1]]}},
+        tasks={"go": {"formula": "F[8,8] in(p, Far)", "roles": {"p": "c"}}},
+        constraints={"near_A": {"formula": "G[0,5] F[0,1] in(p, A)", "for_each": "p"}},
+        dynamics={"si": single_integrator(1, ((0, 7), (-2, 2)))},
+    )
+    xs = [2.5, 2.5, 2.5, 2.5, 2.5, 3.4, 4.4, 5.4, 5.5]  # out of A at 5
+    states = {"a": np.array([[x, 0.0] for x in xs])}
+    executed = Trajectory(8, states, {"a": np.diff(states["a"], axis=0)})
+    again = replanned(problem, executed, 5)
+    result = up_front_optimum(again)  # every constraint written out, none left to the lazy loop
+    assert result.trajectory is not None
+    assert judge(again, result.trajectory).satisfied
+    assert result.trajectory.states["a"][6, 0] <= 3.0

@@ -68,3 +68,17 @@ def test_warehouse_plan_stays_clear_of_the_wall_between_steps() -> None:
     judged = check(problem, sampled.trajectory)
     crossed = [v for v in judged.verdicts if not v.satisfied]
     assert crossed and all("on the segment" in v.detail for v in crossed)
+
+
+@pytest.mark.slow
+def test_surveillance_is_planned_with_its_counts_and_visits_met() -> None:
+    # the paper's opening mission: A watched by some camera robot within every 10 steps, two
+    # ground robots in B together, 10 visits to C; a plan the monitor accepts, each with the
+    # mission's margin of 0.05
+    problem, result = api.plan(MISSIONS / "surveillance.yaml")
+    assert result.status in (PlanStatus.OPTIMAL, PlanStatus.FEASIBLE)
+    assert result.trajectory is not None
+    report = check(problem, result.trajectory)
+    assert report.satisfied
+    for task in ("watch_A", "meet_B", "visit_C"):
+        assert report.verdict(task).robustness >= 0.05 - 1e-6

@@ -1,6 +1,7 @@
 """Formulas that no plan can satisfy any more, found without solving.
 
-Robustness is built from predicate values by ``min`` and ``max`` alone, so it grows with every
+Robustness is built from predicate values by ``min``, ``max`` and the ``n``-th largest (a
+count) alone, so it grows with every
 predicate's value. Its value with every predicate at the largest it takes over the agents'
 reachable boxes (:func:`stlplan.analysis.reach.reachable_boxes`) bounds it from above for every
 trajectory the dynamics allow. When that bound is below ``HOLDS_AT``, the formula is decided
@@ -22,7 +23,16 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from stlplan.formula.boundary import HOLDS_AT
-from stlplan.formula.tree import Always, And, Eventually, Formula, Or, Predicate, Until
+from stlplan.formula.tree import (
+    Always,
+    And,
+    AtLeast,
+    Eventually,
+    Formula,
+    Or,
+    Predicate,
+    Until,
+)
 
 Boxes = Mapping[str, tuple[np.ndarray, np.ndarray]]
 """Role name to the (H+1, n) lower and upper bounds of its agent's states."""
@@ -66,6 +76,15 @@ def _children(node: Formula, boxes: Boxes, horizon: int, barred: Barred) -> np.n
     return stacked.min(axis=0) if isinstance(node, And) else stacked.max(axis=0)
 
 
+def _at_least(node: Formula, boxes: Boxes, horizon: int, barred: Barred) -> np.ndarray:
+    # the n-th largest of the options' bounds
+    assert isinstance(node, AtLeast)
+    values = [upper_robustness(o, boxes, horizon, barred) for o in node.options]
+    length = min(len(v) for v in values)
+    stacked = np.sort(np.stack([v[:length] for v in values]), axis=0)
+    return stacked[len(values) - node.n]
+
+
 def _windows(child: np.ndarray, lo: int, hi: int) -> np.ndarray:
     """Row ``k``: ``child[k+lo .. k+hi]``, for every ``k`` with ``k + hi < len(child)``."""
     if len(child) <= hi:
@@ -105,4 +124,5 @@ _EVALUATORS: dict[type, Callable[[Formula, Boxes, int, Barred], np.ndarray]] = {
     Always: _temporal,
     Eventually: _temporal,
     Until: _until,
+    AtLeast: _at_least,
 }

@@ -3,7 +3,7 @@
 Every agent's state at step 0 is given, so whatever a requirement demands at step 0 is decided
 without solving. :func:`step0_part` keeps the part of a formula that must hold at step 0
 (through ``&``, ``G[0,b]``, ``F[0,0]`` and the left side of ``U``; through ``|`` only when every
-branch has one), and its robustness at the initial states is compared with the required margin
+branch has one; a ``count`` is one, a ``visits`` none), and its robustness at the initial states is compared with the required margin
 (``objective.margin.minimum``, 0 by default):
 
 * a constraint's step-0 part broken by the agents bound to it (an agent that starts inside a
@@ -63,6 +63,7 @@ def _disjunction(parts: list[Formula | None]) -> Formula | None:
 _STEP0: dict[type, Callable[[Any], Formula | None]] = {
     # what must hold at step 0 for the node to hold at step 0 (None: nothing known)
     **{t: lambda f: f for t in (*tree.ATOM_TYPES, tree.Not)},
+    tree.Visits: lambda f: None,
     tree.And: lambda f: _conjunction([step0_part(c) for c in f.children]),
     tree.Or: lambda f: _disjunction([step0_part(c) for c in f.children]),
     tree.Always: lambda f: step0_part(f.child) if f.interval.lo == 0 else None,
@@ -81,6 +82,7 @@ _VALUE: dict[type, Callable[[Any, Mapping[str, np.ndarray]], float]] = {
     tree.Predicate: lambda f, x: sum(t.coef * x[t.role][t.component] for t in f.terms) - f.bound,
     tree.And: lambda f, x: min(_value(c, x) for c in f.children),
     tree.Or: lambda f, x: max(_value(c, x) for c in f.children),
+    tree.AtLeast: lambda f, x: sorted(_value(c, x) for c in f.options)[-f.n],
 }
 
 

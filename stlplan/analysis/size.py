@@ -109,12 +109,22 @@ def _width(formula: Any) -> int:
     return int(formula.interval.hi - formula.interval.lo + 1)
 
 
+def _counted(f: Any, p: Problem) -> int:
+    # a count: per agent counted, its in(@a, R) (and for visits, an entry per step) and a binary
+    faces = len(p.regions[f.region][0]) if f.region in p.regions else 4
+    agents = sum(f.who.admits(a.capabilities) for a in p.agents)
+    per_agent = 2 + faces if isinstance(f, tree.Count) else _width(f) * (4 + 2 * faces)
+    return 1 + agents * per_agent
+
+
 _Count = Callable[[Any, Problem], int]
 _EXPANDED: dict[type, _Count] = {
     # (subformula, step) pairs one evaluation of the node creates, with no sharing
     tree.InRegion: lambda f, p: 1 + len(p.regions[f.region][0]) if f.region in p.regions else 5,
     tree.Distance: lambda f, p: 5,
     tree.Linear: lambda f, p: 1,
+    tree.Count: _counted,
+    tree.Visits: _counted,
     tree.Predicate: lambda f, p: 1,
     tree.Not: lambda f, p: expanded(f.atom, p),
     tree.And: lambda f, p: 1 + sum(expanded(c, p) for c in f.children),
@@ -125,7 +135,7 @@ _EXPANDED: dict[type, _Count] = {
 }
 _STATIC: dict[type, _Count] = {
     # nodes of the tree, each atom counted with its rows
-    **{t: _EXPANDED[t] for t in (tree.InRegion, tree.Distance, tree.Linear, tree.Predicate)},
+    **{t: _EXPANDED[t] for t in (*tree.ATOM_TYPES,)},
     tree.Not: lambda f, p: static(f.atom, p),
     tree.And: lambda f, p: 1 + sum(static(c, p) for c in f.children),
     tree.Or: lambda f, p: 1 + sum(static(c, p) for c in f.children),

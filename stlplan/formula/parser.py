@@ -13,7 +13,9 @@ from stlplan.errors import FormulaError, unusual_characters
 from stlplan.formula.tree import (
     Always,
     And,
+    AtLeast,
     Comparison,
+    Count,
     Distance,
     Eventually,
     Formula,
@@ -25,11 +27,13 @@ from stlplan.formula.tree import (
     Predicate,
     Term,
     Until,
+    Visits,
+    Who,
     negate,
 )
 
 RESERVED = frozenset(
-    {"G", "F", "U", "in", "dist", "x"}
+    {"G", "F", "U", "in", "dist", "count", "visits", "x"}
     | {"always", "eventually", "until", "not", "and", "or", "implies"}
 )
 MAX_NESTING = 100
@@ -79,6 +83,20 @@ class _ToTree(Transformer):  # type: ignore[type-arg]
             raise FormulaError(f"distance bound must be >= 0, found {_num(radius)}")
         return Distance(_role(left), _role(right), _cmp(op), radius)
 
+    def count(self, region: Token, *rest: object) -> Formula:
+        who, op, n = _counted(rest)
+        return Count(str(region), who, op, n)
+
+    def visits(self, interval: Interval, region: Token, *rest: object) -> Formula:
+        who, op, n = _counted(rest)
+        return Visits(interval, str(region), who, op, n)
+
+    def every_of(self, *items: Token) -> Who:
+        return Who(_capabilities(items))
+
+    def any_of(self, *items: Token) -> Who:
+        return Who(_capabilities(items), any_of=True)
+
     def linear(self, terms: tuple[Term, ...], op: Token, bound: float) -> Formula:
         return Linear(terms, _cmp(op), bound)
 
@@ -107,6 +125,23 @@ def _role(token: object) -> str:
     if name in RESERVED:
         raise FormulaError(f"'{name}' is a reserved word and cannot name a role")
     return name
+
+
+def _capabilities(items: tuple[Token, ...]) -> tuple[str, ...]:
+    return tuple(dict.fromkeys(str(t) for t in items if t.type == "NAME"))
+
+
+def _counted(rest: tuple[object, ...]) -> tuple[Who, Comparison, int]:
+    """The selector (every agent when absent), comparison and whole-number bound of a count."""
+    who = rest[0] if isinstance(rest[0], Who) else Who()
+    op, bound = rest[-2], rest[-1]
+    assert isinstance(op, Token) and isinstance(bound, float)
+    if bound < 0 or not float(bound).is_integer():
+        raise FormulaError(
+            f"a count is compared with a whole number of agents or visits, found {_num(bound)}; "
+            "expected 0, 1, 2, ..."
+        )
+    return who, _cmp(op), int(bound)
 
 
 def _cmp(token: Token) -> Comparison:  # the grammar allows only '<=' and '>='
@@ -241,6 +276,8 @@ _TERMINAL_TEXT = {
     "NAME": "a name",
     "IN": "'in'",
     "DIST": "'dist'",
+    "COUNT": "'count'",
+    "VISITS": "'visits'",
     "X": "'x'",
     "$END": "end of formula",
 }
@@ -283,6 +320,12 @@ def to_text(formula: Formula) -> str:
         return f"{_terms_text(formula.terms)} {formula.op} {_num(formula.bound)}"
     if isinstance(formula, Predicate):
         return f"{_terms_text(formula.terms)} >= {_num(formula.bound)}"
+    if isinstance(formula, Count):
+        return f"count({_counted_text(formula.region, formula.who)}) {formula.op} {formula.n}"
+    if isinstance(formula, Visits):
+        i = formula.interval
+        counted = _counted_text(formula.region, formula.who)
+        return f"visits[{i.lo},{i.hi}]({counted}) {formula.op} {formula.n}"
     if isinstance(formula, Not):
         return f"!{_wrap_atom(formula.atom)}"
     if isinstance(formula, And):
@@ -293,8 +336,14 @@ def to_text(formula: Formula) -> str:
         return f"G[{formula.interval.lo},{formula.interval.hi}] {_wrap(formula.child)}"
     if isinstance(formula, Eventually):
         return f"F[{formula.interval.lo},{formula.interval.hi}] {_wrap(formula.child)}"
+    if isinstance(formula, AtLeast):  # a lowered count: read, not parsed
+        return f"at least {formula.n} of ({'; '.join(to_text(o) for o in formula.options)})"
     i, op = formula.interval, "U*" if formula.strict else "U"
     return f"{_wrap(formula.left)} {op}[{i.lo},{i.hi}] {_wrap(formula.right)}"
+
+
+def _counted_text(region: str, who: Who) -> str:
+    return f"{region}, {who.text()}" if who.capabilities else region
 
 
 def _wrap_atom(atom: Formula) -> str:

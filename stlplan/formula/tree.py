@@ -1,7 +1,8 @@
 """The formula tree: immutable nodes for the inner logic of tasks.
 
-Surface atoms (``in``, ``dist``, linear inequalities) come from the parser; ``lower`` in
-:mod:`stlplan.formula.normal` turns them into :class:`Predicate` half-spaces, the only atom the
+Surface atoms (``in``, ``dist``, linear inequalities, the team's ``count`` and ``visits``) come
+from the parser; ``lower`` in :mod:`stlplan.formula.normal` turns them into :class:`Predicate`
+half-spaces (and a count into :class:`AtLeast` over its agents' formulas), the only atoms the
 encoder and the monitor see. Negation is written on atoms only; :func:`negate` pushes it there.
 """
 
@@ -65,6 +66,51 @@ class Linear:
 
 
 @dataclass(frozen=True)
+class Who:
+    """The agents a count ranges over: those with every capability listed (``camera & aerial``),
+    with at least one of them (``ground | aerial``, ``any_of``), or every agent (none listed)."""
+
+    capabilities: tuple[str, ...] = ()
+    any_of: bool = False
+
+    def admits(self, capabilities: frozenset[str]) -> bool:
+        """Whether an agent with ``capabilities`` is counted."""
+        if not self.capabilities:
+            return True
+        if self.any_of:
+            return not capabilities.isdisjoint(self.capabilities)
+        return capabilities.issuperset(self.capabilities)
+
+    def text(self) -> str:
+        """The selector as written: ``camera``, ``UV & IR``, ``ground | aerial``."""
+        return (" | " if self.any_of else " & ").join(self.capabilities)
+
+
+@dataclass(frozen=True)
+class Count:
+    """``count(region, who) >= n`` (or ``<=``): how many of the agents ``who`` admits are in
+    the region at the step (the team's agents, not a role's)."""
+
+    region: str
+    who: Who
+    op: Comparison
+    n: int
+
+
+@dataclass(frozen=True)
+class Visits:
+    """``visits[a,b](region, who) >= n`` (or ``<=``): how many times agents ``who`` admits
+    enter the region at steps ``k+a..k+b`` (outside at ``t-1``, inside at ``t``; inside at
+    ``k+a`` counts as an entry)."""
+
+    interval: Interval
+    region: str
+    who: Who
+    op: Comparison
+    n: int
+
+
+@dataclass(frozen=True)
 class Predicate:
     """Core half-space atom ``sum(coef * x_role[component]) - bound >= 0``.
 
@@ -75,7 +121,20 @@ class Predicate:
     bound: float
 
 
-Atom = InRegion | Distance | Linear | Predicate
+Atom = InRegion | Distance | Linear | Count | Visits | Predicate
+
+TEAM_ROLE = "@"
+"""Prefix of the roles a lowered count gives its agents (``@uv1``): no written role starts so."""
+
+
+def team_role(agent: str) -> str:
+    """The role under which a lowered count reads ``agent``'s states."""
+    return TEAM_ROLE + agent
+
+
+def is_team_role(role: str) -> bool:
+    """Whether ``role`` is a count's agent (:func:`team_role`), not a written role."""
+    return role.startswith(TEAM_ROLE)
 
 
 @dataclass(frozen=True)
@@ -135,8 +194,32 @@ class Until:
         return range(k, t if self.strict else t + 1)
 
 
-Formula = InRegion | Distance | Linear | Predicate | Not | And | Or | Always | Eventually | Until
-ATOM_TYPES = (InRegion, Distance, Linear, Predicate)
+@dataclass(frozen=True)
+class AtLeast:
+    """At least ``n`` of ``options`` hold (a lowered count: one option per agent, or per agent
+    and entry step). Its robustness is the ``n``-th largest of the options'."""
+
+    n: int
+    options: tuple[Formula, ...]
+
+
+Formula = (
+    InRegion
+    | Distance
+    | Linear
+    | Count
+    | Visits
+    | Predicate
+    | Not
+    | And
+    | Or
+    | Always
+    | Eventually
+    | Until
+    | AtLeast
+)
+ATOM_TYPES = (InRegion, Distance, Linear, Count, Visits, Predicate)
+TEAM_ATOMS = (Count, Visits)
 
 
 def negate(formula: Formula) -> Formula:
@@ -164,6 +247,8 @@ def children(formula: Formula) -> tuple[Formula, ...]:
         return (formula.child,)
     if isinstance(formula, Until):
         return (formula.left, formula.right)
+    if isinstance(formula, AtLeast):
+        return formula.options
     if isinstance(formula, Not):
         return (formula.atom,)
     return ()
@@ -182,6 +267,8 @@ def atom_roles(atom: Atom) -> tuple[str, ...]:
         return (atom.role,)
     if isinstance(atom, Distance):
         return (atom.left, atom.right)
+    if isinstance(atom, TEAM_ATOMS):
+        return ()
     return tuple(t.role for t in atom.terms)
 
 
@@ -196,7 +283,13 @@ def roles(formula: Formula) -> tuple[str, ...]:
 
 def regions(formula: Formula) -> tuple[str, ...]:
     """The region names ``formula`` refers to, without repeats."""
-    return tuple(dict.fromkeys(a.region for a in atoms(formula) if isinstance(a, InRegion)))
+    kinds = (InRegion, *TEAM_ATOMS)
+    return tuple(dict.fromkeys(a.region for a in atoms(formula) if isinstance(a, kinds)))
+
+
+def team_atoms(formula: Formula) -> tuple[Count | Visits, ...]:
+    """The ``count`` and ``visits`` atoms of ``formula``, left to right."""
+    return tuple(a for a in atoms(formula) if isinstance(a, TEAM_ATOMS))
 
 
 def horizon(formula: Formula) -> int:
@@ -205,6 +298,8 @@ def horizon(formula: Formula) -> int:
         return formula.interval.hi + horizon(formula.child)
     if isinstance(formula, Until):
         return formula.interval.hi + max(horizon(formula.left), horizon(formula.right))
+    if isinstance(formula, Visits):
+        return formula.interval.hi
     return max((horizon(c) for c in children(formula)), default=0)
 
 

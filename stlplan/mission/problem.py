@@ -16,7 +16,15 @@ import numpy as np
 from stlplan.errors import MissionError
 from stlplan.formula.normal import HalfSpaces, lower
 from stlplan.formula.parser import parse
-from stlplan.formula.tree import Formula, Predicate, horizon, roles
+from stlplan.formula.tree import (
+    Formula,
+    Predicate,
+    horizon,
+    is_team_role,
+    roles,
+    team_atoms,
+    team_role,
+)
 from stlplan.mission import checks
 from stlplan.mission.groups import Element, RoleRule, elements, iter_groups, pack
 from stlplan.mission.schema import Mission, PinnedRole, Region
@@ -77,6 +85,8 @@ class TaskModel:
     reuse_agents: bool
     elements: tuple[Element, ...]
     sync: SyncWindow | None = None
+    team: tuple[str, ...] = ()
+    """The agents the formula's counts read (``count``, ``visits``), beside its roles'."""
 
     @cached_property
     def groups(self) -> tuple[tuple[int, ...], ...]:
@@ -85,8 +95,13 @@ class TaskModel:
         return tuple(iter_groups(self.elements, self.count, self.reuse_agents))
 
     def binding(self, element: Element) -> dict[str, str]:
-        """Role to agent name for one element."""
-        return dict(zip(self.roles, element, strict=False))
+        """Role to agent name for one element (and each agent a count reads, under its team
+        role)."""
+        return dict(zip(self.roles, element, strict=False)) | team_binding(self.team)
+
+    def agents(self) -> set[str]:
+        """Every agent some element binds or a count reads."""
+        return {a for e in self.elements for a in e} | set(self.team)
 
 
 @dataclass(frozen=True, eq=False)
@@ -249,7 +264,27 @@ class Problem:
     def lowered(self, formula: Formula, binding: Mapping[str, str]) -> Formula:
         """``formula`` with roles bound to agents, as half-space predicates over roles."""
         positions = {role: self.agent(name).position for role, name in binding.items()}
-        return lower(formula, self.regions, positions)
+        capabilities = {
+            role: self.agent(name).capabilities
+            for role, name in binding.items()
+            if is_team_role(role)
+        }
+        return lower(formula, self.regions, positions, capabilities)
+
+
+def team_binding(agents: tuple[str, ...]) -> dict[str, str]:
+    """Each agent a count reads, under its team role."""
+    return {team_role(a): a for a in agents}
+
+
+def counted_agents(mission: Mission, formula: Formula) -> tuple[str, ...]:
+    """The agents (in the team's order) that some count of ``formula`` reads."""
+    counts = team_atoms(formula)
+    return tuple(
+        a.name
+        for a in mission.agents
+        if any(c.who.admits(frozenset(a.capabilities)) for c in counts)
+    )
 
 
 def region_halfspaces(region: Region) -> HalfSpaces:
@@ -306,18 +341,22 @@ def _task_model(mission: Mission, name: str, source: str | None) -> TaskModel:
         s = spec.synchronous
         gamma = mission.objective.gamma if s.gamma is None else s.gamma
         sync = SyncWindow(s.within[0], s.within[1], s.hold, gamma)
-    return TaskModel(name, formula, spec.count, order, rules, spec.reuse_agents, elems, sync)
+    counted = counted_agents(mission, formula)
+    return TaskModel(
+        name, formula, spec.count, order, rules, spec.reuse_agents, elems, sync, counted
+    )
 
 
 def _constraint_model(mission: Mission, name: str, source: str | None) -> ConstraintModel:
     spec = mission.constraints[name]
     formula = parse(spec.formula, source=source, where=f"constraints.{name}.formula")
     checks.check_constraint(mission, name, formula, source)
+    team = team_binding(counted_agents(mission, formula))
     if spec.for_each is None:
-        return ConstraintModel(name, formula, (dict(spec.roles),))
+        return ConstraintModel(name, formula, (dict(spec.roles) | team,))
     pool = spec.agents if spec.agents is not None else [a.name for a in mission.agents]
     pinned = set(spec.roles.values())
-    bindings = tuple({**spec.roles, spec.for_each: a} for a in pool if a not in pinned)
+    bindings = tuple({**spec.roles, spec.for_each: a, **team} for a in pool if a not in pinned)
     return ConstraintModel(name, formula, bindings)
 
 

@@ -143,7 +143,7 @@ class Task(_Strict):
     """Inner logic phi over the roles (see the formula language in the README)."""
     count: Integer = Field(default=1, ge=1)
     """c: how many elements must satisfy phi."""
-    roles: dict[str, RoleRule]
+    roles: dict[str, RoleRule] = {}
     """Pattern: each role's capability, list of capabilities (all required), or {agent: name}."""
     reuse_agents: StrictBool = False
     """Allow one agent in several elements of a group (the paper forbids it by default)."""

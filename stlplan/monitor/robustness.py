@@ -2,7 +2,7 @@
 
 The monitor's arithmetic core. It reads a formula after :func:`stlplan.formula.normal.lower`
 (only :class:`Predicate`, :class:`And`, :class:`Or`, :class:`Always`, :class:`Eventually`,
-:class:`Until`) and the states of the agents bound to its roles, and returns the robustness
+:class:`Until`, :class:`AtLeast`) and the states of the agents bound to its roles, and returns the robustness
 ``rho(k)`` at every step ``k`` where the formula can be decided inside the horizon, i.e.
 ``k + horizon(formula) <= H``. The formula holds at ``k`` iff ``rho(k) >= HOLDS_AT``
 (:func:`stlplan.formula.boundary.holds`: a region's boundary is neither inside nor outside).
@@ -22,6 +22,7 @@ from stlplan.errors import FormulaError
 from stlplan.formula.tree import (
     Always,
     And,
+    AtLeast,
     Eventually,
     Formula,
     Or,
@@ -84,9 +85,10 @@ def _predicate(node: Formula, signals: Signals, horizon: int) -> np.ndarray:
     return value
 
 
-def _children(node: And | Or, signals: Signals, horizon: int) -> np.ndarray:
+def _children(node: And | Or | AtLeast, signals: Signals, horizon: int) -> np.ndarray:
     # children have different horizons: keep the steps where every child is defined
-    values = [_evaluate(c, signals, horizon) for c in node.children]
+    kids = node.options if isinstance(node, AtLeast) else node.children
+    values = [_evaluate(c, signals, horizon) for c in kids]
     length = min(len(v) for v in values)
     return np.stack([v[:length] for v in values])
 
@@ -101,6 +103,13 @@ def _or(node: Formula, signals: Signals, horizon: int) -> np.ndarray:
     # rho(or_i phi_i, k) = max_i rho(phi_i, k)
     assert isinstance(node, Or)
     return np.max(_children(node, signals, horizon), axis=0)
+
+
+def _at_least(node: Formula, signals: Signals, horizon: int) -> np.ndarray:
+    # rho(at least n of phi_1..phi_m, k) = the n-th largest of rho(phi_i, k)
+    assert isinstance(node, AtLeast)
+    values = np.sort(_children(node, signals, horizon), axis=0)
+    return values[len(node.options) - node.n]
 
 
 def _windows(child: np.ndarray, lo: int, hi: int) -> np.ndarray:
@@ -150,5 +159,6 @@ EVALUATORS: dict[type, Evaluator] = {
     Always: _always,
     Eventually: _eventually,
     Until: _until,
+    AtLeast: _at_least,
 }
 """Node type to its evaluator ``(node, signals, H) -> rho`` (the dispatch table)."""

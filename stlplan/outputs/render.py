@@ -32,7 +32,14 @@ def _num(value: float | None, digits: int = 3) -> str:
 def _group(v: Verdict) -> str:
     if not v.group:
         return ""
-    return " ".join("(" + ", ".join(e) + ")" for e in v.group)
+    return group_text(v.group)
+
+
+def group_text(group: tuple[tuple[str, ...], ...]) -> str:
+    """``(uv1, ir1) (uv2, ir2)``; a task whose formula only counts holds for ``the team``."""
+    if all(not e for e in group):
+        return "the team"
+    return " ".join("(" + ", ".join(e) + ")" for e in group)
 
 
 def _sync(v: Verdict) -> str:
@@ -153,11 +160,7 @@ def print_plan(
                 else ""
             )
         )
-        console.print(
-            f"[bold]task[/]       {a.task}: "
-            + " ".join("(" + ", ".join(e) + ")" for e in a.group)
-            + run
-        )
+        console.print(f"[bold]task[/]       {a.task}: " + group_text(a.group) + run)
     size = result.model_size
     if size is not None:
         console.print(

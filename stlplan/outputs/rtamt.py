@@ -8,8 +8,9 @@ with unit-norm rows), and RTAMT's robustness of ``lhs >= rhs`` is ``lhs - rhs``,
 predicate value. RTAMT's ``until`` is the strict one (``U*``); the paper's ``l U[a,b] r`` is written
 ``l until[a:b] (l and r)``, which has the same robustness.
 
-Synchronous tasks (their synchronous robustness is not STL robustness) and tasks over several
-roles are listed as comments only.
+Synchronous tasks (their synchronous robustness is not STL robustness), tasks over several
+roles and formulas that count agents (``count``, ``visits``: RTAMT's STL has no operator for the
+``n``-th best of several agents' robustness) are listed as comments only.
 """
 
 from __future__ import annotations
@@ -20,7 +21,17 @@ from typing import Any
 
 import numpy as np
 
-from stlplan.formula.tree import Always, And, Eventually, Formula, Or, Predicate, Until, roles
+from stlplan.formula.tree import (
+    Always,
+    And,
+    Eventually,
+    Formula,
+    Or,
+    Predicate,
+    Until,
+    roles,
+    team_atoms,
+)
 from stlplan.mission.problem import Problem
 
 
@@ -86,7 +97,7 @@ def rtamt_text(formula: Formula) -> str:
 def _pools(problem: Problem) -> Iterator[tuple[str, str, Formula, list[str]]]:
     """``(name, kind, formula, agents)`` of every single-role, non-synchronous requirement."""
     for task in problem.tasks:
-        if task.sync is None and len(task.roles) == 1:
+        if task.sync is None and len(task.roles) == 1 and not team_atoms(task.formula):
             yield task.name, "task", task.formula, sorted({e[0] for e in task.elements})
     for constraint in problem.constraints:
         (role,) = roles(constraint.formula) or ("",)
@@ -117,10 +128,16 @@ def skipped(problem: Problem) -> list[str]:
     out = []
     for task in problem.tasks:
         if task.name not in kept:
-            why = "synchronous" if task.sync is not None else "several roles"
+            why = "synchronous" if task.sync is not None else _why(task.formula)
             out.append(f"{task.name} ({why})")
-    out += [f"{c.name} (several roles)" for c in problem.constraints if c.name not in kept]
+    out += [f"{c.name} ({_why(c.formula)})" for c in problem.constraints if c.name not in kept]
     return out
+
+
+def _why(formula: Formula) -> str:
+    if team_atoms(formula):
+        return "counts agents, which RTAMT cannot express"
+    return "several roles"
 
 
 def rtamt_document(problem: Problem, source: str, specs: list[RtamtSpec]) -> str:

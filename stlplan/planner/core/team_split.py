@@ -30,8 +30,8 @@ def agent_parts(problem: Problem) -> list[tuple[str, ...]]:
             parent[find(other)] = find(members[0])
 
     for task in problem.tasks:
-        link({agent for element in task.elements for agent in element})
-    link({agent for t in problem.tasks if t.sync for e in t.elements for agent in e})
+        link(task.agents())
+    link({agent for t in problem.tasks if t.sync for agent in t.agents()})
     for constraint in problem.constraints:
         for binding in constraint.bindings:
             link(set(binding.values()))
@@ -44,7 +44,7 @@ def agent_parts(problem: Problem) -> list[tuple[str, ...]]:
 def sub_problem(problem: Problem, agents: Iterable[str]) -> Problem:
     """``problem`` restricted to ``agents``: their tasks, constraint bindings and separation."""
     keep = set(agents)
-    tasks = tuple(t for t in problem.tasks if {a for e in t.elements for a in e} <= keep)
+    tasks = tuple(t for t in problem.tasks if t.agents() <= keep)
     constraints = []
     for c in problem.constraints:
         bindings = tuple(b for b in c.bindings if set(b.values()) <= keep)

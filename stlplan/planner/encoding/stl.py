@@ -9,7 +9,9 @@ Every subformula ``phi`` at step ``k`` under a role binding gets a continuous in
 * disjunction: fresh ``w_i in [0, 1]`` with ``w_i <= z_i`` and ``{1 - z, w_1..w_n}`` SOS1
   (logarithmic: ``ceil(log2(n + 1))`` binaries). The fresh ``w_i`` keep the encoding sound when a
   child's indicator is shared with other parents (memoized subformulas);
-* ``G``, ``F`` and ``U`` are conjunctions and disjunctions over time offsets.
+* ``G``, ``F`` and ``U`` are conjunctions and disjunctions over time offsets;
+* at least ``n`` of ``m`` options (a count): a disjunction when ``n = 1``, a conjunction when
+  ``n = m``, else one binary ``b_i <= z_i`` per option and ``sum b_i >= n z``.
 
 :func:`require` enforces a formula outright (constraints, single-group tasks): conjunctions become
 separate requirements, a disjunction needs no "off" slot, and a predicate needs no big-M.
@@ -29,6 +31,7 @@ from stlplan.errors import FormulaError
 from stlplan.formula.tree import (
     Always,
     And,
+    AtLeast,
     Eventually,
     Formula,
     Or,
@@ -269,6 +272,27 @@ def encode_until(node: Until, k: int, ctx: StlContext) -> Any:
     return disjunction(ctx, until_terms(node, k, ctx))
 
 
+def at_least(ctx: StlContext, n: int, children: Sequence[Any], owner: Any = None) -> None:
+    """``sum b_i >= n owner`` with binaries ``b_i <= z_i``: ``owner = 1`` (or no owner)
+    enforces ``n`` of ``children``."""
+    chosen = [ctx.sos.binaries.add() for _ in children]
+    for b, child in zip(chosen, children, strict=True):
+        ctx.block.rows.add(b <= child)
+    ctx.block.rows.add(sum(chosen) >= (n if owner is None else n * owner))
+
+
+def encode_at_least(node: AtLeast, k: int, ctx: StlContext) -> Any:
+    # n = 1: a disjunction; n = m: a conjunction; else sum b_i >= n z, b_i <= z_i
+    children = [encode(o, k, ctx) for o in node.options]
+    if node.n <= 1:
+        return disjunction(ctx, children)
+    if node.n >= len(children):
+        return conjunction(ctx, children)
+    z = indicator(ctx)
+    at_least(ctx, node.n, children, owner=z)
+    return z
+
+
 ENCODERS: dict[type, Callable[[Any, int, StlContext], Any]] = {
     Predicate: encode_predicate,
     And: encode_and,
@@ -276,6 +300,7 @@ ENCODERS: dict[type, Callable[[Any, int, StlContext], Any]] = {
     Always: encode_always,
     Eventually: encode_eventually,
     Until: encode_until,
+    AtLeast: encode_at_least,
 }
 
 
@@ -339,6 +364,19 @@ def require_until(node: Until, k: int, ctx: StlContext) -> None:
     require_one(ctx, until_terms(node, k, ctx))
 
 
+def require_at_least(node: AtLeast, k: int, ctx: StlContext) -> None:
+    # n of the options enforced: one of them (SOS1), all of them, or sum b_i >= n
+    if node.n >= len(node.options):
+        for option in node.options:
+            require(option, k, ctx)
+        return
+    children = [encode(o, k, ctx) for o in node.options]
+    if node.n <= 1:
+        require_one(ctx, children)
+    else:
+        at_least(ctx, node.n, children)
+
+
 def require_one(ctx: StlContext, children: Sequence[Any]) -> None:
     """Exactly one of ``children`` enforced: ``z_1 >= 1`` alone, else SOS1 ``{w_1..w_n}``."""
     if len(children) == 1:
@@ -354,6 +392,7 @@ REQUIREMENTS: dict[type, Callable[[Any, int, StlContext], None]] = {
     Always: require_always,
     Eventually: require_eventually,
     Until: require_until,
+    AtLeast: require_at_least,
 }
 
 

@@ -20,7 +20,7 @@ from typing import Any
 
 from pyomo.environ import value
 
-from stlplan.formula.tree import Distance, Formula, Predicate, horizon, step_parts
+from stlplan.formula.tree import Distance, Formula, Or, Predicate, horizon, step_parts
 from stlplan.mission.checks import check_group_count
 from stlplan.mission.problem import Problem, TaskModel
 from stlplan.planner.encoding.sos1 import sos1
@@ -177,7 +177,8 @@ def executed(problem: Problem, part: Formula, k: int) -> bool:
     if problem.past is None:
         return False
     planes = [part] if isinstance(part, Predicate) else list(getattr(part, "children", ()))
-    at_k = k == problem.past.step and all(isinstance(p, Predicate) for p in planes)
+    is_planes = isinstance(part, (Predicate, Or)) and all(isinstance(p, Predicate) for p in planes)
+    at_k = k == problem.past.step and is_planes
     return problem.in_past(part, k) or at_k
 
 

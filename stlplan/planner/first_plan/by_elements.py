@@ -78,8 +78,9 @@ def _single(task: TaskModel, index: int, run: Interval | None = None) -> TaskMod
     task's run)."""
     formula = task.formula if run is None else Always(run, task.formula)
     name = f"{task.name}_e{index}" if run is None else f"{task.name}{RUN}{index}"
+    element = (task.elements[index],)
     return TaskModel(
-        name, formula, 1, task.roles, task.rules, task.reuse_agents, (task.elements[index],)
+        name, formula, 1, task.roles, task.rules, task.reuse_agents, element, team=task.team
     )
 
 
