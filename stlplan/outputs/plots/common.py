@@ -136,6 +136,27 @@ def obstacle_regions(problem: Problem) -> tuple[str, ...]:
     return tuple(dict.fromkeys(found))
 
 
+def region_styles(problem: Problem, bounds) -> dict[str, dict[str, Any]]:
+    """Region name -> the keywords of its polygon on the map (face and edge colour, alpha, hatch),
+    for the regions with some area inside ``bounds``, largest first: obstacles grey and hatched,
+    the sweep's initial region green, the others the :data:`_REGION_COLORS` in turn."""
+    obstacles = set(obstacle_regions(problem))
+    initial = problem.mission.sweep.initial_region if problem.mission.sweep else None
+    shapes = {n: region_vertices(r, bounds) for n, r in problem.regions.items()}
+    areas = {n: polygon_area(v) for n, v in shapes.items() if len(v)}
+    colors = iter(_REGION_COLORS * (1 + len(areas) // len(_REGION_COLORS)))
+    styles = {}
+    for name in sorted(areas, key=lambda n: -areas[n]):
+        if name in obstacles:
+            styles[name] = dict(facecolor="0.65", edgecolor="0.3", hatch="///", alpha=0.6)
+        elif name == initial:
+            styles[name] = dict(facecolor="tab:green", edgecolor="darkgreen", alpha=0.25)
+        else:
+            color = next(colors)
+            styles[name] = dict(facecolor=color, edgecolor=color, alpha=0.35)
+    return styles
+
+
 def read_windows(formula: Formula, lo: int, hi: int) -> Iterator[tuple[InRegion, int, int]]:
     """Each ``in(r, R)`` of ``formula`` (none under ``!``: being inside does not serve it) with
     the first and last step it is read at when ``formula`` is decided at every step of

@@ -14,6 +14,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Polygon
 
+import stlplan.outputs.plots.team as team
 from stlplan.mission.problem import Problem
 from stlplan.monitor.crossings import crossing_segments
 from stlplan.outputs.plots.common import (
@@ -21,7 +22,6 @@ from stlplan.outputs.plots.common import (
     _LEGEND,
     _PATH,
     _POINTS,
-    _REGION_COLORS,
     _REGION_LABEL,
     _START,
     _SYNC,
@@ -34,8 +34,8 @@ from stlplan.outputs.plots.common import (
     _titles,
     agent_handles,
     agent_styles,
-    obstacle_regions,
     polygon_area,
+    region_styles,
     region_vertices,
     save_figure,
     spread,
@@ -66,15 +66,6 @@ def _label_spot(vertices: np.ndarray, name: str, avoid: np.ndarray, pt_per_unit:
     return spots[int(np.argmax(score))]
 
 
-def _region_style(name: str, obstacles: set[str], initial: str | None, colors) -> dict:
-    if name in obstacles:
-        return dict(facecolor="0.65", edgecolor="0.3", hatch="///", alpha=0.6)
-    if name == initial:
-        return dict(facecolor="tab:green", edgecolor="darkgreen", alpha=0.25)
-    color = next(colors)
-    return dict(facecolor=color, edgecolor=color, alpha=0.35)
-
-
 @dataclass(frozen=True)
 class RegionPatch:
     """A region as the map draws it."""
@@ -94,20 +85,13 @@ def region_patches(
 ) -> list[RegionPatch]:
     """The regions with some area inside ``bounds``, largest first (the order they are drawn in).
 
-    Obstacles are grey and hatched, the sweep's initial region green, the others take the
-    :data:`_REGION_COLORS` in turn. Names are placed smallest region first, each away from
-    ``avoid`` (points, e.g. the paths) and the names placed before it, at ``pt_per_unit``
-    points of the figure per unit of the map.
+    Regions are styled by :func:`~stlplan.outputs.plots.common.region_styles`. Names are placed
+    smallest region first, each away from ``avoid`` (points, e.g. the paths) and the names placed
+    before it, at ``pt_per_unit`` points of the figure per unit of the map.
     """
-    obstacles = set(obstacle_regions(problem))
-    initial = problem.mission.sweep.initial_region if problem.mission.sweep else None
     shapes = {n: region_vertices(r, bounds) for n, r in problem.regions.items()}
     areas = {n: polygon_area(v) for n, v in shapes.items() if len(v)}
-    colors = iter(_REGION_COLORS * (1 + len(areas) // len(_REGION_COLORS)))
-    styles = {
-        name: _region_style(name, obstacles, initial, colors)
-        for name in sorted(areas, key=lambda n: -areas[n])
-    }
+    styles = region_styles(problem, bounds)
     spots = {}
     for name in sorted(areas, key=areas.__getitem__):  # small regions first
         spots[name] = _label_spot(shapes[name], name, avoid, pt_per_unit)
@@ -210,10 +194,11 @@ def plan_figure(
     overlay: Callable[[Axes], list[Artist]] | None = None,
 ) -> Figure:
     """The map: workspace, regions, each agent's path (the straight segments a robot follows
-    between waypoints), starts, synchronized runs, and in red any segment that crosses; for a
-    replan (``problem.past``) the marks of :mod:`~stlplan.outputs.plots.past`. ``overlay``
-    draws more on the map's axes and returns its legend entries (a simulated run's,
-    :mod:`~stlplan.outputs.plots.executed`)."""
+    between waypoints), starts, synchronized runs, a star at each visit a ``visits`` counts and
+    a caption per ``count`` and ``visits`` (:mod:`~stlplan.outputs.plots.team`), and in red any
+    segment that crosses; for a replan (``problem.past``) the marks of
+    :mod:`~stlplan.outputs.plots.past`. ``overlay`` draws more on the map's axes and returns its
+    legend entries (a simulated run's, :mod:`~stlplan.outputs.plots.executed`)."""
     bounds = workspace(problem)
     (xl, xh), (yl, yh) = bounds
     width = 9.0
@@ -235,16 +220,17 @@ def plan_figure(
     draw_replan_marks(ax, problem, trajectory)
     extra = overlay(ax) if overlay is not None else []
     captions = _draw_sync_runs(ax, problem, trajectory, report, styles)
+    visits, counts = team.draw_on_map(ax, problem, trajectory, pt_per_unit)
     ax.set(xlim=(xl, xh), ylim=(yl, yh), aspect="equal", xlabel="x", ylabel="y")
     ax.tick_params(labelsize=8)
     ax.grid(True, color="0.9", linewidth=0.6)
     ax.set_axisbelow(True)
-    _plan_legend(ax, problem, styles, bool(captions), crossed, extra)
+    _plan_legend(ax, problem, styles, bool(captions), crossed, [*extra, *visits])
     subtitle = _status_line(report)
     if problem.past is not None:
         subtitle = f"{events_note(problem.past)}   |   {subtitle}"
     _titles(ax, title or problem.mission.name, subtitle)
-    for i, caption in enumerate(captions):
+    for i, caption in enumerate([*captions, *counts]):
         ax.annotate(caption, (0.0, -0.09 - 0.05 * i), va="top", fontsize=9, **_AXES)
     return fig
 

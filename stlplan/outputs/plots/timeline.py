@@ -11,6 +11,7 @@ from matplotlib.artist import Artist
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch, Rectangle
 
+import stlplan.outputs.plots.team as team
 from stlplan.mission.problem import Problem
 from stlplan.outputs.plots.common import (
     _BAR,
@@ -72,13 +73,18 @@ def _draw_lane(ax, problem: Problem, lane, steps, style) -> None:
 
 
 def _draw_task_bars(ax, problem, trajectory, report, rows, style) -> None:
-    colors, step_pt = style
+    """Per agent, a lane for each task it serves, then one for each count or visits that finds
+    it (:mod:`~stlplan.outputs.plots.team`); ``no task`` across the row of an agent with none."""
+    (colors, step_pt), (marks, regions) = style
     for name, tasks in task_service(problem, trajectory, report).items():
+        counted = team.marks_of(marks, name)
+        lanes = len(tasks) + len(counted)
         for lane, (task, steps) in enumerate(tasks.items()):
-            height = 0.84 / len(tasks)
-            y0 = rows[name] + 0.42 - height * (lane + 1)
-            _draw_lane(ax, problem, (y0, height), steps, (colors[task], step_pt))
-        if not tasks:
+            box = team.lane_box(rows[name], lane, lanes)
+            _draw_lane(ax, problem, box, steps, (colors[task], step_pt))
+        for lane, mark in enumerate(counted, start=len(tasks)):
+            team.draw_lane(ax, mark, name, team.lane_box(rows[name], lane, lanes), regions)
+        if not tasks and not counted:
             ax.text(problem.horizon / 2, rows[name], "no task", **_IDLE)
 
 
@@ -150,20 +156,24 @@ def timeline_figure(problem: Problem, trajectory: Trajectory, report: MonitorRep
     """One row per agent over steps ``0..H``: when each agent serves each task, and sync runs."""
     limits = limit_windows(problem)
     rows = {a.name: len(problem.agents) + len(limits) - 1 - i for i, a in enumerate(problem.agents)}
-    colors = task_colors(problem)
+    colors, marks = task_colors(problem), team.team_marks(problem, trajectory)
+    regions = team.region_colors(problem)
     width = float(np.clip(0.65 * (problem.horizon + 1.2) + 1.8, 8.0, 16.0))
     step_pt = 72 * (width - 1.8) / (problem.horizon + 1.2)
     height = 0.5 * (len(rows) + len(limits)) + 2.4
     fig = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
     ax = fig.add_subplot()
-    _draw_task_bars(ax, problem, trajectory, report, rows, (colors, step_pt))
-    handles: list[Artist] = [Patch(color=colors[t.name], label=t.name) for t in problem.tasks]
+    _draw_task_bars(ax, problem, trajectory, report, rows, ((colors, step_pt), (marks, regions)))
+    served = [t for t in problem.tasks if t.roles]  # a task that only counts has no bars
+    handles: list[Artist] = [Patch(color=colors[t.name], label=t.name) for t in served]
+    handles += team.handles(marks, regions)
     handles += _draw_sync_shading(ax, report, rows)
     handles += _draw_limits(ax, problem, report, step_pt)
     handles += timeline_marks(ax, problem, rows)
     _timeline_axes(ax, problem, rows, limits)
     fig.legend(handles=handles, loc="outside lower center", ncols=min(4, len(handles)), **_LEGEND)
     note = _TIMELINE_NOTE + ("; hatched: the steps a constraint reads" if limits else "")
+    note += "".join(f"\n{team.caption(m)}" for m in marks if m.visits)
     if problem.past is not None:
         note = f"{events_note(problem.past)}\n{note}"
     _titles(ax, f"{problem.mission.name}: which agent serves which task when", note)

@@ -6,7 +6,9 @@ coloured and named as on ``plan.png``, each agent's path with a point per step, 
 agent at the slider's step; the timeline beside it (:mod:`~stlplan.outputs.viewer.timeline`)
 shows per agent the steps at which it serves each task, as on ``timeline.png``, the synchronized
 runs shaded, and a dashed line at the slider's step. Hovering a point gives the agent, the step
-``k``, its state ``x(k)`` and the tasks it serves at ``k``.
+``k``, its state ``x(k)`` and the tasks it serves at ``k``. The team's counts
+(:mod:`~stlplan.outputs.viewer.team`) add a star on the map at each visit a ``visits`` counts, a
+lane per counted agent on the timeline, and a line per ``count`` and ``visits`` under the title.
 
 The page (:mod:`~stlplan.outputs.viewer.page`) has one plotly frame per step ``k = 0..H``; the
 slider and the play button move through them, and between two steps plotly's transition slides

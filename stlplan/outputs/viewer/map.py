@@ -23,6 +23,7 @@ from stlplan.outputs.plots.common import (
 )
 from stlplan.outputs.plots.past import step_note
 from stlplan.outputs.plots.plan import region_patches
+from stlplan.outputs.plots.team import notes_at, team_marks
 from stlplan.result import MonitorReport, Trajectory
 
 GOLD = "goldenrod"
@@ -67,17 +68,22 @@ def hover_texts(
     executed, of the new plan or after the agent was lost), the state ``x(k)`` (every
     component), and the tasks the agent serves at ``k``: those of
     :func:`~stlplan.outputs.plots.common.task_service`, with the regions of its role it is inside
-    and whether ``k`` lies in the task's synchronized run.
+    and whether ``k`` lies in the task's synchronized run; then each count that finds it inside
+    its region at ``k`` and each visit it makes at ``k``
+    (:func:`~stlplan.outputs.plots.team.notes_at`).
     """
     service = task_service(problem, trajectory, report)
     runs = {v.name: _run_steps(v) for v in _sync_verdicts(report)}
+    marks = team_marks(problem, trajectory)
     texts = {}
     for agent in problem.agents:
         head = f"<b>{html.escape(agent.name)}</b> ({html.escape(_capability_key(agent))})"
         rows = []
         for k, state in enumerate(trajectory.states[agent.name]):
             values = ", ".join(_number(v) for v in state)
+            counted = [html.escape(note) for note in notes_at(marks, agent.name, k)]
             served = _served_at(service[agent.name], runs, k)
+            served = "<br>".join(filter(None, [served, *counted])) or "serves no task"
             when = step_note(problem, agent.name, k)
             rows.append(f"{head}<br>step k = {k}{when}<br>state x = ({values})<br>{served}")
         texts[agent.name] = rows
@@ -91,7 +97,7 @@ def _served_at(tasks: dict[str, dict[int, tuple[str, ...]]], runs: dict[str, ran
             where = ", ".join(html.escape(r) for r in steps[k])
             sync = " (synchronized run)" if k in runs.get(task, ()) else ""
             lines.append(f"serves {html.escape(task)} in {where}{sync}")
-    return "<br>".join(lines) or "serves no task"
+    return "<br>".join(lines)
 
 
 # ---------------------------------------------------------------------------------------- regions

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import html
 import os
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,7 @@ from plotly.subplots import make_subplots
 
 import stlplan.outputs.viewer.map as plan_map
 import stlplan.outputs.viewer.packed as packed
+import stlplan.outputs.viewer.team as team
 import stlplan.outputs.viewer.timeline as timeline
 from stlplan.mission.problem import Problem
 from stlplan.outputs.plots.common import (
@@ -28,11 +30,15 @@ from stlplan.outputs.plots.common import (
     write_atomically,
 )
 from stlplan.outputs.plots.past import events_note
+from stlplan.outputs.plots.team import region_colors, team_marks
 from stlplan.outputs.viewer.past import path_parts, replan_traces, timeline_marks
 from stlplan.result import MonitorReport, Trajectory
 
 HEIGHT_PX = 700
-"""Height of the figure; its width follows the browser window."""
+"""Height of the figure (taller by :data:`LINE_PX` per line of counts under the subtitle); its
+width follows the browser window."""
+LINE_PX = 18
+"""The height of a line of the subtitle, pixels."""
 MAP_PX = (520, 480)
 """About the map's largest width and height in a window 1400 pixels wide, pixels: the scale at
 which agents' names are kept apart."""
@@ -63,15 +69,16 @@ def viewer_figure(
     """
     fig = _subplots()
     hover = plan_map.hover_texts(problem, trajectory, report)
+    marks, colors = team_marks(problem, trajectory), region_colors(problem)
     regions, labels = plan_map.region_traces(problem, trajectory)
     fig.add_traces(regions, rows=1, cols=1)
     fig.add_traces(_paths(problem, trajectory, report, hover), rows=1, cols=1)
     crossing = plan_map.crossing_trace(problem, trajectory)
     unsafe = [] if crossing is None else [crossing]
     fig.add_traces(unsafe + replan_traces(problem, trajectory), rows=1, cols=1)
+    fig.add_traces(team.entry_traces(problem, trajectory, marks, colors), rows=1, cols=1)
     service = task_service(problem, trajectory, report)
-    bars, lanes = timeline.task_bars(problem, service)
-    fig.add_traces(timeline.sync_bars(problem, report) + bars, rows=1, cols=2)
+    lanes = _timeline_traces(fig, problem, report, service, (marks, colors))
     steps = [_step(problem, trajectory, hover, k) for k in range(problem.horizon + 1)]
     first = len(fig.data)
     fig.add_traces(_markers(problem, steps[0][:-1]), rows=1, cols=1)
@@ -81,14 +88,24 @@ def viewer_figure(
         go.Frame(name=str(k), data=[go.Scatter(change) for change in step], traces=moving)
         for k, step in enumerate(steps)
     ]
-    _layout(fig, problem, report, title or problem.mission.name)
-    marks, notes = timeline_marks(problem, timeline.rows(problem))
-    notes = labels + timeline.idle_notes(problem, service) + notes
+    _layout(fig, problem, report, title or problem.mission.name, team.captions(marks))
+    replan_marks, notes = timeline_marks(problem, timeline.rows(problem))
+    notes = labels + timeline.idle_notes(problem, service, marks) + notes
     fig.update_layout(
         annotations=list(fig.layout.annotations) + notes,
-        shapes=lanes + list(fig.layout.shapes) + marks,
+        shapes=lanes + list(fig.layout.shapes) + replan_marks,
     )
     return fig
+
+
+def _timeline_traces(fig: go.Figure, problem, report, service, counts) -> list[dict]:
+    """The timeline's synchronized runs, task bars and counts' lanes
+    (:mod:`~stlplan.outputs.viewer.team`); returns the lanes' background shapes."""
+    marks, colors = counts
+    bars, lanes = timeline.task_bars(problem, service, marks)
+    counted, counted_lanes = team.lane_traces(problem, service, marks, colors)
+    fig.add_traces(timeline.sync_bars(problem, report) + bars + counted, rows=1, cols=2)
+    return lanes + counted_lanes
 
 
 def _subplots() -> go.Figure:
@@ -191,31 +208,38 @@ def _play_buttons() -> dict:
     )
 
 
-def _subtitle(problem: Problem, report: MonitorReport) -> str:
+def _subtitle(problem: Problem, report: MonitorReport, counts: Sequence[str] = ()) -> str:
     """A replan's step and events, the monitor's verdict, then each synchronized run (as on
-    ``plan.png``)."""
+    ``plan.png``); under it a line per count and visits (``counts``, escaped already)."""
     captions = [sync_caption(v) for v in _sync_verdicts(report)]
     replan = [] if problem.past is None else [events_note(problem.past)]
-    return "   |   ".join([*replan, _status_line(report), *captions])
+    head = html.escape("   |   ".join([*replan, _status_line(report), *captions]))
+    return "<br>".join([head, *counts])
 
 
-def _layout(fig: go.Figure, problem: Problem, report: MonitorReport, title: str) -> None:
+def _layout(
+    fig: go.Figure, problem: Problem, report: MonitorReport, title: str, counts: Sequence[str]
+) -> None:
     many = len(problem.agents) > MANY_AGENTS
     title_text = "capability" if many else "agent (capability)"
     legend = dict(title=dict(text=title_text), x=1.02, y=1, yanchor="top")
     if problem.past is not None:
         legend["tracegroupgap"] = 0  # room for a replan's entries under the agents'
+    height = HEIGHT_PX + LINE_PX * len(counts)
+    # the title where plotly centres it in the top margin, its subtitle's lines of counts below
+    at_top = dict(y=1 - 45 / height, yref="container", yanchor="top") if counts else {}
     fig.update_layout(
         title=dict(
             text=f"<b>{html.escape(title)}</b>",
-            subtitle=dict(text=html.escape(_subtitle(problem, report))),
+            subtitle=dict(text=_subtitle(problem, report, counts)),
             x=0.01,
             xanchor="left",
+            **at_top,
         ),
-        height=HEIGHT_PX,
+        height=height,
         font=_FONT,
         template="plotly_white",
-        margin=dict(l=60, r=20, t=130, b=110),
+        margin=dict(l=60, r=20, t=130 + LINE_PX * len(counts), b=110),
         hoverlabel=dict(align="left", bgcolor="white", font=dict(size=12)),
         legend=legend,
         legend2=dict(title=dict(text="task"), x=1.02, y=0, yanchor="bottom"),
@@ -273,7 +297,7 @@ def write_viewer(
     """
     title = title or problem.mission.name
     fig = viewer_figure(problem, trajectory, report, title)
-    page = packed.page(fig.to_json(), _CONFIG, title, HEIGHT_PX)
+    page = packed.page(fig.to_json(), _CONFIG, title, int(fig.layout.height))
 
     def write(tmp: Path) -> None:
         tmp.write_text(page, encoding="utf-8")

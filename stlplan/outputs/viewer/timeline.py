@@ -5,6 +5,7 @@ dashed line at the slider's step."""
 from __future__ import annotations
 
 import html
+from collections.abc import Sequence
 
 import plotly.graph_objects as go
 
@@ -18,6 +19,7 @@ from stlplan.outputs.plots.common import (
     task_colors,
     workspace,
 )
+from stlplan.outputs.plots.team import TeamMark, lane_box, marks_of
 from stlplan.outputs.plots.timeline import _segments, _smallest
 from stlplan.outputs.viewer.map import GOLD, HOVER, rgba
 from stlplan.result import MonitorReport
@@ -36,23 +38,27 @@ def rows(problem: Problem) -> dict[str, int]:
     return {a.name: len(problem.agents) - 1 - i for i, a in enumerate(problem.agents)}
 
 
-def task_bars(problem: Problem, service: Service) -> tuple[list[go.Scatter], list[dict]]:
-    """A trace of bars per task, one of their labels, and a faint background shape per lane.
+def task_bars(
+    problem: Problem, service: Service, marks: Sequence[TeamMark] = ()
+) -> tuple[list[go.Scatter], list[dict]]:
+    """A trace of bars per task (a task that only counts has none), one of their labels, and a
+    faint background shape per lane.
 
     An agent serving ``n`` tasks has ``n`` lanes in its row, one per task in the mission's
-    order; a bar covers the steps ``first..last`` of each run of consecutive steps in which the
-    agent is inside the same regions of its role, labelled with the smallest of them where the
-    label fits. The bars are filled polygons rather than plotly bars, which plotly.js 4 stops
-    drawing while the markers of another subplot move.
+    order, then one per count or visits of ``marks`` that finds it
+    (:mod:`~stlplan.outputs.viewer.team` draws those); a bar covers the steps ``first..last`` of
+    each run of consecutive steps in which the agent is inside the same regions of its role,
+    labelled with the smallest of them where the label fits. The bars are filled polygons rather
+    than plotly bars, which plotly.js 4 stops drawing while the markers of another subplot move.
     """
     colors, where, bounds = task_colors(problem), rows(problem), workspace(problem)
-    boxes: dict[str, list[Box]] = {t.name: [] for t in problem.tasks}
+    boxes: dict[str, list[Box]] = {t.name: [] for t in problem.tasks if t.roles}
     labels: list[tuple[float, float, str, str]] = []  # centre, label, hover text
     lanes = []
     for name, tasks in service.items():
+        count = len(tasks) + len(marks_of(list(marks), name))
         for lane, (task, steps) in enumerate(tasks.items()):
-            height = 0.84 / len(tasks)
-            y0 = where[name] + 0.42 - height * (lane + 1)
+            y0, height = lane_box(where[name], lane, count)
             lanes.append(_lane_background(problem.horizon, (y0, height), colors[task]))
             for first, last, regions in _segments(steps):
                 boxes[task].append(
@@ -112,13 +118,14 @@ def _bar_hover(task: str, agent: str, regions: tuple[str, ...], first: int, last
     return f"<b>{html.escape(task)}</b>: {html.escape(agent)} in {where}<br>{steps}"
 
 
-def _lane_background(horizon: int, lane: tuple[float, float], color) -> dict:
+def _lane_background(horizon: int, lane: tuple[float, float], color, first: int = 0) -> dict:
+    """A lane's faint background over steps ``first..horizon``."""
     y0, height = lane
     return dict(
         type="rect",
         xref="x2",
         yref="y2",
-        x0=-0.5,
+        x0=first - 0.5,
         x1=horizon + 0.5,
         y0=y0,
         y1=y0 + height,
@@ -158,9 +165,9 @@ def cursor_trace(problem: Problem) -> go.Scatter:
     )
 
 
-def idle_notes(problem: Problem, service: Service) -> list[dict]:
-    """``no task`` across the row of each agent that serves none."""
-    where = rows(problem)
+def idle_notes(problem: Problem, service: Service, marks: Sequence[TeamMark] = ()) -> list[dict]:
+    """``no task`` across the row of each agent that serves none and no count finds."""
+    where, counted = rows(problem), {a for m in marks for a in m.steps}
     return [
         dict(
             text="<i>no task</i>",
@@ -172,7 +179,7 @@ def idle_notes(problem: Problem, service: Service) -> list[dict]:
             font=dict(size=11, color="#999"),
         )
         for name, tasks in service.items()
-        if not tasks
+        if not tasks and name not in counted
     ]
 
 
