@@ -9,7 +9,6 @@ C): ``a`` stays inside C throughout, ``b`` goes through R into C, out, through R
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -25,8 +24,8 @@ from stlplan.monitor.verdicts import check
 from stlplan.outputs.plots import plan_figure, plot_plan, plot_timeline, timeline_figure
 from stlplan.outputs.plots.team import region_colors
 from stlplan.outputs.viewer import hover_texts, viewer_figure, write_viewer
+from tests.helpers.browser import Page
 from tests.helpers.maps import make_problem, walk
-from tests.test_viewer import CHROMIUM, CHROMIUM_ARGS, Page
 
 PATHS = {
     "a": [(7.5, 6.5)] * 7,
@@ -181,18 +180,6 @@ def test_the_viewer_marks_each_visit_on_the_map_and_the_timeline(plan) -> None:
     assert "enters: visit 3 of 3 to C (visit_C)" in hover["b"][5]
     assert "in R, counted by count_R" in hover["b"][1]
     assert "counted" not in hover["b"][0] and "enters" not in hover["b"][0]
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    if not CHROMIUM.exists():
-        pytest.skip(f"no browser at {CHROMIUM} (apt-get install chromium)")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as driver:
-        launched = driver.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
-        yield launched
-        launched.close()
 
 
 def test_the_page_shows_the_visits(browser: Any, plan, tmp_path: Path) -> None:

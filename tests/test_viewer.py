@@ -24,23 +24,12 @@ from stlplan.outputs.plots import task_presence
 from stlplan.outputs.viewer import hover_texts, viewer_figure, write_viewer
 from stlplan.outputs.viewer.packed import unpacked
 from stlplan.result import PlanResult, Trajectory
+from tests.helpers.browser import Page
 from tests.helpers.paths import FARM, MISSIONS
 from tests.helpers.plans import make_report, make_trajectory
 
 MOST_BYTES = 2_000_000
 """What a page may weigh (docs/viewer.md)."""
-
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-]
 
 
 @pytest.fixture(scope="module")
@@ -207,63 +196,6 @@ def test_a_state_beyond_the_position_is_drawn_by_its_position(tmp_path: Path) ->
 
 
 # ------------------------------------------------------------------------------- the browser
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    if not CHROMIUM.exists():
-        pytest.skip(f"no browser at {CHROMIUM} (apt-get install chromium)")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as driver:
-        launched = driver.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
-        yield launched
-        launched.close()
-
-
-class Page:
-    """plan.html open in the browser, with every console error and request it made."""
-
-    def __init__(self, browser: Any, path: Path) -> None:
-        self.errors: list[str] = []
-        self.requests: list[str] = []
-        self.page = browser.new_page(viewport={"width": 1400, "height": 800})
-        self.page.on("console", lambda m: m.type == "error" and self.errors.append(m.text))
-        self.page.on("pageerror", lambda e: self.errors.append(str(e)))
-        self.page.on("request", lambda r: self.requests.append(r.url))
-        self.page.goto(path.as_uri())
-        self.page.wait_for_function("() => document.getElementById('plan')?._fullLayout")
-
-    def js(self, body: str) -> Any:
-        """The value of ``body``, a function body with ``gd`` the plot's element."""
-        return self.page.evaluate(f"() => {{ const gd = document.getElementById('plan'); {body} }}")
-
-    def markers(self) -> dict[str, tuple[float, float]]:
-        """Where each agent's marker is: the traces the frames move, as the page holds them."""
-        found = self.js(
-            "const moving = gd._transitionData._frames[0].traces;"
-            "return moving.map(i => [gd._fullData[i].name, gd._fullData[i].x[0], gd._fullData[i].y[0]]);"
-        )
-        return {name: (x, y) for name, x, y in found}
-
-    def fills_drawn(self) -> int:
-        """How many filled shapes the page draws: the regions, the bars, the runs."""
-        return self.js(
-            "return [...gd.querySelectorAll('path.js-fill')].filter(p => p.getAttribute('d')).length;"
-        )
-
-    def slider_active(self) -> int:
-        return self.js("return gd._fullLayout.sliders[0].active;")
-
-    def click_slider(self, k: int) -> None:
-        """A click on the slider's rail above the label of step ``k``."""
-        label = self.page.locator(".slider-label", has_text=re.compile(rf"^{k}$")).bounding_box()
-        rail = self.page.locator(".slider-rail-touch-rect").bounding_box()
-        assert label is not None and rail is not None
-        self.page.mouse.click(label["x"] + label["width"] / 2, rail["y"] + rail["height"] / 2)
-
-    def close(self) -> None:
-        self.page.close()
-
-
 @pytest.fixture
 def page(browser: Any, sync_pair) -> Iterator[Page]:
     opened = Page(browser, sync_pair[2] / "plan.html")

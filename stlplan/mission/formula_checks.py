@@ -18,19 +18,17 @@ from stlplan.errors import FormulaError, did_you_mean, fail, undefined
 from stlplan.formula.parser import to_text
 from stlplan.formula.tree import (
     Atom,
-    Count,
     Distance,
     Formula,
     InRegion,
     Linear,
     Predicate,
-    Visits,
     atoms,
     horizon,
     regions,
     roles,
-    team_atoms,
 )
+from stlplan.mission.count_checks import check_counts
 from stlplan.mission.groups import Element, count_groups
 from stlplan.mission.schema import (
     MAGNITUDE_TEXT,
@@ -70,42 +68,7 @@ def _formula_fits(
             where=where,
         )
     _atoms_fit(mission, formula, where, role_agents, source)
-    for atom in team_atoms(formula):
-        _count_fits(mission, atom, where, source)
-
-
-def _count_fits(mission: Mission, atom: Count | Visits, where: str, source: str | None) -> None:
-    """Capabilities known, and a bound that some plan can meet and some plan can break."""
-    known = sorted({c for a in mission.agents for c in a.capabilities})
-    for cap in atom.who.capabilities:
-        if cap not in known:
-            raise FormulaError(
-                f"'{to_text(atom)}' counts agents with capability '{cap}'"
-                f"{did_you_mean(cap, known)}, but no agent has it; capabilities of the team: "
-                f"{', '.join(known) or 'none'}",
-                source=source,
-                where=where,
-            )
-    counted = sum(atom.who.admits(frozenset(a.capabilities)) for a in mission.agents)
-    who = f" with {atom.who.text()}" if atom.who.capabilities else ""
-    most, why = counted, f"the team has {counted} agent(s){who}"
-    if isinstance(atom, Visits):
-        span = atom.interval.hi - atom.interval.lo + 1
-        most = counted * ((span + 1) // 2)
-        why += f", who enter at most {most} times in its {span} steps (each every other step)"
-    if atom.op == ">=" and not 1 <= atom.n <= most:
-        never = "fail" if atom.n < 1 else "hold"
-        raise FormulaError(
-            f"'{to_text(atom)}' can never {never}: {why}; expected a bound from 1 to {most}",
-            source=source,
-            where=where,
-        )
-    if atom.op == "<=" and atom.n >= most:
-        raise FormulaError(
-            f"'{to_text(atom)}' always holds: {why}; expected a bound below {most}",
-            source=source,
-            where=where,
-        )
+    check_counts(mission, formula, where, source)
 
 
 def _atoms_fit(
@@ -214,13 +177,7 @@ def check_task(mission: Mission, name: str, formula: Formula, source: str | None
                 f"{where}.roles.{role}",
                 source,
             )
-    if not used and task.count != 1:
-        fail(
-            f"a task whose formula names no role (only counts) is met once; found count "
-            f"{task.count}, expected 1 (or count inside the formula)",
-            f"{where}.count",
-            source,
-        )
+    _check_roleless(task, used, where, source)
     role_agents = {
         r: _role_agents(mission, r, task.roles[r], f"{where}.roles.{r}", source) for r in used
     }
@@ -232,6 +189,17 @@ def check_task(mission: Mission, name: str, formula: Formula, source: str | None
             mission.horizon,
             horizon(formula),
             f"{where}.synchronous.within",
+            source,
+        )
+
+
+def _check_roleless(task: Task, used: tuple[str, ...], where: str, source: str | None) -> None:
+    """A task whose formula names no role (it only counts) has one element: count 1."""
+    if not used and task.count != 1:
+        fail(
+            f"a task whose formula names no role (only counts) is met once; found count "
+            f"{task.count}, expected 1 (or count inside the formula)",
+            f"{where}.count",
             source,
         )
 

@@ -10,8 +10,9 @@ The package is split into :mod:`~stlplan.outputs.plots.common` (constants, style
 saving), :mod:`~stlplan.outputs.plots.plan` (the map), :mod:`~stlplan.outputs.plots.timeline` (the
 timeline), :mod:`~stlplan.outputs.plots.animation` (the animation) with
 :mod:`~stlplan.outputs.plots.video` (its encoding), :mod:`~stlplan.outputs.plots.convergence`
-(incumbent and bound), and :mod:`~stlplan.outputs.plots.past` (how each figure draws a replan:
-the executed past, the new plan and the events at its step).
+(incumbent and bound), :mod:`~stlplan.outputs.plots.past` (how each figure draws a replan:
+the executed past, the new plan and the events at its step) and
+:mod:`~stlplan.outputs.plots.team` (what the team's counts saw: who is inside when, each visit).
 """
 
 from __future__ import annotations

@@ -41,8 +41,8 @@ from stlplan.planner.encoding.continuous import (
     plan_margin,
     plan_states,
 )
+from stlplan.planner.encoding.ledger import Enforced
 from stlplan.planner.encoding.model import PlanModel
-from stlplan.planner.encoding.stl import Enforced
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock, Phase
 

@@ -18,8 +18,8 @@ import numpy as np
 
 from stlplan.planner.encoding.alphas import best_sides, half_plane_values
 from stlplan.planner.encoding.deferred import Requirement
+from stlplan.planner.encoding.ledger import Enforced
 from stlplan.planner.encoding.model import PlanModel
-from stlplan.planner.encoding.stl import Enforced
 from stlplan.planner.tolerances import ROUND_OFF
 
 

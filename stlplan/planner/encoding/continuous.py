@@ -25,8 +25,9 @@ from pyomo.environ import minimize as minimize_sense
 
 from stlplan.analysis.reach import reachable_boxes
 from stlplan.formula.boundary import required_margin
+from stlplan.planner.encoding.ledger import Enforced
 from stlplan.planner.encoding.model import PlanModel
-from stlplan.planner.encoding.stl import Enforced, alpha
+from stlplan.planner.encoding.stl import alpha
 from stlplan.planner.tolerances import FEASIBILITY
 
 Stage = Literal["effort", "polish"]

@@ -38,10 +38,10 @@ from stlplan.formula.boundary import HOLDS_AT, required_margin
 from stlplan.formula.tree import Distance, Formula, Or, Predicate, step_parts
 from stlplan.mission.problem import Problem
 from stlplan.planner.encoding.alphas import Flat, alpha_values, flatten
+from stlplan.planner.encoding.ledger import Enforced
 from stlplan.planner.encoding.segments import require_on_steps
 from stlplan.planner.encoding.stl import (
     Boxes,
-    Enforced,
     StlContext,
     predicate_range,
     require,

@@ -63,7 +63,7 @@ from pyomo.environ import ConcreteModel, ConstraintList, Var
 from stlplan.mission.problem import Problem
 from stlplan.planner.config import ModelConfig
 from stlplan.planner.encoding.effort_lp import INF, AgentPredicate, EffortLp
-from stlplan.planner.encoding.stl import Ledger, conjunction_leaves
+from stlplan.planner.encoding.ledger import Ledger, conjunction_leaves
 from stlplan.planner.encoding.team_floors import add_team_floors
 from stlplan.planner.tolerances import FEASIBILITY
 

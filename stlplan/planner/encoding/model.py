@@ -42,6 +42,7 @@ from stlplan.mission.problem import AgentModel, Problem
 from stlplan.planner.config import Encoding, PlannerConfig, TaskForm
 from stlplan.planner.encoding.deferred import Deferral, defer, segment_requirements
 from stlplan.planner.encoding.floors import add_effort_floors
+from stlplan.planner.encoding.ledger import Ledger
 from stlplan.planner.encoding.selection import (
     Selection,
     SyncSelection,
@@ -49,7 +50,7 @@ from stlplan.planner.encoding.selection import (
     select_task,
 )
 from stlplan.planner.encoding.sos1 import gray_code, sos1_block
-from stlplan.planner.encoding.stl import Ledger, StlContext, margin_ceiling, require
+from stlplan.planner.encoding.stl import StlContext, margin_ceiling, require
 from stlplan.planner.encoding.symmetry import order_classes
 from stlplan.planner.encoding.tasks import (
     SyncEncoding,

@@ -58,7 +58,7 @@ from stlplan.planner.encoding.effort_lp import (
     add_dense_rows,
     least_effort,
 )
-from stlplan.planner.encoding.stl import Ledger, conjunction_leaves
+from stlplan.planner.encoding.ledger import Ledger, conjunction_leaves
 from stlplan.planner.tolerances import FEASIBILITY
 
 TeamPredicate = tuple[Predicate, int, tuple[tuple[str, str], ...]]

@@ -17,9 +17,9 @@ import numpy as np
 from pyomo.core.base.var import IndexedVar
 from pyomo.environ import Block, ConstraintList, VarList
 
+from stlplan.planner.encoding.ledger import Ledger
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.sos1 import sos1_block
-from stlplan.planner.encoding.stl import Ledger
 
 States = dict[str, np.ndarray]
 """Agent name to its states ``x(0..H)``, an (H+1, n) array."""
