@@ -282,3 +282,28 @@ def test_a_replan_counts_the_visits_already_made() -> None:
     assert check(again, result.trajectory).satisfied
     future = sum(float(np.abs(u[5:]).sum()) for u in result.trajectory.inputs.values())
     assert future == pytest.approx(4 * margin, abs=1e-4)
+
+
+def test_a_closed_loop_run_replans_on_its_visits_and_is_judged_on_them() -> None:
+    """Executed under a disturbance of 0.02 with a replan every step, plans robust to it (the
+    margin kept where a step's disturbance cannot use it up), the run keeps its three visits
+    (each replan counts those already made) and the monitor judges the executed run."""
+    from stlplan.monitor.counts import entry_steps, inside_steps
+    from stlplan.pipeline import plan
+    from stlplan.planner.overrides import Overrides
+    from stlplan.simulation.run import disturbances, execute, judge
+    from stlplan.simulation.settings import Simulated
+
+    problem = _line_mission([1.0, 0.5], "visits[0,8](A, cam) >= 3", margin={"minimum": 0.2})
+    settings = Overrides(threads=1, time_limit=60, robust_to=0.02)
+    first = plan(problem, settings)[1]
+    simulated = Simulated(0.02, "every")
+    run = execute(problem, first, settings, simulated, disturbances(problem, 0.02, 0, 0))
+    assert len(run.replan_seconds) == problem.horizon - 1
+    assert judge(problem, run.executed, simulated).satisfied
+    visits = [
+        t
+        for agent in ("a0", "a1")
+        for t in entry_steps(inside_steps(problem, run.executed, agent, "A"), 0, 8)
+    ]
+    assert len(visits) >= 3
