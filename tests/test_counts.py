@@ -185,6 +185,18 @@ def _problem_with(task: dict[str, Any]) -> Problem:
     )
 
 
+def test_a_total_no_agent_can_reach_is_found_before_solving() -> None:
+    """A visit to R within steps 0..1 while every agent starts 1.5 away at one unit a step."""
+    from stlplan.analysis.diagnose import cheap_reasons
+
+    far = _line_mission([0.0, 0.5], "visits[0,1](A, cam) >= 1")
+    (reason,) = cheap_reasons(far)
+    assert reason.item == "t"
+    assert "no plan the dynamics and bounds allow" in reason.text
+    assert "'visits[0,1](A, cam) >= 1'" in reason.text
+    assert cheap_reasons(_line_mission([0.0, 1.5], "visits[0,1](A, cam) >= 1")) == ()
+
+
 # -- the planner's optimum against an enumeration --------------------------------------------
 
 

@@ -396,3 +396,14 @@ def test_a_continuous_stage_out_of_time_keeps_the_step_1_plan_without_its_solve(
     assert ended.failed == finishing.OUT_OF_TIME
     with pytest.raises(RuntimeError, match="was built"):
         finishing.finish(pm, options, clock, Budget.of_seconds(4.0))
+
+
+def test_no_plan_suggests_a_first_plan_only_when_not_already_asked_for() -> None:
+    from stlplan.planner.run.clock import Clock
+    from stlplan.planner.run.outcome import Outcome
+    from stlplan.planner.solve import step1_message
+
+    none = Outcome(PlanStatus.NO_PLAN, None, 2.0, None, 1.0, 3, 4, "maxTimeLimit")
+    proving, first = PlannerConfig(), PlannerConfig().with_overrides({"solver.first_plan": True})
+    assert "(--first-plan)" in step1_message(none, proving, Clock(0.0, None))
+    assert "--first-plan" not in step1_message(none, first, Clock(0.0, None))

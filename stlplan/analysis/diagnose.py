@@ -26,7 +26,8 @@ from stlplan.analysis.decided import upper_robustness
 from stlplan.analysis.initial import TOLERANCE, Reason, initial_reasons
 from stlplan.analysis.reach import needs, reachable_boxes
 from stlplan.formula.boundary import HOLDS_AT
-from stlplan.formula.tree import Always, Formula, InRegion, Not, atoms
+from stlplan.formula.parser import to_text
+from stlplan.formula.tree import Always, Formula, InRegion, Not, regions, team_atoms
 from stlplan.mission.problem import Problem, TaskModel
 from stlplan.result import Diagnosis, PlanStatus
 
@@ -122,7 +123,7 @@ def _decided_reasons(problem: Problem, boxes: dict, named: set[str]) -> Iterator
         if task.sync is not None or task.name in named:
             continue
         able, barring = 0, set()
-        read = {a.region for a in atoms(task.formula) if isinstance(a, InRegion)}
+        read = set(regions(task.formula))
         for binding in map(task.binding, task.elements):
             lowered, roles = problem.lowered(task.formula, binding), _role_boxes(boxes, binding)
             barred, names = _barred(problem, binding, read)
@@ -135,10 +136,21 @@ def _decided_reasons(problem: Problem, boxes: dict, named: set[str]) -> Iterator
             kept_out = f" and {_listed(sorted(barring))}" if barring else ""
             yield Reason(
                 task.name,
-                f"task '{task.name}' can no longer be met{after}{kept_out}: {able} of its "
-                f"{len(task.elements)} element(s) can still satisfy it, {wanted} needed",
+                f"task '{task.name}' can no longer be met{after}{kept_out}: "
+                + _shortfall(task, able, wanted),
                 tuple(sorted(barring)),
             )
+
+
+def _shortfall(task: TaskModel, able: int, wanted: int) -> str:
+    """How far a decided task falls short: its elements, or for a task that only counts, the
+    counts no plan the dynamics and bounds allow can reach."""
+    if task.roles:
+        return (
+            f"{able} of its {len(task.elements)} element(s) can still satisfy it, {wanted} needed"
+        )
+    counts = ", ".join(f"'{to_text(a)}'" for a in team_atoms(task.formula))
+    return f"no plan the dynamics and bounds allow brings enough agents for {counts}"
 
 
 def _barred(

@@ -269,7 +269,8 @@ def step1_message(step1: Outcome, config: PlannerConfig, clock: Clock) -> str:
         PlanStatus.INFEASIBLE: "the tasks and constraints cannot be met together",
         PlanStatus.NO_PLAN: (
             f"no plan found within the time limit of {config.solver.time_limit:g} s: give it "
-            "more time (--time-limit) or ask for a first plan only (--first-plan)"
+            "more time (--time-limit)"
+            + ("" if config.solver.first_plan else " or ask for a first plan only (--first-plan)")
         ),
         PlanStatus.ERROR: f"HiGHS failed: {step1.stop}",
         PlanStatus.INTERRUPTED: f"the best plan found before the stop request ({where})",
