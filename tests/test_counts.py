@@ -200,17 +200,30 @@ def test_a_total_no_agent_can_reach_is_found_before_solving() -> None:
 # -- the planner's optimum against an enumeration --------------------------------------------
 
 
-def _line_mission(starts: list[float], task: str, **fields: Any) -> Problem:
-    """Agents on the line y = 0 (single integrators, |u| <= 1), region A = [2, 3] x [-1, 1]."""
+def _line_mission(
+    starts: list[float],
+    task: str,
+    constraints: dict[str, Any] | None = None,
+    synchronous: dict[str, Any] | None = None,
+    **fields: Any,
+) -> Problem:
+    """Agents on the line y = 0 (single integrators, |u| <= 1), region A = [2, 3] x [-1, 1];
+    a task ``t`` whose formula names the role ``p`` (any agent) when it has one."""
     agents = [
         {"name": f"a{i}", "dynamics": "si", "capabilities": ["cam"], "initial_state": [x, 0.0]}
         for i, x in enumerate(starts)
     ]
+    spec: dict[str, Any] = {"formula": task}
+    if "(p," in task:
+        spec |= {"roles": {"p": "cam"}, "count": len(starts)}
+    if synchronous is not None:
+        spec["synchronous"] = synchronous
     return mission(
         horizon=8,
         agents=agents,
         regions={"A": {"box": [[2, 3], [-1, 1]]}},
-        tasks={"t": {"formula": task}},
+        tasks={"t": spec},
+        constraints=constraints or {},
         objective={"beta": 1.0, "effort": "l1", "two_step": False, **fields},
         dynamics={"si": single_integrator(1, ((-1, 6), (-2, 2)))},
     )
@@ -319,3 +332,28 @@ def test_a_closed_loop_run_replans_on_its_visits_and_is_judged_on_them() -> None
         for t in entry_steps(inside_steps(problem, run.executed, agent, "A"), 0, 8)
     ]
     assert len(visits) >= 3
+
+
+@pytest.mark.parametrize("encoding", ENCODINGS)
+def test_a_constraint_counts_and_a_synchronous_task_counts(encoding: str) -> None:
+    """``G[0,8] count(A, cam) <= 1`` as a constraint (one agent in A at a time) while each of
+    two agents must visit A: they take turns. A synchronous task whose phi is a count: two
+    agents in A together for two steps, starting within [3, 6]."""
+    turns = _line_mission(
+        [1.0, 1.2],
+        "F[0,8] in(p, A)",
+        constraints={"one_at_a_time": {"formula": "G[0,8] count(A, cam) <= 1"}},
+    )
+    result, _ = solve(turns, {"model.encoding": encoding})
+    assert result.trajectory is not None and check(turns, result.trajectory).satisfied
+    inside = [(x[:, 0] > 2) & (x[:, 0] < 3) for x in result.trajectory.states.values()]
+    assert all(row.any() for row in inside) and not (inside[0] & inside[1]).any()
+
+    together = _line_mission(
+        [1.0, 0.5], "count(A, cam) >= 2", synchronous={"within": [3, 6], "hold": 1}
+    )
+    result, _ = solve(together, {"model.encoding": encoding})
+    assert result.trajectory is not None
+    report = check(together, result.trajectory)
+    assert report.satisfied and report.verdict("t").rho_s is not None
+    assert report.verdict("t").rho_s >= 0
