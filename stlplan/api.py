@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from stlplan.analysis.size import check_size
+from stlplan.deadline import WRITING_SECONDS, Deadline, replan_by
 from stlplan.errors import StlplanError, UsageError
 from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
@@ -122,27 +123,32 @@ def write_plan(
     options: dict[str, Any] | None = None,
     animation: bool = True,
     viewer: bool = True,
+    figures: bool = True,
 ) -> list[Path]:
     """Write ``trajectory.csv``, ``summary.json``, ``plan.png``, ``timeline.png``,
     ``convergence.png``, with ``animation`` ``plan.gif`` (and ``plan.mp4`` where ``ffmpeg`` is
     installed), and with ``viewer`` ``plan.html`` (:mod:`stlplan.outputs.viewer`), all or none.
+    Without ``figures``, only ``trajectory.csv`` and ``summary.json`` (a replan on a deadline).
 
     ``convergence.png`` needs a point in :attr:`stlplan.result.PlanResult.convergence`.
     Without a plan, only ``summary.json`` is written (and ``convergence.png`` but for an
     infeasible mission).
     """
-    from stlplan.outputs.plots import PlanAnimation, ffmpeg, plot_plan, plot_timeline
-    from stlplan.outputs.plots.convergence import plot_convergence
-
     out = Path(out)
     summary = summary_dict(problem, result, options or {})
     files: dict[str, Callable[[Path], None]] = {"summary.json": lambda p: write_json(summary, p)}
-    if result.convergence and result.status is not PlanStatus.INFEASIBLE:
-        files["convergence.png"] = lambda p: plot_convergence(problem, result, p)
     traj, report = result.trajectory, result.report
     if traj is not None and report is not None:
-        title = f"{problem.mission.name}: {result.status.value}"
         files["trajectory.csv"] = lambda p: write_trajectory_csv(problem, traj, p)
+    if not figures:
+        return write_all(out, files, owned=PLAN_FILES)
+    from stlplan.outputs.plots import PlanAnimation, ffmpeg, plot_plan, plot_timeline
+    from stlplan.outputs.plots.convergence import plot_convergence
+
+    if result.convergence and result.status is not PlanStatus.INFEASIBLE:
+        files["convergence.png"] = lambda p: plot_convergence(problem, result, p)
+    if traj is not None and report is not None:
+        title = f"{problem.mission.name}: {result.status.value}"
         files["plan.png"] = lambda p: plot_plan(problem, traj, report, p, title=title)
         files["timeline.png"] = lambda p: plot_timeline(problem, traj, report, p)
         if animation:
@@ -199,7 +205,11 @@ def solve(
 
 @contextlib.contextmanager
 def _plan_folder(
-    out: str | Path | None, overrides: Overrides | None, animation: bool, viewer: bool
+    out: str | Path | None,
+    overrides: Overrides | None,
+    animation: bool,
+    viewer: bool,
+    figures: bool = True,
 ) -> Iterator[Callable[[Problem, PlanResult], None]]:
     """The block plans and writes its plan directory (with ``out``) by the function it is
     given, all or nothing: the folder is prepared first, a signal while writing writes nothing,
@@ -211,7 +221,7 @@ def _plan_folder(
     def write(problem: Problem, result: PlanResult) -> None:
         if out is not None:
             given = (overrides or Overrides()).given()
-            write_plan(problem, result, out, given, animation=animation, viewer=viewer)
+            write_plan(problem, result, out, given, animation, viewer, figures)
 
     try:
         with signals.stop_on_signals():
@@ -234,6 +244,7 @@ def replan(
     progress: Callable[[Any], None] | None = None,
     animation: bool = True,
     viewer: bool = True,
+    deadline: Deadline | None = None,
 ) -> tuple[Problem, PlanResult]:
     """Plan again from step ``at`` of the ``executed`` trajectory file (DESIGN 2.13-14), with
     agents ``lost`` and regions ``closed`` at that step; verify the whole trajectory and (with
@@ -243,11 +254,17 @@ def replan(
     data); its later rows, when complete, are where the solver starts. Returns the replanned
     problem (its past, its events as constraints: what the monitor judged) and the result.
 
+    With a ``deadline`` (:mod:`stlplan.deadline`) the answer, written, comes by it: a new plan,
+    a degraded plan, or the file's later rows continued from the states of ``at`` (when they
+    are complete); only ``trajectory.csv`` and ``summary.json`` are written.
+
     Raises
     ------
     EventError, TrajectoryError
         A step outside ``0..H-1``, unknown or repeated events, an executed file that does not fit
         the mission or leaves its state bounds (nothing is written).
+    DeadlineError
+        A ``deadline`` already spent by loading (nothing is written).
     """
     from stlplan.mission.past import check_step, replanned
     from stlplan.replanning import replan as replan_problem
@@ -259,13 +276,25 @@ def replan(
     again = replanned(problem, past, at, lost, closed)  # every bad input before writing
     config = PlannerConfig.from_mission(problem.mission, (overrides or Overrides()).dotted())
     check_size(again, config)
-    start = None
+    start, current = None, None
     with contextlib.suppress(StlplanError):  # later rows incomplete: no start from them
-        start = trajectory_start(again, read_trajectory_csv(problem, executed), at)
-    with _plan_folder(out, overrides, animation, viewer) as write:
-        planned, result = replan_problem(
-            problem, past, at, lost, closed, overrides, progress, start
-        )
+        current = read_trajectory_csv(problem, executed)
+        start = trajectory_start(again, current, at)
+    if deadline is not None:
+        deadline.check_loaded("starting and loading the mission and the executed trajectory")
+        animation = viewer = False
+    figures = deadline is None
+    with _plan_folder(out, overrides, animation, viewer, figures) as write:
+        if deadline is None:
+            planned, result = replan_problem(
+                problem, past, at, lost, closed, overrides, progress, start
+            )
+        else:
+            planned, result = replan_by(
+                deadline, problem, past, at, lost, closed, overrides, progress, start,
+                current if current is not None and current.known == "inputs" else None,
+                reserve=WRITING_SECONDS if out is not None else 0.0,
+            )  # fmt: skip
         write(planned, result)
     return planned, result
 

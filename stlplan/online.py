@@ -5,12 +5,15 @@ An :class:`OnlinePlanner` is made from a mission (and, optionally, a plan of it)
 regions closed); it returns the inputs to apply and the plan they come from. It keeps the
 executed history itself: when the measured states leave the plan (or an event comes, or the
 policy says so), it replans from ``k`` with the history as the past (:mod:`stlplan.replanning`),
-starting from its current plan.
+starting from its current plan. With a ``deadline``, each replan answers within that many
+seconds of the step's call (:mod:`stlplan.deadline`): a new plan, a degraded plan, or the
+current plan shifted on.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,13 +21,14 @@ from typing import Any, Literal
 
 import numpy as np
 
+from stlplan.deadline import Deadline, deadline_seconds, replan_by
 from stlplan.errors import EventError
 from stlplan.mission.loader import load_problem
 from stlplan.mission.problem import Problem
 from stlplan.pipeline import plan
 from stlplan.planner.overrides import Overrides
 from stlplan.planner.run.outcome import Plan
-from stlplan.replanning import replan
+from stlplan.replanning import replan, trajectory_start
 from stlplan.result import PlanResult, Trajectory
 
 Policy = Literal["every", "on-deviation", "never"]
@@ -72,6 +76,9 @@ class OnlinePlanner:
         How far (max norm) a measured state may be from the plan's and still be on it.
     progress
         Called with the solver's progress reports.
+    deadline
+        Seconds of wall time each step that replans may take, from the call of :meth:`step` to
+        its answer (None: as long as the search needs).
     """
 
     def __init__(
@@ -82,7 +89,9 @@ class OnlinePlanner:
         policy: Policy = "on-deviation",
         tolerance: float = 1e-6,
         progress: Callable[[Any], None] | None = None,
+        deadline: float | None = None,
     ) -> None:
+        self.deadline = None if deadline is None else deadline_seconds(deadline, "deadline")
         self.problem = mission if isinstance(mission, Problem) else load_problem(mission)
         self.overrides, self.policy, self.tolerance = overrides, policy, tolerance
         self.progress = progress
@@ -108,6 +117,7 @@ class OnlinePlanner:
     ) -> Step:
         """Take the measured states of step ``k`` and the events there; return the inputs to
         apply at ``k`` and the plan they come from."""
+        called = time.perf_counter()
         for name, x in measured.items():
             self.states[name][k] = np.asarray(x, dtype=float)
         events = bool(lost or closed)
@@ -118,7 +128,7 @@ class OnlinePlanner:
         every = self.policy == "every" and (k > 0 or changed)
         again = k < self.problem.horizon and (every or (self.policy == "on-deviation" and changed))
         if again:
-            self._replan(k)
+            self._replan(k, called)
         inputs = self._inputs(k)
         for name, u in inputs.items():
             self.inputs[name][k] = u
@@ -136,12 +146,21 @@ class OnlinePlanner:
             for a in self.states
         )
 
-    def _replan(self, k: int) -> None:
-        start = Plan(np.nan, self.current.values, meets_all=False) if self.current.values else None
-        _, result = replan(
-            self.problem, self.history(), k, self.lost, self.closed,
-            self.overrides, self.progress, start,
-        )  # fmt: skip
+    def _replan(self, k: int, called: float) -> None:
+        current = self.current.trajectory
+        assert current is not None
+        if self.current.values:
+            start = Plan(np.nan, self.current.values, meets_all=False)
+        else:  # (a shifted plan has no solver values)
+            start = trajectory_start(self.problem, current, k)
+        events = (self.history(), k, self.lost, self.closed)
+        if self.deadline is None:
+            _, result = replan(self.problem, *events, self.overrides, self.progress, start)
+        else:
+            by = Deadline.starting(self.deadline, called)
+            _, result = replan_by(
+                by, self.problem, *events, self.overrides, self.progress, start, current
+            )
         self.replans += 1
         self.replanned = result
         if result.trajectory is not None:

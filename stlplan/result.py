@@ -104,12 +104,14 @@ class PlanStatus(str, Enum):
     INTERRUPTED = "interrupted"  # stopped by a signal; the best plan so far
     INTERRUPTED_NO_PLAN = "interrupted_no_plan"  # stopped by a signal before any plan
     DEGRADED = "degraded"  # infeasible; a plan of as many tasks as possible, the rest dropped
+    SHIFTED = "shifted"  # no new plan by a replan's deadline: the current plan goes on
 
     @property
     def has_plan(self) -> bool:
         """Whether a trajectory comes with this status."""
         return self in (
-            PlanStatus.OPTIMAL, PlanStatus.FEASIBLE, PlanStatus.INTERRUPTED, PlanStatus.DEGRADED
+            PlanStatus.OPTIMAL, PlanStatus.FEASIBLE, PlanStatus.INTERRUPTED, PlanStatus.DEGRADED,
+            PlanStatus.SHIFTED,
         )  # fmt: skip
 
     @property
@@ -220,12 +222,22 @@ class Replan:
     past_effort
         The effort of the executed inputs before ``K`` (0 when the file gave none): the
         objective counts the planned inputs only.
+    deadline
+        The seconds the replan was given (None: no deadline; :mod:`stlplan.deadline`).
+    came_back
+        With a deadline, what came back by it: ``new plan``, ``degraded plan``,
+        ``shifted plan`` (the current plan continued), or ``nothing`` (no current plan to go on).
+    why
+        With a deadline, why that came back, in words.
     """
 
     step: int
     events: tuple[str, ...] = ()
     seconds: float = 0.0
     past_effort: float = 0.0
+    deadline: float | None = None
+    came_back: str | None = None
+    why: str = ""
 
 
 @dataclass(frozen=True)

@@ -41,6 +41,8 @@ LAYERS = (
         "stlplan.degraded",
         "stlplan.pipeline",
         "stlplan.replanning",
+        "stlplan.shifted",
+        "stlplan.deadline",
         "stlplan.online",
     ),
     ("stlplan.outputs",),

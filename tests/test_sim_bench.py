@@ -53,6 +53,16 @@ def test_a_target_is_met_only_when_both_figures_meet_it() -> None:
     assert sim_bench.Configuration("y", "never", False).met(found) is None
 
 
+def test_a_deadline_target_asks_every_replan_to_answer_within_its_lateness() -> None:
+    c = sim_bench.Configuration("x", "every", True, (), 0.95, deadline=1.0)
+    assert c.target() == ">= 95% satisfied, max <= 1.2 s"
+    assert c.folder() == "every-robust-deadline-1"
+    found = {"satisfied_fraction": 0.95, "replan_median_s": 0.9, "replan_max_s": 1.2}
+    assert c.met(found) is True
+    assert c.met({**found, "replan_max_s": 1.21}) is False
+    assert c.met({**found, "satisfied_fraction": 0.94}) is False
+
+
 def test_an_unknown_agent_is_refused_before_anything_runs(tmp_path: Path) -> None:
     with pytest.raises(EventError, match="no such agent"):
         sim_bench.main(

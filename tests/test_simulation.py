@@ -92,3 +92,20 @@ def test_a_lost_agent_stays_and_a_closed_region_is_judged_from_its_step(
     assert report.verdict("dynamics north").satisfied
     assert report.verdict("closed Goal (leaving)").satisfied  # south leaves Goal at step 7
     assert [v.name for v in report.verdicts if not v.satisfied] == ["meet"]
+
+
+def test_with_a_deadline_each_replan_says_what_came_back_by_it(first: PlanResult) -> None:
+    from stlplan.simulation.report import line, overall
+    from stlplan.simulation.run import figures
+
+    problem = load_problem(PAIR)
+    simulated = Simulated(0.01, "every", deadline=5.0)
+    assert simulated.describe()["deadline"] == 5.0 and "deadline" not in Simulated().describe()
+    run = execute(problem, first, SETTINGS, simulated, disturbances(problem, 0.01, 0, 0))
+    assert len(run.came_back) == len(run.replan_seconds) == problem.horizon - 1
+    assert set(run.came_back) <= {"new plan", "degraded plan", "shifted plan"}
+    record = figures(judge(problem, run.executed, simulated), run)
+    assert sum(record["came_back"].values()) == problem.horizon - 1
+    summary = overall([record, record])
+    assert sum(summary["came_back"].values()) == 2 * (problem.horizon - 1)
+    assert "by the deadline: " in line(summary)

@@ -19,7 +19,7 @@ from stlplan import __version__
 from stlplan.cli import files, planning, replanning, simulating
 from stlplan.cli.help import Command, Group
 from stlplan.cli.shell import EXIT_INTERRUPTED, console
-from stlplan.runtime import signals
+from stlplan.runtime import signals, started
 
 EPILOG = (
     "Exit codes: 0 satisfied or valid, 1 a checked trajectory violates the mission, 2 usage "
@@ -79,9 +79,14 @@ for command, epilog, short_help in COMMANDS:
 
 
 def main() -> None:
-    """Console entry point (``stlplan``)."""
+    """Console entry point (``stlplan``). A command on a deadline ends the process as soon as its
+    answer is out (:func:`stlplan.runtime.started.end_at_once`)."""
     try:
         app()
     except KeyboardInterrupt as exc:
         console(stderr=True).print("interrupted")
         sys.exit(exc.exit_code if isinstance(exc, signals.Interrupted) else EXIT_INTERRUPTED)
+    except SystemExit as done:
+        if started.AT_ONCE:
+            started.exit_now(done.code)
+        raise

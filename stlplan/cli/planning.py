@@ -40,6 +40,7 @@ STATUS_EXIT = {
     PlanStatus.INTERRUPTED: EXIT_INTERRUPTED,
     PlanStatus.INTERRUPTED_NO_PLAN: EXIT_INTERRUPTED,
     PlanStatus.DEGRADED: EXIT_DEGRADED,
+    PlanStatus.SHIFTED: EXIT_NO_PLAN,  # no new plan by a replan's deadline
 }
 
 SOLVE_EPILOG = (

@@ -25,9 +25,18 @@ from stlplan.cli.planning import (
 )
 from stlplan.cli.shell import JsonOption, Output, QuietOption, VerboseOption, handled, solver_output
 
-REPLAN_EPILOG = SOLVE_EPILOG.replace("(--degrade: some", "(some").replace(
-    "3 bad input", "3 bad input (a step outside 0..H-1, an unknown or repeated event, an "
-    "executed file that does not fit the mission)"
+REPLAN_EPILOG = (
+    SOLVE_EPILOG.replace("(--degrade: some", "(some")
+    .replace(
+        "3 bad input", "3 bad input (a step outside 0..H-1, an unknown or repeated event, an "
+        "executed file that does not fit the mission, a --deadline not above 0 or shorter than "
+        "loading took)",
+    )
+    .replace(
+        "5 no plan within the time limit",
+        "5 no plan within the time limit (with --deadline: the current plan continued, status "
+        "shifted)",
+    )
 )  # fmt: skip
 
 ExecutedArg = Annotated[
@@ -54,6 +63,16 @@ ClosedOption = Annotated[
         "--closed", help="A region closed at K: an obstacle for every agent.", metavar="REGION"
     ),
 ]
+DeadlineOption = Annotated[
+    str | None,
+    typer.Option(
+        help="Answer within this many seconds of wall time, loading and writing included: a new "
+        "plan, else a degraded plan, else the current plan (the executed file's later rows) "
+        "continued from the states of step K. Only trajectory.csv and summary.json are written.",
+        metavar="SECONDS",
+        show_default=False,
+    ),
+]
 
 
 @handled
@@ -69,6 +88,7 @@ def replan(
     threads: ThreadsOption = None,
     first_plan: FirstPlanOption = False,
     robust_to: RobustToOption = None,
+    deadline: DeadlineOption = None,
     no_animation: NoAnimationOption = False,
     no_html: NoHtmlOption = False,
     as_json: JsonOption = False,
@@ -81,9 +101,15 @@ def replan(
 
     With --json the document printed is summary.json.
     """
+    from stlplan.deadline import Deadline, deadline_seconds
     from stlplan.outputs.progress import ProgressLine
+    from stlplan.runtime.started import end_at_once, process_start
 
     output, tick = Output(as_json, quiet), time.perf_counter()
+    by = None
+    if deadline is not None:  # from the process's start: the wall time its caller sees
+        by = Deadline.starting(deadline_seconds(deadline), process_start())
+        end_at_once()
     overrides = api.Overrides(
         time_limit=time_limit,
         gap=gap,
@@ -98,7 +124,7 @@ def replan(
     ):
         again, result = api.replan(
             problem, executed, at, lost or (), closed or (), out, overrides, line.update,
-            animation=not no_animation, viewer=not no_html,
+            animation=not no_animation, viewer=not no_html, deadline=by,
         )  # fmt: skip
     seconds = time.perf_counter() - tick
     finish(output, result, out, verbose, lambda: api.summary(again, result, overrides), seconds)

@@ -21,6 +21,7 @@ from stlplan.cli.planning import (
     exit_code,
     where_runs,
 )
+from stlplan.cli.replanning import DeadlineOption
 from stlplan.cli.shell import EXITS_COMMON, JsonOption, Output, QuietOption, handled, solver_output
 from stlplan.sweep.progress import SweepProgress
 from stlplan.words import counted
@@ -33,7 +34,7 @@ SIMULATE_EPILOG = (
         "file)",
         "file; a disturbance that is not a number >= 0, --runs below 1, --lose or --close naming "
         "an unknown agent or region or a step outside 0..H-1, an agent lost or a region closed "
-        "twice)",
+        "twice, a --deadline not above 0)",
     )
     + " A simulation stopped by a signal goes on with --resume."
 )
@@ -118,6 +119,7 @@ def simulate(
     resume: ResumeOption = False,
     threads: ThreadsOption = None,
     time_limit: SolveTimeOption = None,
+    deadline: DeadlineOption = None,
     plot: PlotOption = False,
     as_json: JsonOption = False,
     quiet: QuietOption = False,
@@ -128,6 +130,7 @@ def simulate(
 
     With --json the document printed holds runs (one object per run) and satisfied_fraction.
     """
+    from stlplan.deadline import deadline_seconds
     from stlplan.simulation.settings import bound, check_runs, events
 
     output = Output(as_json, quiet)
@@ -140,6 +143,7 @@ def simulate(
         default if disturbance is None else bound(disturbance, "--disturbance"),
         replan.value,
         events(lose or (), close or ()),
+        None if deadline is None else deadline_seconds(deadline),
     )
     overrides = api.Overrides(
         time_limit=time_limit,

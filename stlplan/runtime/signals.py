@@ -66,6 +66,7 @@ class StopState:
 
 STATE = StopState()
 _COUNT = threading.Lock()
+_LEFT_BEHIND = threading.Event()
 
 
 def requested() -> bool:
@@ -79,8 +80,26 @@ def last_signal() -> int | None:
 
 
 def should_interrupt() -> bool:
-    """Whether a running solve must stop (inside :func:`finishing`, only on a hard stop)."""
-    return requested() and (STATE.hard or not STATE.finishing)
+    """Whether a running solve must stop (inside :func:`finishing`, only on a hard stop), or
+    belongs to a search a deadline left behind (:func:`leave_behind`)."""
+    return _LEFT_BEHIND.is_set() or (requested() and (STATE.hard or not STATE.finishing))
+
+
+def leave_behind() -> None:
+    """Stop every running solve at its next callback: the search a replan's deadline left behind
+    (:mod:`stlplan.deadline`) ends as soon as it can. Its solves end as at a time limit."""
+    _LEFT_BEHIND.set()
+
+
+def left_behind() -> bool:
+    """Whether the running search is one a deadline left behind (:func:`leave_behind`): its
+    budgets are spent."""
+    return _LEFT_BEHIND.is_set()
+
+
+def take_up() -> None:
+    """Let solves run again once the search left behind has ended."""
+    _LEFT_BEHIND.clear()
 
 
 @contextmanager

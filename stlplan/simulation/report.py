@@ -45,9 +45,14 @@ def _number(value: float | None, digits: int = 6) -> float | None:
 
 def overall(records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """The runs, how many satisfy the mission and the fraction, the replan time (median and
-    max over every replan of every run), and how many replans planned with smaller margins."""
+    max over every replan of every run), how many replans planned with smaller margins, and
+    with a deadline what the replans answered by it (``came_back``: how many of each)."""
     seconds = [s for r in records for s in r.get("replan_seconds") or []]
     satisfied = sum(1 for r in records if r.get("satisfied"))
+    came_back: dict[str, int] = {}
+    for r in records:
+        for kind, n in (r.get("came_back") or {}).items():
+            came_back[kind] = came_back.get(kind, 0) + n
     return {
         "runs": len(records),
         "satisfied": satisfied,
@@ -56,20 +61,24 @@ def overall(records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
         "replan_median_s": statistics.median(seconds) if seconds else None,
         "replan_max_s": max(seconds) if seconds else None,
         "reduced_margins": sum(len(r.get("reduced_margins") or []) for r in records),
+        "came_back": came_back,
     }
 
 
 def line(summary: Mapping[str, Any]) -> str:
-    """``4 of 5 runs satisfied (80%); 40 replans, median 0.05 s, max 0.21 s``."""
+    """``4 of 5 runs satisfied (80%); 40 replans, median 0.05 s, max 0.21 s`` (and with a
+    deadline ``; by the deadline: 31 new plan, 9 shifted plan``)."""
     runs, fraction = summary["runs"], summary["satisfied_fraction"]
     text = f"{summary['satisfied']} of {counted(runs, 'run')} satisfied ({fraction:.0%})"
     if not summary["replans"]:
         return text + "; no replan"
-    reduced = summary.get("reduced_margins")
+    reduced, came_back = summary.get("reduced_margins"), summary.get("came_back")
+    answers = ", ".join(f"{n} {kind}" for kind, n in (came_back or {}).items())
     return (
         f"{text}; {counted(summary['replans'], 'replan')}, median "
         f"{summary['replan_median_s']:.2f} s, max {summary['replan_max_s']:.2f} s"
         + (f"; {reduced} with smaller margins" if reduced else "")
+        + (f"; by the deadline: {answers}" if answers else "")
     )
 
 

@@ -86,6 +86,9 @@ class Execution:
         The plan the run ended with.
     reduced
         The margins each replan that had to reduce them planned with (``diagnosis.margin_fractions``).
+    came_back
+        With a deadline, what each replan answered by it (``new plan``, ``degraded plan``,
+        ``shifted plan``), in order.
     """
 
     executed: Trajectory
@@ -93,6 +96,7 @@ class Execution:
     dropped: tuple[Dropped, ...]
     last: PlanResult
     reduced: tuple[float, ...] = ()
+    came_back: tuple[str, ...] = ()
 
 
 def disturbances(problem: Problem, bound: float, seed: int, run: int) -> dict[str, np.ndarray]:
@@ -114,10 +118,11 @@ def execute(
 ) -> Execution:
     """Execute ``first`` on ``problem``'s dynamics under the disturbance ``w``, the loop
     replanning by ``simulated.policy`` and given ``simulated.events`` at their steps."""
-    loop = OnlinePlanner(problem, first, overrides, simulated.policy)
+    loop = OnlinePlanner(problem, first, overrides, simulated.policy, deadline=simulated.deadline)
     x = {a.name: a.initial_state.copy() for a in problem.agents}
     seconds: list[float] = []
     reduced: list[float] = []
+    came_back: list[str] = []
     dropped: tuple[Dropped, ...] = ()
     for k in range(problem.horizon + 1):
         lost, closed = simulated.at(k)
@@ -128,12 +133,15 @@ def execute(
         if step.replanned and loop.replanned is not None:  # (its own result, plan or not)
             seconds.append(time.perf_counter() - tick)
             own = loop.replanned
+            if own.replan is not None and own.replan.came_back is not None:
+                came_back.append(own.replan.came_back)
             dropped = own.dropped or dropped
             if own.trajectory is not None and own.robust_to < first.robust_to:
                 reduced.append(own.robust_to)
         if k < problem.horizon:
             x = _advance(problem, x, step.inputs, w, k, loop.lost)
-    return Execution(loop.history(), tuple(seconds), dropped, loop.current, tuple(reduced))
+    answers = tuple(came_back)
+    return Execution(loop.history(), tuple(seconds), dropped, loop.current, tuple(reduced), answers)
 
 
 def _advance(
@@ -214,6 +222,7 @@ def figures(report: MonitorReport, run: Execution) -> dict[str, Any]:
         replan_seconds=seconds,
         replan_median_s=statistics.median(seconds) if seconds else None,
         replan_max_s=max(seconds) if seconds else None,
+        came_back={kind: run.came_back.count(kind) for kind in dict.fromkeys(run.came_back)},
         executed=trajectory_record(run.executed),
     )
 

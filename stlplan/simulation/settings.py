@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal, NoReturn
 
+from stlplan.deadline import deadline_seconds
 from stlplan.errors import EventError, SimulationError
 from stlplan.mission.problem import Problem
 from stlplan.online import Policy
@@ -51,11 +52,15 @@ class Simulated:
         When the loop replans (:data:`stlplan.online.Policy`).
     events
         Agents lost and regions closed, each at its step.
+    deadline
+        Seconds of wall time each replan may take (None: as long as its search needs;
+        :mod:`stlplan.deadline`).
     """
 
     disturbance: float = 0.0
     policy: Policy = "on-deviation"
     events: tuple[Event, ...] = ()
+    deadline: float | None = None
 
     def at(self, k: int) -> tuple[list[str], list[str]]:
         """The agents lost and the regions closed at step ``k``."""
@@ -68,13 +73,17 @@ class Simulated:
         return {e.name: e.step for e in self.events if e.kind == "lose"}
 
     def describe(self) -> dict[str, Any]:
-        """The settings as a record holds them (``lose`` and ``close`` as ``[name, step]``)."""
-        return {
+        """The settings as a record holds them (``lose`` and ``close`` as ``[name, step]``;
+        ``deadline`` only when there is one)."""
+        described: dict[str, Any] = {
             "disturbance": self.disturbance,
             "replan": self.policy,
             "lose": [[e.name, e.step] for e in self.events if e.kind == "lose"],
             "close": [[e.name, e.step] for e in self.events if e.kind == "close"],
         }
+        if self.deadline is not None:
+            described["deadline"] = self.deadline
+        return described
 
     def check(self, problem: Problem) -> None:
         """Raise unless every setting fits ``problem`` (module docstring)."""
@@ -82,6 +91,8 @@ class Simulated:
         _check_within_states(problem, self.disturbance)
         if self.policy not in POLICIES:
             raise SimulationError(f"--replan {self.policy}: expected one of {', '.join(POLICIES)}")
+        if self.deadline is not None:
+            deadline_seconds(self.deadline)
         _check_events(problem, self.events)
 
 

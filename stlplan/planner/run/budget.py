@@ -27,6 +27,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 from stlplan.planner.config import BudgetConfig, PlannerConfig
+from stlplan.runtime import signals
 
 
 def grace_of(config: PlannerConfig) -> float:
@@ -79,7 +80,10 @@ class Budget:
         return cls(end, end, least_solve(config or PlannerConfig()))
 
     def remaining(self) -> float:
-        """Seconds left (negative once the deadline has passed)."""
+        """Seconds left (negative once the deadline has passed, and in a search a replan's
+        deadline left behind: :func:`stlplan.runtime.signals.leave_behind`)."""
+        if signals.left_behind():
+            return -1.0
         return self.deadline - time.perf_counter()
 
     def expired(self) -> bool:
