@@ -138,10 +138,6 @@ def first_plan_settings(problem: Problem, overrides: Overrides) -> Overrides:
     return dataclasses.replace(overrides, first_plan=first_plan, config=settings)
 
 
-_SEARCHES: list[threading.Thread] = []
-"""Searches a deadline left behind, still running (at most one: a new search waits for it)."""
-
-
 class _Search(threading.Thread):
     """A replan's search in a thread of its own (module docstring): a first plan, then, with
     time left, the best plan from it; :attr:`answer` holds the best so far."""
@@ -164,6 +160,8 @@ class _Search(threading.Thread):
                     self.answer = answer
         except BaseException as exc:  # handed to the caller, which raises it
             self.error = exc
+        finally:
+            signals.caught_up(self)
 
 
 def _improvable(found: PlanResult) -> bool:
@@ -198,10 +196,7 @@ def replan_by(
     seconds before it for the caller's writing. ``current`` is the plan being executed (none:
     no shifted plan, and a search that does not come back in time leaves no plan). The result's
     :class:`~stlplan.result.Replan` says which answer came back and why."""
-    for left_behind in _SEARCHES:
-        left_behind.join()
-    _SEARCHES.clear()
-    signals.take_up()
+    signals.catch_up()
     again = replanned(problem, executed, step, lost, closed)
     fallback = None if current is None else shifted_plan(again, current, executed, step)
     events = (executed, step, lost, closed)
@@ -210,8 +205,7 @@ def replan_by(
     search.start()
     search.join(timeout=max(0.0, deadline.remaining() - reserve - WAKING_SECONDS))
     if search.is_alive():
-        _SEARCHES.append(search)
-        signals.leave_behind()
+        signals.leave_behind(search)
     elif search.error is not None:
         raise search.error
     return _best(deadline, again, fallback, search.answer)

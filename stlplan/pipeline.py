@@ -67,6 +67,7 @@ def plan(
     from stlplan.planner.solve import plan as solve_plan
     from stlplan.planner.strategy import describe
 
+    signals.catch_up()  # a search a replan's deadline left behind ends first
     discard_highs_banner()  # the first HiGHS object of a process prints it on stdout
     overrides = overrides or Overrides()
     problem = mission if isinstance(mission, Problem) else load_problem(mission)

@@ -99,6 +99,8 @@ def test_a_search_that_cannot_finish_gives_the_shifted_plan(first: PlanResult) -
     assert result.message.startswith("no new plan by the deadline of 0.05 s")
     assert result.report is not None and result.trajectory is not None
     assert check(again, result.trajectory).satisfied == result.report.satisfied
+    # the search left behind stops, and a later run plans as usual
+    assert plan(PAIR, Overrides(time_limit=60))[1].status is PlanStatus.OPTIMAL
 
 
 def test_without_a_current_plan_nothing_comes_back(first: PlanResult) -> None:

@@ -67,6 +67,7 @@ class StopState:
 STATE = StopState()
 _COUNT = threading.Lock()
 _LEFT_BEHIND = threading.Event()
+_BEHIND: list[threading.Thread] = []
 
 
 def requested() -> bool:
@@ -85,10 +86,22 @@ def should_interrupt() -> bool:
     return _LEFT_BEHIND.is_set() or (requested() and (STATE.hard or not STATE.finishing))
 
 
-def leave_behind() -> None:
-    """Stop every running solve at its next callback: the search a replan's deadline left behind
-    (:mod:`stlplan.deadline`) ends as soon as it can. Its solves end as at a time limit."""
-    _LEFT_BEHIND.set()
+def leave_behind(search: threading.Thread) -> None:
+    """Stop every running solve at its next callback: ``search``, the search a replan's deadline
+    left behind (:mod:`stlplan.deadline`), ends as soon as it can. Its solves end as at a time
+    limit, and its budgets are spent (:func:`left_behind`)."""
+    with _COUNT:
+        _BEHIND.append(search)
+        _LEFT_BEHIND.set()
+
+
+def caught_up(search: threading.Thread) -> None:
+    """``search`` has ended: once no search is left behind, solves run again."""
+    with _COUNT:
+        if search in _BEHIND:
+            _BEHIND.remove(search)
+        if not _BEHIND:
+            _LEFT_BEHIND.clear()
 
 
 def left_behind() -> bool:
@@ -97,9 +110,14 @@ def left_behind() -> bool:
     return _LEFT_BEHIND.is_set()
 
 
-def take_up() -> None:
-    """Let solves run again once the search left behind has ended."""
-    _LEFT_BEHIND.clear()
+def catch_up() -> None:
+    """Wait for the searches left behind to end, then let solves run again: every planning run
+    starts with this (in a search left behind, it does nothing)."""
+    if threading.current_thread() in _BEHIND:
+        return
+    for search in list(_BEHIND):
+        search.join()
+        caught_up(search)
 
 
 @contextmanager
