@@ -10,8 +10,10 @@ comes back by it with one of three answers:
   starts, so it is ready at any moment.
 
 The best comes back: a new plan; else the shifted plan when the monitor finds it meets every
-task, and every constraint from ``K`` on; else a degraded plan; else the shifted plan all the
-same, flagged with what it fails (a robot loop needs inputs). Without a current plan (an
+task, and every constraint from ``K`` on; else a degraded plan when it keeps a task the shifted
+plan fails, or the shifted plan breaks a constraint or the separation (a degraded plan found in
+a short time may drop a task that a longer search keeps: the shifted plan keeps trying for it);
+else the shifted plan all the same, flagged with what it fails (a robot loop needs inputs). Without a current plan (an
 executed file without later rows) and without a plan from the search, nothing comes back.
 
 The search runs in a thread of its own, in two phases, each with a time limit that ends it
@@ -25,11 +27,13 @@ waits for it first.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import gc
 import math
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -196,19 +200,35 @@ def replan_by(
     seconds before it for the caller's writing. ``current`` is the plan being executed (none:
     no shifted plan, and a search that does not come back in time leaves no plan). The result's
     :class:`~stlplan.result.Replan` says which answer came back and why."""
-    signals.catch_up()
-    again = replanned(problem, executed, step, lost, closed)
-    fallback = None if current is None else shifted_plan(again, current, executed, step)
-    events = (executed, step, lost, closed)
-    phases = _phases(deadline, problem, events, overrides or Overrides(), progress, start, reserve)
-    search = _Search(phases)
-    search.start()
-    search.join(timeout=max(0.0, deadline.remaining() - reserve - WAKING_SECONDS))
-    if search.is_alive():
-        signals.leave_behind(search)
-    elif search.error is not None:
-        raise search.error
-    return _best(deadline, again, fallback, search.answer)
+    with _collected_after():
+        signals.catch_up()
+        again = replanned(problem, executed, step, lost, closed)
+        fallback = None if current is None else shifted_plan(again, current, executed, step)
+        events = (executed, step, lost, closed)
+        settings = overrides or Overrides()
+        phases = _phases(deadline, problem, events, settings, progress, start, reserve)
+        search = _Search(phases)
+        search.start()
+        search.join(timeout=max(0.0, deadline.remaining() - reserve - WAKING_SECONDS))
+        if search.is_alive():
+            signals.leave_behind(search)
+        elif search.error is not None:
+            raise search.error
+        return _best(deadline, again, fallback, search.answer)
+
+
+@contextlib.contextmanager
+def _collected_after() -> Iterator[None]:
+    """Garbage collection in the block looks at the block's own objects only: a full collection
+    of everything holds every thread for a tenth of a second or more (0.11-0.15 s measured
+    during Case I's replans), and one at the deadline would make the answer late. The objects
+    from before are frozen out of the collector in the block (:func:`gc.freeze`), and are
+    collected as usual after it."""
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
 
 
 _Phase = Callable[[Plan | None], tuple[Problem, PlanResult]]
@@ -256,12 +276,26 @@ def _best(
         why = "the search had no plan of every task after " + waited
         return _answered(deadline, again, fallback, why, again)
     if found is not None and found.trajectory is not None:
-        return planned, _with_answer(found, deadline, "degraded plan", _why_found(found))
+        if fallback is None or not _gives_up_no_more(again, fallback, found):
+            return planned, _with_answer(found, deadline, "degraded plan", _why_found(found))
+        dropped = ", ".join(d.task for d in found.dropped)
+        why = f"the search's plan drops {dropped}, which the shifted plan keeps trying for"
+        return _answered(deadline, again, fallback, why, again)
     if found is None:
         why = f"the search had not come back after {waited}"
     else:
         why = f"the search found no plan: {found.message}"
     return _answered(deadline, again, fallback, why, planned, found)
+
+
+def _gives_up_no_more(again: Problem, shifted: PlanResult, degraded: PlanResult) -> bool:
+    """Whether the shifted plan breaks no constraint nor the separation from the replan's step
+    on, and fails no task that ``degraded`` does not drop."""
+    assert shifted.trajectory is not None
+    report = monitor_check(again, shifted.trajectory, planned_only=True)
+    failed = [v for v in report.verdicts if not v.satisfied]
+    dropped = {d.task for d in degraded.dropped}
+    return all(v.kind in ("task", "synchronous") and v.name in dropped for v in failed)
 
 
 def keeps_every_task(again: Problem, shifted: PlanResult) -> bool:

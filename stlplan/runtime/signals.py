@@ -86,10 +86,15 @@ def should_interrupt() -> bool:
     return _LEFT_BEHIND.is_set() or (requested() and (STATE.hard or not STATE.finishing))
 
 
+class LeftBehind(BaseException):
+    """Raised in a search a replan's deadline left behind, at its next look at its budget: it
+    unwinds at once (:func:`leave_behind`)."""
+
+
 def leave_behind(search: threading.Thread) -> None:
     """Stop every running solve at its next callback: ``search``, the search a replan's deadline
-    left behind (:mod:`stlplan.deadline`), ends as soon as it can. Its solves end as at a time
-    limit, and its budgets are spent (:func:`left_behind`)."""
+    left behind (:mod:`stlplan.deadline`), ends as soon as it can: its solves stop at their next
+    callback, and its next look at a budget raises :class:`LeftBehind` (:func:`left_behind`)."""
     with _COUNT:
         _BEHIND.append(search)
         _LEFT_BEHIND.set()

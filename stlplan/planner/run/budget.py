@@ -80,10 +80,15 @@ class Budget:
         return cls(end, end, least_solve(config or PlannerConfig()))
 
     def remaining(self) -> float:
-        """Seconds left (negative once the deadline has passed, and in a search a replan's
-        deadline left behind: :func:`stlplan.runtime.signals.leave_behind`)."""
+        """Seconds left (negative once the deadline has passed).
+
+        Raises
+        ------
+        stlplan.runtime.signals.LeftBehind
+            In a search a replan's deadline left behind (:func:`stlplan.runtime.signals.leave_behind`).
+        """
         if signals.left_behind():
-            return -1.0
+            raise signals.LeftBehind
         return self.deadline - time.perf_counter()
 
     def expired(self) -> bool:
