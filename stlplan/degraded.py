@@ -92,8 +92,8 @@ def _cheap_conflicts(problem: Problem) -> list[Conflict]:
     tasks = {t.name for t in problem.tasks}
     found = []
     for reason in cheap_reasons(problem):
-        item = reason.item
-        found.append(Conflict(frozenset({item} & tasks), reason.text))
+        blamed = {reason.item, *reason.others} & tasks  # (a pair of tasks, or one)
+        found.append(Conflict(frozenset(blamed), reason.text))
     return found
 
 

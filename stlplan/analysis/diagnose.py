@@ -25,6 +25,7 @@ import numpy as np
 from stlplan.analysis.decided import upper_robustness
 from stlplan.analysis.initial import TOLERANCE, Reason, initial_reasons
 from stlplan.analysis.reach import needs, reachable_boxes
+from stlplan.analysis.shared import shared_agent_reasons
 from stlplan.formula.boundary import HOLDS_AT
 from stlplan.formula.parser import to_text
 from stlplan.formula.tree import Always, Formula, InRegion, Not, regions, team_atoms
@@ -214,7 +215,8 @@ def _role_boxes(boxes: dict, binding: dict[str, str]) -> dict:
 def cheap_reasons(problem: Problem) -> tuple[Reason, ...]:
     """Reasons the mission is infeasible that need no solve (empty when none is found): the
     conflicts at step 0 first, then the regions no capable agent reaches in time, then the
-    tasks no plan can satisfy any more."""
+    tasks no plan can satisfy any more, then pairs of tasks that need more of the same agents at
+    once than there are (:mod:`stlplan.analysis.shared`)."""
 
     found = list(initial_reasons(problem))
     boxes = reachable_boxes(problem)
@@ -222,6 +224,7 @@ def cheap_reasons(problem: Problem) -> tuple[Reason, ...]:
     found += [r for task in problem.tasks for r in _task_reasons(problem, task, boxes)]
     found += list(_constraint_reasons(problem, boxes))
     found += list(_decided_reasons(problem, boxes, {r.item for r in found}))
+    found += list(shared_agent_reasons(problem, boxes, {r.item for r in found}))
     return tuple(found)
 
 

@@ -42,7 +42,8 @@ class Reason(NamedTuple):
     text: str
     """The explanation: who, at which step, which requirement, which numbers."""
     others: tuple[str, ...] = ()
-    """The constraints it cannot be met with (none: it cannot be met on its own)."""
+    """The constraints (or another task) it cannot be met with (none: it cannot be met on its
+    own)."""
 
 
 def _all_known(parts: list[Formula | None]) -> list[Formula] | None:
