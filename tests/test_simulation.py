@@ -94,16 +94,23 @@ def test_a_lost_agent_stays_and_a_closed_region_is_judged_from_its_step(
     assert [v.name for v in report.verdicts if not v.satisfied] == ["meet"]
 
 
-def test_with_a_deadline_each_replan_says_what_came_back_by_it(first: PlanResult) -> None:
+def test_with_a_deadline_each_replan_says_what_came_back_by_it() -> None:
     from stlplan.simulation.report import line, overall
     from stlplan.simulation.run import figures
 
     problem = load_problem(PAIR)
     simulated = Simulated(0.01, "every", deadline=5.0)
     assert simulated.describe()["deadline"] == 5.0 and "deadline" not in Simulated().describe()
-    run = execute(problem, first, SETTINGS, simulated, disturbances(problem, 0.01, 0, 0))
+    robust = Overrides(threads=1, time_limit=60, robust_to=0.01)
+    planned = plan(problem, robust)[1]
+    run = execute(problem, planned, robust, simulated, disturbances(problem, 0.01, 0, 0))
     assert len(run.came_back) == len(run.replan_seconds) == problem.horizon - 1
     assert set(run.came_back) <= {"new plan", "degraded plan", "shifted plan"}
+    # a shifted plan keeps no margins of its own, but it is no replan with smaller margins
+    hurried = Simulated(0.01, "every", deadline=0.05)
+    rushed = execute(problem, planned, robust, hurried, disturbances(problem, 0.01, 0, 0))
+    assert "shifted plan" in rushed.came_back
+    assert len(rushed.reduced) <= sum(1 for c in rushed.came_back if c != "shifted plan")
     record = figures(judge(problem, run.executed, simulated), run)
     assert sum(record["came_back"].values()) == problem.horizon - 1
     summary = overall([record, record])

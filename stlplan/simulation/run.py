@@ -42,7 +42,7 @@ from stlplan.monitor.dynamics import disturbed_verdict
 from stlplan.monitor.verdicts import check
 from stlplan.online import OnlinePlanner
 from stlplan.planner.overrides import Overrides
-from stlplan.result import Dropped, MonitorReport, PlanResult, Trajectory
+from stlplan.result import Dropped, MonitorReport, PlanResult, PlanStatus, Trajectory
 from stlplan.runtime import signals
 from stlplan.simulation.settings import Simulated
 
@@ -136,7 +136,8 @@ def execute(
             if own.replan is not None and own.replan.came_back is not None:
                 came_back.append(own.replan.came_back)
             dropped = own.dropped or dropped
-            if own.trajectory is not None and own.robust_to < first.robust_to:
+            planned = own.trajectory is not None and own.status is not PlanStatus.SHIFTED
+            if planned and own.robust_to < first.robust_to:
                 reduced.append(own.robust_to)
         if k < problem.horizon:
             x = _advance(problem, x, step.inputs, w, k, loop.lost)
