@@ -18,8 +18,9 @@ executed file without later rows) and without a plan from the search, nothing co
 
 The search runs in a thread of its own, in two phases, each with a time limit that ends it
 before the deadline (:func:`search_seconds`): the first stops at the first plan that meets every
-requirement (:func:`first_plan_settings`), the second, when the first found a plan not proven
-optimal and time is left, searches for the best plan from it with the run's own settings. The
+requirement (:func:`first_plan_settings`), the second, when the first found a plan (of every
+task, or degraded) not proven optimal and time is left, searches for the best plan from it with
+the run's own settings. The
 caller waits until the deadline less the time its own writing needs and takes the search's best
 answer so far (the second phase's plan when it is better, else the first's). A search left behind has its solves stopped and ends as at a time limit; the next replan on a deadline
 waits for it first.
@@ -63,6 +64,10 @@ search's thread holds the caller back (measured up to 0.07 s on Case I)."""
 WRITING_SECONDS = 0.1
 """What ``stlplan replan --deadline`` keeps of its deadline for writing ``trajectory.csv`` and
 ``summary.json`` besides the search left behind (measured up to 0.08 s on Case I)."""
+
+PROVEN = 1e-4
+"""The gap at which a first search's plan counts as proven (the default ``solver.gap``): no
+second search for a better one."""
 
 
 class DeadlineError(UsageError):
@@ -158,11 +163,11 @@ class _Search(threading.Thread):
         try:
             for phase in self.phases:
                 found = self.answer[1] if self.answer is not None else None
-                if found is not None and not _improvable(found):
+                if found is not None and not improvable(found):
                     return
                 start = None if found is None else Plan(math.nan, found.values, meets_all=False)
                 answer = phase(start)
-                if self.answer is None or _better(answer[1], self.answer[1]):
+                if self.answer is None or better_answer(answer[1], self.answer[1]):
                     self.answer = answer
         except BaseException as exc:  # handed to the caller, which raises it
             self.error = exc
@@ -170,18 +175,21 @@ class _Search(threading.Thread):
             signals.caught_up(self)
 
 
-def _improvable(found: PlanResult) -> bool:
-    """Whether a first search's answer is worth a search for a better plan of every task."""
-    return found.status is PlanStatus.FEASIBLE and found.trajectory is not None
+def improvable(found: PlanResult) -> bool:
+    """Whether a first search's answer is worth a search for a better plan: a plan (of every
+    task, or degraded) not proven optimal."""
+    if found.trajectory is None or found.status not in (PlanStatus.FEASIBLE, PlanStatus.DEGRADED):
+        return False
+    return found.gap is None or found.gap > PROVEN
 
 
-def _better(new: PlanResult, old: PlanResult) -> bool:
-    """Whether ``new`` is a better answer than ``old``: a plan where there was none, or a higher
-    objective of the plan written."""
+def better_answer(new: PlanResult, old: PlanResult) -> bool:
+    """Whether ``new`` is a better answer than ``old``: a plan where there was none, one that
+    drops fewer tasks, or one that drops as many with a higher objective of the plan written."""
     if new.trajectory is None:
         return False
-    if old.trajectory is None:
-        return True
+    if old.trajectory is None or len(new.dropped) != len(old.dropped):
+        return old.trajectory is None or len(new.dropped) < len(old.dropped)
     return (new.objective or -math.inf) > (old.objective or -math.inf)
 
 

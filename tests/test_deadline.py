@@ -218,3 +218,23 @@ def test_a_deadline_the_command_cannot_keep_is_bad_input(
     assert done.returncode == 3, done.stderr
     assert said in done.stderr
     assert not out.exists()
+
+
+def test_a_second_search_keeps_a_plan_only_when_it_is_better(first: PlanResult) -> None:
+    from stlplan.deadline import better_answer, improvable
+    from stlplan.result import Dropped
+
+    plan_of = dataclasses.replace(first, status=PlanStatus.FEASIBLE, objective=1.0, gap=0.2)
+    higher = dataclasses.replace(plan_of, objective=2.0)
+    degraded = dataclasses.replace(
+        higher, status=PlanStatus.DEGRADED, objective=3.0, dropped=(Dropped("meet", "why"),)
+    )
+    nothing = PlanResult(PlanStatus.NO_PLAN, "none")
+    assert better_answer(higher, plan_of) and not better_answer(plan_of, higher)
+    assert better_answer(plan_of, degraded) and not better_answer(
+        degraded, plan_of
+    )  # fewer tasks dropped
+    assert better_answer(plan_of, nothing) and not better_answer(nothing, plan_of)
+    assert improvable(plan_of) and improvable(degraded)
+    assert not improvable(dataclasses.replace(plan_of, gap=1e-5))
+    assert not improvable(nothing) and not improvable(first)  # (first is proven optimal)

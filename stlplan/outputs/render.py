@@ -144,9 +144,12 @@ def print_plan(
     if result.replan is not None:
         r = result.replan
         events = f"; {', '.join(r.events)}" if r.events else ""
+        took = f"{r.seconds:.2f} s"
+        if r.deadline is not None:
+            took += f" of a {r.deadline:g} s deadline: {r.came_back}"
         console.print(
             f"[bold]replan[/]     from step {r.step}: executed steps 0..{r.step} kept{events} "
-            f"({r.seconds:.2f} s)"
+            f"({took})"
         )
     print_figures(console, result)
     for a in result.assignments:
