@@ -2,14 +2,17 @@
 nothing better (:mod:`stlplan.deadline`).
 
 From the replan's step ``K``, each agent that is not lost applies the current plan's inputs,
-corrected so that its states rejoin the plan's as soon as its dynamics allow: with the measured
-deviation ``e = x(K) - x_plan(K)``, the corrections ``du(K), ..., du(K+r-1)`` are the least-norm
-solution of ``A^r e + sum_j A^(r-1-j) B du(K+j) = 0`` for the smallest ``r`` that has one
-(1 for a single integrator, 2 for a double integrator; :func:`rejoining`). From ``K+r`` on the
-states are the plan's again, so whatever the plan met there it meets still; this is the plan the
-argument for robust margins builds (docs/replanning.md#plans-robust-to-a-disturbance). A
-corrected input outside its bounds is clipped to them, and a horizon too short to rejoin leaves
-the least deviation it can. A lost agent stays where it is.
+corrected so that its states rejoin the plan's: with the measured deviation
+``e = x(K) - x_plan(K)``, the corrections ``du(K), ..., du(K+R-1)`` bring the deviation
+``d(k) = A^k e + sum_j A^(k-1-j) B du(K+j)`` to zero at ``K+R`` with the least squared
+position deviation at ``K+1..K+R-1`` (:func:`rejoining`). ``R`` is one more than the fewest steps
+that can bring any deviation to zero (2 for a single integrator, 3 for a double integrator):
+the fewest leave no choice, and a double integrator brought back in two steps is off at ``K+1``
+by up to ``0.5 e_p + 0.25 e_v`` per axis, twice what the extra step leaves. From ``K+R`` on the
+states are the plan's again, so whatever the plan met there it meets still; this is the plan
+the argument for robust margins builds (docs/replanning.md#plans-robust-to-a-disturbance). A
+corrected input outside its bounds is clipped to them, and a horizon too short to rejoin
+leaves the least deviation it can. A lost agent stays where it is.
 
 The states are then computed from the measured ones with these inputs, and the monitor judges
 the plan like any other: it may still fail what the deviation at steps ``K+1..K+r-1`` breaks.
@@ -23,25 +26,41 @@ from stlplan.mission.problem import AgentModel, Problem
 from stlplan.monitor.verdicts import check as monitor_check
 from stlplan.result import PlanResult, PlanStatus, Trajectory
 
-REJOINED = 1e-9
-"""The residual below which a correction brings the states back onto the plan's."""
+TINY = 1e-6
+"""The weight of the corrections' own size beside the positions' deviation (it only picks one
+correction among equals)."""
 
 
 def rejoining(agent: AgentModel, deviation: np.ndarray, steps: int) -> np.ndarray:
-    """The input corrections, shape ``(r, m)``, that bring a state off its plan by ``deviation``
-    back onto it after ``r <= steps`` steps, ``r`` the fewest that can (module docstring); with
-    too few steps, those of ``steps`` that leave the least deviation."""
-    A, B = agent.A, agent.B
-    n, m = B.shape
-    best = np.zeros((0, m))
-    for r in range(1, min(n, steps) + 1):
-        blocks = [np.linalg.matrix_power(A, r - 1 - j) @ B for j in range(r)]
-        target = -np.linalg.matrix_power(A, r) @ deviation
-        solution, *_ = np.linalg.lstsq(np.hstack(blocks), target, rcond=None)
-        best = solution.reshape(r, m)
-        if np.max(np.abs(np.hstack(blocks) @ solution - target), initial=0.0) < REJOINED:
-            break
-    return best
+    """The input corrections, shape ``(R, m)``, that bring a state off its plan by ``deviation``
+    back onto it after ``R`` steps with the least squared deviation of the position on the steps
+    between (module docstring); ``R`` is one more than the fewest that can, at most ``steps``."""
+    n, m = agent.B.shape
+    fewest = next((r for r in range(1, n) if np.linalg.matrix_rank(_reach(agent, r, r)) == n), n)
+    R = min(fewest + 1, steps)
+    position = np.eye(n)[list(agent.position)]
+    power = np.linalg.matrix_power
+    between = [position @ _reach(agent, k, R) for k in range(1, R)]
+    off = [position @ power(agent.A, k) @ deviation for k in range(1, R)]
+    Q = np.vstack(between) if between else np.zeros((0, R * m))
+    q = np.concatenate(off) if off else np.zeros(0)
+    # min |Q du + q|^2 (+ a tiny |du|^2) subject to reach(R) du = -A^R e: its KKT system
+    hessian = Q.T @ Q + TINY * np.eye(R * m)
+    end = _reach(agent, R, R)
+    kkt = np.block([[hessian, end.T], [end, np.zeros((n, n))]])
+    rhs = np.concatenate([-Q.T @ q, -power(agent.A, R) @ deviation])
+    solution, *_ = np.linalg.lstsq(kkt, rhs, rcond=None)
+    return solution[: R * m].reshape(R, m)
+
+
+def _reach(agent: AgentModel, k: int, R: int) -> np.ndarray:
+    """How corrections ``du(0..R-1)`` (stacked) move the state after ``k`` steps: the blocks
+    ``A^(k-1-j) B`` for ``j < k``, zero for the later ones."""
+    n, m = agent.B.shape
+    out = np.zeros((n, R * m))
+    for j in range(k):
+        out[:, j * m : (j + 1) * m] = np.linalg.matrix_power(agent.A, k - 1 - j) @ agent.B
+    return out
 
 
 def shifted_trajectory(

@@ -56,22 +56,29 @@ def test_a_deadline_already_spent_by_loading_is_refused() -> None:
         deadline.check_loaded()
 
 
-@pytest.mark.parametrize("rows", [2, 4])
-def test_the_correction_rejoins_the_plan_as_soon_as_the_dynamics_allow(rows: int) -> None:
+def test_the_correction_rejoins_the_plan_one_step_after_the_fewest_that_can() -> None:
     problem = load_problem(PAIR)
-    agent = problem.agents[0]  # a double integrator: two steps back onto the plan
-    deviation = np.array([0.03, -0.02, 0.01, 0.02])
-    correction = rejoining(agent, deviation, steps=rows)
-    assert correction.shape == (2, agent.m)
-    after = deviation
+    agent = problem.agents[0]  # a double integrator: two steps at least, so three
+    deviation = np.array([0.02, -0.02, 0.02, 0.02])
+    correction = rejoining(agent, deviation, steps=5)
+    assert correction.shape == (3, agent.m)
+    after, on_the_way = deviation, []
     for du in correction:
         after = agent.A @ after + agent.B @ du
-    assert np.allclose(after, 0.0, atol=1e-12)
-    single = dataclasses.replace(agent, A=np.eye(2), B=np.eye(2))  # one step suffices
-    assert np.allclose(rejoining(single, np.array([0.1, -0.2]), 5), [[-0.1, 0.2]])
+        on_the_way.append(np.max(np.abs(after[:2])))
+    assert np.allclose(after, 0.0, atol=1e-9)
+    # off by less on the way than the two-step correction, 0.5 e_p + 0.25 e_v per axis
+    assert max(on_the_way[:2]) < 0.5 * 0.02 + 0.25 * 0.02 - 1e-3
+    single = dataclasses.replace(agent, A=np.eye(2), B=np.eye(2), position=(0, 1))
+    assert np.allclose(
+        rejoining(single, np.array([0.1, -0.2]), 5), [[-0.1, 0.2], [0, 0]], atol=1e-5
+    )
+    assert rejoining(agent, deviation, steps=1).shape == (1, agent.m)  # the horizon's end
 
 
-def test_the_shifted_plan_meets_the_plans_states_again_from_two_steps_on(first: PlanResult) -> None:
+def test_the_shifted_plan_meets_the_plans_states_again_from_three_steps_on(
+    first: PlanResult,
+) -> None:
     assert first.trajectory is not None
     executed = _moved(first.trajectory, 3, 0.02)
     again = replanned(load_problem(PAIR), executed, 3)
@@ -79,8 +86,8 @@ def test_the_shifted_plan_meets_the_plans_states_again_from_two_steps_on(first: 
     for agent in again.agents:
         x, planned = shifted.states[agent.name], first.trajectory.states[agent.name]
         assert np.allclose(x[3], executed.states[agent.name][3])
-        assert np.allclose(x[5:], planned[5:], atol=1e-9)
-        assert not np.allclose(x[4], planned[4])  # off the plan for one step
+        assert np.allclose(x[6:], planned[6:], atol=1e-9)
+        assert not np.allclose(x[4], planned[4])  # off the plan on the way back
         for k in range(3, again.horizon):  # the inputs drive the states
             u = shifted.inputs[agent.name][k]
             assert np.allclose(x[k + 1], agent.A @ x[k] + agent.B @ u)
