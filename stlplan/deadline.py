@@ -190,7 +190,11 @@ def better_answer(new: PlanResult, old: PlanResult) -> bool:
         return False
     if old.trajectory is None or len(new.dropped) != len(old.dropped):
         return old.trajectory is None or len(new.dropped) < len(old.dropped)
-    return (new.objective or -math.inf) > (old.objective or -math.inf)
+    return _score(new) > _score(old)
+
+
+def _score(found: PlanResult) -> float:
+    return -math.inf if found.objective is None else found.objective
 
 
 def replan_by(
@@ -211,20 +215,30 @@ def replan_by(
     no shifted plan, and a search that does not come back in time leaves no plan). The result's
     :class:`~stlplan.result.Replan` says which answer came back and why."""
     with _collected_after():
-        signals.catch_up()
         again = replanned(problem, executed, step, lost, closed)
         fallback = None if current is None else shifted_plan(again, current, executed, step)
+        if not signals.catch_up(_wait(deadline, reserve)):  # the last search still unwinds
+            return _best(deadline, again, fallback, None)
         events = (executed, step, lost, closed)
         settings = overrides or Overrides()
         phases = _phases(deadline, problem, events, settings, progress, start, reserve)
         search = _Search(phases)
         search.start()
-        search.join(timeout=max(0.0, deadline.remaining() - reserve - WAKING_SECONDS))
+        search.join(timeout=_wait(deadline, reserve))
+        answer = search.answer  # (what it found by now: a later answer is not taken)
         if search.is_alive():
             signals.leave_behind(search)
+            if not search.is_alive():  # it ended in between: nothing is left behind
+                signals.caught_up(search)
         elif search.error is not None:
             raise search.error
-        return _best(deadline, again, fallback, search.answer)
+        return _best(deadline, again, fallback, answer)
+
+
+def _wait(deadline: Deadline, reserve: float) -> float:
+    """How long the caller may wait for a search: to the deadline but ``reserve`` and
+    :data:`WAKING_SECONDS`."""
+    return max(0.0, deadline.remaining() - reserve - WAKING_SECONDS)
 
 
 @contextlib.contextmanager

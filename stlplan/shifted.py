@@ -2,10 +2,11 @@
 nothing better (:mod:`stlplan.deadline`).
 
 From the replan's step ``K``, each agent that is not lost applies the current plan's inputs,
-corrected so that its states rejoin the plan's: with the measured deviation
-``e = x(K) - x_plan(K)``, the corrections ``du(K), ..., du(K+R-1)`` bring the deviation
-``d(k) = A^k e + sum_j A^(k-1-j) B du(K+j)`` to zero at ``K+R`` with the least squared
-position deviation at ``K+1..K+R-1`` (:func:`rejoining`). ``R`` is one more than the fewest steps
+corrected so that its states rejoin the plan's: with the drift ``f = A x(K) + B u_plan(K) -
+x_plan(K+1)`` (where the measured state goes with the plan's input, against the plan: ``A e``
+for a deviation ``e = x(K) - x_plan(K)``), the corrections ``du(K), ..., du(K+R-1)`` bring the
+deviation ``d(k) = A^(k-1) f + sum_j A^(k-1-j) B du(K+j)`` to zero at ``K+R`` with the least
+squared position deviation at ``K+1..K+R-1`` (:func:`rejoining`). ``R`` is one more than the fewest steps
 that can bring any deviation to zero (2 for a single integrator, 3 for a double integrator):
 the fewest leave no choice, and a double integrator brought back in two steps is off at ``K+1``
 by up to ``0.5 e_p + 0.25 e_v`` per axis, twice what the extra step leaves. From ``K+R`` on the
@@ -31,24 +32,26 @@ TINY = 1e-6
 correction among equals)."""
 
 
-def rejoining(agent: AgentModel, deviation: np.ndarray, steps: int) -> np.ndarray:
-    """The input corrections, shape ``(R, m)``, that bring a state off its plan by ``deviation``
-    back onto it after ``R`` steps with the least squared deviation of the position on the steps
-    between (module docstring); ``R`` is one more than the fewest that can, at most ``steps``."""
+def rejoining(agent: AgentModel, drift: np.ndarray, steps: int) -> np.ndarray:
+    """The input corrections, shape ``(R, m)``, that bring a state back onto its plan after
+    ``R`` steps with the least squared deviation of the position on the steps between (module
+    docstring). ``drift`` is where the state would be off the plan one step on without a
+    correction (``A e`` for a deviation ``e`` now); ``R`` is one more than the fewest steps that
+    can, at most ``steps``."""
     n, m = agent.B.shape
     fewest = next((r for r in range(1, n) if np.linalg.matrix_rank(_reach(agent, r, r)) == n), n)
     R = min(fewest + 1, steps)
     position = np.eye(n)[list(agent.position)]
     power = np.linalg.matrix_power
     between = [position @ _reach(agent, k, R) for k in range(1, R)]
-    off = [position @ power(agent.A, k) @ deviation for k in range(1, R)]
+    off = [position @ power(agent.A, k - 1) @ drift for k in range(1, R)]
     Q = np.vstack(between) if between else np.zeros((0, R * m))
     q = np.concatenate(off) if off else np.zeros(0)
-    # min |Q du + q|^2 (+ a tiny |du|^2) subject to reach(R) du = -A^R e: its KKT system
+    # min |Q du + q|^2 (+ a tiny |du|^2) subject to reach(R) du = -A^(R-1) drift: its KKT system
     hessian = Q.T @ Q + TINY * np.eye(R * m)
     end = _reach(agent, R, R)
     kkt = np.block([[hessian, end.T], [end, np.zeros((n, n))]])
-    rhs = np.concatenate([-Q.T @ q, -power(agent.A, R) @ deviation])
+    rhs = np.concatenate([-Q.T @ q, -power(agent.A, R - 1) @ drift])
     solution, *_ = np.linalg.lstsq(kkt, rhs, rcond=None)
     return solution[: R * m].reshape(R, m)
 
@@ -79,8 +82,10 @@ def shifted_trajectory(
             u[step:] = 0.0
             x[step + 1 :] = x[step]
         else:
-            deviation = x[step] - current.states[agent.name][step]
-            correction = rejoining(agent, deviation, again.horizon - step)
+            # off the plan one step on with the plan's input (the plan's state at the step may
+            # be the measured one: an executed file's rows)
+            drift = agent.A @ x[step] + agent.B @ u[step] - current.states[agent.name][step + 1]
+            correction = rejoining(agent, drift, again.horizon - step)
             u[step : step + len(correction)] += correction
             u[step:] = np.clip(u[step:], agent.input_lo, agent.input_hi)
             for k in range(step, again.horizon):

@@ -60,7 +60,7 @@ def test_the_correction_rejoins_the_plan_one_step_after_the_fewest_that_can() ->
     problem = load_problem(PAIR)
     agent = problem.agents[0]  # a double integrator: two steps at least, so three
     deviation = np.array([0.02, -0.02, 0.02, 0.02])
-    correction = rejoining(agent, deviation, steps=5)
+    correction = rejoining(agent, agent.A @ deviation, steps=5)
     assert correction.shape == (3, agent.m)
     after, on_the_way = deviation, []
     for du in correction:
@@ -92,6 +92,17 @@ def test_the_shifted_plan_meets_the_plans_states_again_from_three_steps_on(
             u = shifted.inputs[agent.name][k]
             assert np.allclose(x[k + 1], agent.A @ x[k] + agent.B @ u)
             assert np.all(u >= agent.input_lo - 1e-12) and np.all(u <= agent.input_hi + 1e-12)
+
+
+def test_an_executed_files_later_rows_are_rejoined_as_the_plan(first: PlanResult) -> None:
+    """``replan --deadline``: the file holds the measured state at K and the plan's later rows."""
+    assert first.trajectory is not None
+    executed = _moved(first.trajectory, 3, 0.02)
+    again = replanned(load_problem(PAIR), executed, 3)
+    shifted = shifted_trajectory(again, executed, executed, 3)
+    for agent in again.agents:
+        x, planned = shifted.states[agent.name], first.trajectory.states[agent.name]
+        assert np.allclose(x[6:], planned[6:], atol=1e-9)
 
 
 def test_a_search_that_cannot_finish_gives_the_shifted_plan(first: PlanResult) -> None:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import signal
 import threading
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -115,14 +116,20 @@ def left_behind() -> bool:
     return _LEFT_BEHIND.is_set()
 
 
-def catch_up() -> None:
-    """Wait for the searches left behind to end, then let solves run again: every planning run
-    starts with this (in a search left behind, it does nothing)."""
+def catch_up(timeout: float | None = None) -> bool:
+    """Wait for the searches left behind to end (at most ``timeout`` seconds in all), then let
+    solves run again; whether they have ended. Every planning run starts with this (in a search
+    left behind, it does nothing). A planning run in another thread at the same time as a search
+    left behind has its solves stopped too: the flag is the process's."""
     if threading.current_thread() in _BEHIND:
-        return
+        return True
+    end = None if timeout is None else time.perf_counter() + timeout
     for search in list(_BEHIND):
-        search.join()
+        search.join(None if end is None else max(0.0, end - time.perf_counter()))
+        if search.is_alive():
+            return False
         caught_up(search)
+    return True
 
 
 @contextmanager
