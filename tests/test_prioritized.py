@@ -13,7 +13,7 @@ from stlplan.mission.loader import load_problem, problem_from_text
 from stlplan.pipeline import plan
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.first_plan import hooks, prioritized
-from stlplan.planner.first_plan.prioritized import plan_in_order, raised
+from stlplan.planner.first_plan.prioritized import first_order, plan_in_order, raised
 from stlplan.planner.overrides import Overrides
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.strategy import policy_of
@@ -45,6 +45,32 @@ class _Turn:
 
 def _names(planned: list[tuple[int, dict[str, np.ndarray]]]) -> list[str]:
     return [name for _, states in planned for name in states]
+
+
+class _Guided:
+    """A part of one agent whose own plan goes from ``start`` to ``end``."""
+
+    def __init__(self, start: tuple[float, float], end: tuple[float, float], guided: bool = True):
+        self.own = {"a": np.array([start, end], dtype=float)}
+        self.guided = guided
+
+
+def test_guided_parts_are_first_ordered_by_the_direction_they_travel() -> None:
+    # west (angle pi), north (pi/2), south-east (-pi/4), east (0): ordered by angle, the
+    # mission's listing left out
+    parts = [
+        _Guided((4, 4), (1, 4)),
+        _Guided((4, 1), (4, 7)),
+        _Guided((0, 8), (3, 5)),
+        _Guided((1, 1), (5, 1)),
+    ]
+    assert first_order(parts) == [2, 3, 1, 0]
+    assert first_order(parts[::-1]) == [1, 0, 2, 3]  # the same parts, listed the other way
+
+
+def test_parts_that_are_not_all_guided_keep_their_own_order() -> None:
+    parts = [_Guided((4, 4), (1, 4)), _Guided((1, 1), (5, 1), guided=False)]
+    assert first_order(parts) == [0, 1]
 
 
 def test_each_part_is_planned_around_the_parts_before_it() -> None:

@@ -2,12 +2,12 @@
 
 When the plans of independent parts collide (a crowd of agents each with its own task, crossing
 one room), the merged part is one large problem. Prioritized planning finds a plan of it from
-small ones: the parts are taken in an order, and each is solved again in its *own* model with
-the parts before it as moving obstacles. Its requirements against an earlier part (separation,
-or a constraint binding agents of both) are encoded exactly as the full model encodes them
-(:meth:`~stlplan.planner.encoding.deferred.Requirement.encode`), with the earlier agents'
-states as numbers: the rows read the later agents' variables only. They are added lazily, as
-the part's plans violate them, with every step of their family, and so are
+small ones: the parts are taken in an order (:func:`first_order`), and each is solved again in
+its *own* model with the parts before it as moving obstacles. Its requirements against an
+earlier part (separation, or a constraint binding agents of both) are encoded exactly as the
+full model encodes them (:meth:`~stlplan.planner.encoding.deferred.Requirement.encode`),
+with the earlier agents' states as numbers: the rows read the later agents' variables only.
+They are added lazily, as the part's plans violate them, with every step of their family, and so are
 the part's own requirements. A part that finds no plan around those before it is moved ahead,
 before the last part in its way (the guide names them), at its next failure before the one
 before that, then to the front, and the parts are taken again, as revised prioritized planning
@@ -288,6 +288,21 @@ def plan_in_order(
     return planned, None
 
 
+def first_order(turns: Sequence[Turn]) -> list[int]:
+    """The first order of the parts: when every part is one guided agent, by the direction its
+    own plan travels (the angle of its last position from its first), so that agents going the
+    same way are planned one after another and each finds the plans before it going its way,
+    whatever the order the mission lists them in; else the parts' own order."""
+    if not all(turn.guided for turn in turns):
+        return list(range(len(turns)))
+    angles = []
+    for turn in turns:
+        (states,) = turn.own.values()
+        dx, dy = states[-1, :2] - states[0, :2]
+        angles.append(float(np.arctan2(dy, dx)))
+    return sorted(range(len(turns)), key=lambda i: (angles[i], i))
+
+
 def raised(
     order: Sequence[int], failed: int, ahead: Sequence[int] = (), tries: int = 1
 ) -> list[int]:
@@ -316,7 +331,7 @@ def prioritized(
     alone = [] if alone is None else alone
     with contextlib.ExitStack() as lent:
         turns = _turns(merged, parts, config, lent)
-        order, tried, fails = list(range(len(turns))), 0, dict[int, int]()
+        order, tried, fails = first_order(turns), 0, dict[int, int]()
         planned: Planned = []
         saved = [model_values(turn.pm.model) for turn in turns]
         guided = any(turn.guided for turn in turns)
