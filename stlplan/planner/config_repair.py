@@ -55,10 +55,10 @@ class RepairConfig(Section):
     """Orders of the parts a prioritized repair of a merged crowd tries with the turns' MILPs, a
     failed part moved before the parts in its way (0: no prioritized repair). Measured:
     docs/measurements.md#the-prioritized-repair."""
-    guided_orders: int = Field(default=16, ge=0)
+    guided_orders: int = Field(default=40, ge=0)
     """Orders a prioritized repair first tries with guided parts on their guide paths only,
     before its ``repair.orders`` orders with the turns' MILPs. Measured:
-    docs/measurements.md#guided-turns."""
+    docs/measurements.md#the-first-order-by-the-direction-of-travel."""
     guide_near: float = Field(default=0.5, ge=0)
     """A guided turn first holds the sides of the requirements its guide path meets by less
     than this; the others when its plan breaks them. Measured: docs/measurements.md#guided-turns."""
