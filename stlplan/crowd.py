@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import random
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -140,13 +141,15 @@ def _header(n: int, room: Room) -> list[str]:
     ]
 
 
-def _agents_and_regions(n: int, room: Room) -> list[str]:
-    lines = ["agents:"]
-    for i, (x, y) in enumerate(starts(n, room)):
-        lines.append(
-            f"  - {{name: {agent_name(i, n)}, dynamics: single, "
-            f"initial_state: [{_num(x)}, {_num(y)}]}}"
-        )
+def _agents_and_regions(n: int, room: Room, order: int | None) -> list[str]:
+    agents = [
+        f"  - {{name: {agent_name(i, n)}, dynamics: single, initial_state: [{_num(x)}, {_num(y)}]}}"
+        for i, (x, y) in enumerate(starts(n, room))
+    ]
+    if order is not None:
+        random.Random(order).shuffle(agents)
+    heading = "agents:" if order is None else f"agents:   # listed in the order of seed {order}"
+    lines = [heading, *agents]
     lines += ["", "regions:   # four pillars around the centre; each goal is a start's antipode"]
     c, d = room.centre, room.pillar_offset
     for name, (sx, sy) in PILLARS.items():
@@ -179,7 +182,7 @@ def _tasks_and_rest(n: int, room: Room) -> list[str]:
     ]
 
 
-def mission_text(n: int, room: Room = ROOM) -> str:
+def mission_text(n: int, room: Room = ROOM, order: int | None = None) -> str:
     """The YAML of the crowd mission with ``n`` agents.
 
     Parameters
@@ -188,6 +191,9 @@ def mission_text(n: int, room: Room = ROOM) -> str:
         Number of agents, even (each has an antipodal partner), at least 2.
     room
         The layout.
+    order
+        With a seed, the agents are listed in a random order drawn from it (the same mission
+        otherwise), to measure how much a plan depends on the listing.
 
     Returns
     -------
@@ -196,7 +202,7 @@ def mission_text(n: int, room: Room = ROOM) -> str:
     """
     if n < 2 or n % 2:
         raise ValueError(f"a crowd needs an even number of agents, at least 2; found {n}")
-    lines = _header(n, room) + _agents_and_regions(n, room) + _tasks_and_rest(n, room)
+    lines = _header(n, room) + _agents_and_regions(n, room, order) + _tasks_and_rest(n, room)
     return "\n".join(lines) + "\n"
 
 
@@ -223,14 +229,20 @@ def rotation_plan(n: int, room: Room = ROOM) -> dict[str, np.ndarray]:
     return plan
 
 
-def write(out: Path, sizes: Sequence[int] = SIZES, room: Room = ROOM) -> list[Path]:
-    """Write ``crowd-<n>.yaml`` for each size into ``out`` (made if missing); the paths."""
+def write(
+    out: Path, sizes: Sequence[int] = SIZES, room: Room = ROOM, orders: Sequence[int] = ()
+) -> list[Path]:
+    """Write ``crowd-<n>.yaml`` for each size into ``out`` (made if missing), or with
+    ``orders``, ``crowd-<n>-o<seed>.yaml`` for each size and seed (:func:`mission_text`); the
+    paths."""
     out.mkdir(parents=True, exist_ok=True)
     written = []
     for n in sizes:
-        path = out / f"crowd-{n}.yaml"
-        path.write_text(mission_text(n, room), encoding="utf-8")
-        written.append(path)
+        for order in orders or (None,):
+            suffix = "" if order is None else f"-o{order}"
+            path = out / f"crowd-{n}{suffix}.yaml"
+            path.write_text(mission_text(n, room, order), encoding="utf-8")
+            written.append(path)
     return written
 
 
@@ -242,9 +254,12 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="folder to write into (default: missions/crowd)")  # fmt: skip
     parser.add_argument("--agents", type=int, nargs="+", default=list(SIZES),
                         help="team sizes, even numbers (default: 16 32 64)")  # fmt: skip
+    parser.add_argument("--orders", type=int, nargs="+", default=[], metavar="SEED",
+                        help="also list the agents in the random order of each seed, one file "
+                        "each (crowd-N-oSEED.yaml)")  # fmt: skip
     args = parser.parse_args(argv)
     try:
-        paths = write(args.out, args.agents)
+        paths = write(args.out, args.agents, orders=args.orders)
     except ValueError as error:
         parser.error(str(error))
     for path in paths:

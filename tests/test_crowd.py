@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from stlplan import crowd
-from stlplan.mission.loader import load_problem
+from stlplan.mission.loader import load_problem, problem_from_text
 from stlplan.mission.problem import Problem
 from stlplan.monitor.verdicts import check
 from stlplan.result import Trajectory
@@ -91,3 +91,18 @@ def test_the_generator_writes_a_mission_stlplan_reads(tmp_path: Path) -> None:
     problem = load_problem(tmp_path / "crowd-6.yaml")
     assert [a.name for a in problem.agents] == ["a1", "a2", "a3", "a4", "a5", "a6"]
     assert problem.mission.name == "crowd-6"
+
+
+def test_an_order_seed_lists_the_same_agents_in_another_order(tmp_path: Path) -> None:
+    assert crowd.main(["--out", str(tmp_path), "--agents", "8", "--orders", "0", "1"]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["crowd-8-o0.yaml", "crowd-8-o1.yaml"]
+    plain = problem_from_text(crowd.mission_text(8), "crowd-8.yaml")
+    starts = {a.name: tuple(a.initial_state) for a in plain.agents}
+    orders = []
+    for seed in (0, 1):
+        problem = load_problem(tmp_path / f"crowd-8-o{seed}.yaml")
+        names = [a.name for a in problem.agents]
+        assert sorted(names) == [a.name for a in plain.agents] and names != sorted(names)
+        assert {a.name: tuple(a.initial_state) for a in problem.agents} == starts
+        orders.append(names)
+    assert orders[0] != orders[1]
