@@ -178,15 +178,14 @@ def _prober(
     confirmations: list[Confirmation],
     plans: dict[int, PlanResult] | None = None,
 ) -> Callable[[Problem], PlanStatus]:
-    """A feasibility solve of a sub-mission within a quarter of ``diagnosis.seconds`` and the run's
-    deadline, its confirmations recorded as a diagnosis probe's (and its result in ``plans``,
+    """A feasibility solve of a sub-mission within a quarter of the time ``run`` has left now, its confirmations recorded as a diagnosis probe's (and its result in ``plans``,
     by the sub-mission's ``id``, when it has a plan); a stop request raises
     :class:`_DiagnosisStopped`."""
     from stlplan.planner.solve import plan as solve_plan
 
     probe = config.with_overrides(
         {
-            "solver.time_limit": config.diagnosis.probe_seconds,
+            "solver.time_limit": max(run.min_solve, run.remaining() / 4),
             "solver.first_plan": True,  # a probe asks whether there is a plan, not the best
             "continuous.two_step": False,
         }
@@ -217,11 +216,11 @@ def _diagnosed(
 ) -> PlanResult:
     """``result`` with a minimal conflict found by feasibility solves (deletion filter), each
     infeasible verdict confirmed (recorded as a diagnosis probe), all within the ``run``'s
-    budget (``diagnosis.seconds`` of it at most, a quarter of it a probe)."""
+    budget (a quarter of what it has left a probe)."""
     confirmations = list(result.confirmations)
     feasibility = _prober(config, run, confirmations)
     try:
-        seconds = max(0.0, run.seconds(config.diagnosis.seconds).remaining())
+        seconds = max(0.0, run.remaining())
         diagnosis = diagnose(problem, feasibility, seconds)
         out = dataclasses.replace(result, diagnosis=diagnosis)
     except _DiagnosisStopped:
@@ -274,7 +273,7 @@ def _degraded(problem: Problem, result: PlanResult, how: _Solving) -> tuple[Prob
     confirmations = list(result.confirmations)
     probed: dict[int, PlanResult] = {}
     try:
-        seconds = max(0.0, run.seconds(config.diagnosis.seconds).remaining())
+        seconds = max(0.0, run.remaining())
         found = degrade(problem, _prober(config, run, confirmations, probed), seconds)
     except _DiagnosisStopped:
         found = None

@@ -89,6 +89,11 @@ def test_every_knob_is_documented() -> None:
     assert all(doc.strip() for _, _, _, doc in rows)
 
 
+def test_the_tree_holds_at_most_forty_knobs() -> None:
+    # every tuning value is a knob of the one tree, and a knob nobody measured is dropped
+    assert len(PlannerConfig().dotted()) <= 40
+
+
 def test_the_strategy_line_follows_the_configuration() -> None:
     line = describe(PlannerConfig())
     assert "parts(lazy rounds(" in line and ">= 7 agents" in line

@@ -26,7 +26,6 @@ LAYERS = (
         "stlplan.monitor",
         "stlplan.analysis",
         "stlplan.planner.config",
-        "stlplan.planner.config_repair",
         "stlplan.planner.run.budget",
         "stlplan.planner.tolerances",
     ),

@@ -3,7 +3,8 @@
 A task's roles must be declared, used and fillable by some agent; its Pattern must admit at
 least one group without enumerating too many, and a synchronous window must fit the horizon. A
 constraint binds each role of its formula once (``for_each`` or pinned). Every formula may name
-only defined regions, steps within the horizon and state components its agents have. Each check
+only defined regions, steps within the horizon and state components its agents have
+(:mod:`stlplan.mission.atom_checks`). Each check
 raises :class:`MissionError` or :class:`FormulaError` naming the field path; the whole-mission
 checks that run before these are in :mod:`stlplan.mission.checks`.
 """
@@ -15,24 +16,14 @@ import re
 from collections.abc import Sequence
 
 from stlplan.errors import FormulaError, did_you_mean, fail, undefined
-from stlplan.formula.parser import to_text
 from stlplan.formula.tree import (
-    Atom,
-    Distance,
     Formula,
-    InRegion,
-    Linear,
-    Predicate,
-    atoms,
     horizon,
-    regions,
     roles,
 )
-from stlplan.mission.count_checks import check_counts
+from stlplan.mission.atom_checks import check_argument_order, formula_fits
 from stlplan.mission.groups import Element, count_groups
 from stlplan.mission.schema import (
-    MAGNITUDE_TEXT,
-    MAX_MAGNITUDE,
     Constraint,
     Mission,
     PinnedRole,
@@ -47,117 +38,12 @@ MAX_GROUPS = 1_000_000
 ROLE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
 
-def _formula_fits(
-    mission: Mission,
-    formula: Formula,
-    where: str,
-    role_agents: dict[str, list[str]],
-    reach: int,
-    source: str | None,
-) -> None:
-    """Regions defined, steps within the horizon, numbers finite, state components in range."""
-    for region in regions(formula):
-        if region not in mission.regions:
-            raise FormulaError(
-                undefined("region", region, list(mission.regions)), source=source, where=where
-            )
-    if reach > mission.horizon:
-        raise FormulaError(
-            f"the formula needs steps up to {reach}, past the horizon {mission.horizon}",
-            source=source,
-            where=where,
-        )
-    _atoms_fit(mission, formula, where, role_agents, source)
-    check_counts(mission, formula, where, source)
-
-
-def _atoms_fit(
-    mission: Mission,
-    formula: Formula,
-    where: str,
-    role_agents: dict[str, list[str]],
-    source: str | None,
-) -> None:
-    """Every atom has finite numbers and names state components its agents have."""
-    dims = {
-        a.name: len(mission.dynamics[a.dynamics].A)
-        for a in mission.agents
-        if a.dynamics in mission.dynamics
-    }
-    for atom in atoms(formula):
-        _atom_is_sane(atom, where, source)
-        if isinstance(atom, Linear):
-            for term in atom.terms:
-                for agent in role_agents.get(term.role, []):
-                    if term.component >= dims[agent]:
-                        raise FormulaError(
-                            f"{term.role}.x[{term.component}] is out of range: agent '{agent}' has "
-                            f"{dims[agent]} state components",
-                            source=source,
-                            where=where,
-                        )
-
-
-def _atom_is_sane(atom: Atom, where: str, source: str | None) -> None:
-    """Finite numbers of magnitude at most ``MAX_MAGNITUDE``; ``dist`` between two roles."""
-    numbers = _numbers(atom)
-    if not all(math.isfinite(v) for v in numbers):
-        raise FormulaError(
-            f"'{to_text(atom)}' has a number that is not finite (too large)",
-            source=source,
-            where=where,
-        )
-    if any(abs(v) > MAX_MAGNITUDE for v in numbers):
-        raise FormulaError(
-            f"'{to_text(atom)}' has a number of magnitude above {MAGNITUDE_TEXT}; expected "
-            f"numbers between -{MAGNITUDE_TEXT} and {MAGNITUDE_TEXT} (rescale the units)",
-            source=source,
-            where=where,
-        )
-    if isinstance(atom, Distance) and atom.left == atom.right:
-        raise FormulaError(
-            f"'{to_text(atom)}' measures role '{atom.left}' against itself (always 0); expected "
-            "two different roles, such as dist(p, q)",
-            source=source,
-            where=where,
-        )
-
-
-def _numbers(atom: Atom) -> tuple[float, ...]:
-    """The numbers written in ``atom`` (coefficients, bound, radius)."""
-    if isinstance(atom, Distance):
-        return (atom.radius,)
-    if isinstance(atom, (Linear, Predicate)):
-        return (*(t.coef for t in atom.terms), atom.bound)
-    return ()
-
-
-def _check_argument_order(
-    mission: Mission, formula: Formula, declared: list[str], where: str, source: str | None
-) -> None:
-    """``in(Goal, p)`` names a region where the role goes: say the arguments are swapped."""
-    for atom in atoms(formula):
-        if (
-            isinstance(atom, InRegion)
-            and atom.role not in declared
-            and atom.role in mission.regions
-            and atom.region not in mission.regions
-        ):
-            raise FormulaError(
-                f"in({atom.role}, {atom.region}) has its arguments swapped: '{atom.role}' is a "
-                f"region and '{atom.region}' is not; expected in(ROLE, REGION), here "
-                f"in({atom.region}, {atom.role})",
-                source=source,
-                where=where,
-            )
-
-
 def check_task(mission: Mission, name: str, formula: Formula, source: str | None) -> None:
     """Roles declared and used, capabilities and agents known, formula within the horizon."""
     task = mission.tasks[name]
     where = f"tasks.{name}"
     used, declared = roles(formula), list(task.roles)
-    _check_argument_order(mission, formula, declared, f"{where}.formula", source)
+    check_argument_order(mission, formula, declared, f"{where}.formula", source)
     _check_pins(task, where, source)
     for role in declared:
         _check_role_name(role, f"{where}.roles.{role}", source)
@@ -182,7 +68,7 @@ def check_task(mission: Mission, name: str, formula: Formula, source: str | None
         r: _role_agents(mission, r, task.roles[r], f"{where}.roles.{r}", source) for r in used
     }
     _check_pattern_size(task, role_agents, where, source)
-    _formula_fits(mission, formula, f"{where}.formula", role_agents, horizon(formula), source)
+    formula_fits(mission, formula, f"{where}.formula", role_agents, horizon(formula), source)
     if task.synchronous is not None:
         check_window(
             task.synchronous,
@@ -368,13 +254,13 @@ def check_constraint(mission: Mission, name: str, formula: Formula, source: str 
             "'agents' needs 'for_each' (the role that ranges over them)", f"{where}.agents", source
         )
     bound = [*spec.roles, *([spec.for_each] if spec.for_each is not None else [])]
-    _check_argument_order(mission, formula, bound, f"{where}.formula", source)
+    check_argument_order(mission, formula, bound, f"{where}.formula", source)
     _constraint_roles(spec, roles(formula), where, source)
     pool = spec.agents if spec.agents is not None else names
     role_agents = {r: [a] for r, a in spec.roles.items()}
     if spec.for_each is not None:
         role_agents[spec.for_each] = list(pool)
-    _formula_fits(mission, formula, f"{where}.formula", role_agents, horizon(formula), source)
+    formula_fits(mission, formula, f"{where}.formula", role_agents, horizon(formula), source)
 
 
 def _constraint_roles(

@@ -17,12 +17,10 @@ import itertools
 from collections.abc import Mapping
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from stlplan.errors import StlplanError
 from stlplan.mission.schema import Mission
-from stlplan.planner.config_repair import RepairConfig
-from stlplan.planner.config_repair import Section as _Section
 
 Encoding = Literal["log", "standard"]
 """How a disjunction is encoded: a logarithmic SOS1 (``log``) or one binary per entry."""
@@ -34,6 +32,66 @@ Fraction = Annotated[float, Field(ge=0, lt=1)]
 
 class ConfigError(StlplanError):
     """An override names no knob, or gives a knob a value of the wrong type."""
+
+
+class _Section(BaseModel):
+    """A section of the planner's knobs: unknown keys and wrong types refused."""
+
+    model_config = ConfigDict(
+        extra="forbid", frozen=True, strict=True, use_attribute_docstrings=True
+    )
+
+
+class RepairConfig(_Section):
+    """Repairing a plan agent by agent (prioritized planning) while no plan meets every
+    requirement."""
+
+    after_round_seconds: float | None = Field(default=8.0, ge=0)
+    """A lazy round that took at least this long has its plan repaired before the next round
+    (None: never by duration). Measured: docs/dropped.md#the-repair-in-turn."""
+    crowd_agents: int | None = Field(default=7, ge=1)
+    """A lazy round, or a merge of parts, whose violated requirements name at least this many
+    agents is repaired in turn (None: never by crowd). Measured:
+    docs/measurements.md#the-16-agent-farm-with-doubled-counts."""
+    crowd_team: int | None = Field(default=10, ge=1)
+    """A merge's crowd is repaired in turn only in a team of this many agents or more (None: any).
+    Measured: docs/performance.md#crowded-merges-in-cases-i-iii."""
+    by_elements: float | None = Field(default=0.5, gt=0, le=1)
+    """Before a first plan, in a loop that looks for one, a round's plan is first repaired by
+    elements (its task choices as parts of their own, planned in turn) within this share of the
+    loop's time left, and so is a merge of parts too large for the prioritized repair (None:
+    never). Measured: docs/measurements.md#the-repair-by-elements."""
+    by_elements_gap: float = Field(default=0.1, ge=0)
+    """Relative gap of the rounds of a loop that looks for its first plan, where its tasks
+    choose, while the repair by elements is on: the repair takes a round's choices, not its
+    optimum. Measured:
+    docs/measurements.md#the-repair-by-elements."""
+    gap: float = Field(default=0.01, ge=0)
+    """Relative gap of a repair's solves (a turn's, the held repair's rounds): the repair looks
+    for a plan, the rounds prove. Measured: docs/measurements.md#where-farm-x2s-first-plan-comes-from."""
+    held_exact_share: float = Field(default=0.5, ge=0, le=1)
+    """Share of its time the held repair of a merged part spends solving to the run's gap (its
+    plan may then prove the merged part); the rest, when that found no plan, goes to solving
+    to ``repair.gap``. Measured: docs/measurements.md#where-farm-x2s-first-plan-comes-from."""
+    near: float = Field(default=0.3, ge=0)
+    """A prioritized turn adds, with the requirements against earlier parts its plan violates,
+    those it meets by less than this (fewer solves per turn). Measured:
+    docs/measurements.md#the-prioritized-repair."""
+    orders: int = Field(default=3, ge=0)
+    """Orders of the parts a prioritized repair of a merged crowd tries with the turns' MILPs, a
+    failed part moved before the parts in its way (0: no prioritized repair). Measured:
+    docs/measurements.md#the-prioritized-repair."""
+    guided_orders: int = Field(default=40, ge=0)
+    """Orders a prioritized repair first tries with guided parts on their guide paths only,
+    before its ``repair.orders`` orders with the turns' MILPs. Measured:
+    docs/measurements.md#the-first-order-by-the-direction-of-travel."""
+    guide_near: float = Field(default=0.5, ge=0)
+    """A guided turn first holds the sides of the requirements its guide path meets by less
+    than this; the others when its plan breaks them. Measured: docs/measurements.md#guided-turns."""
+    part_agents: int = Field(default=4, ge=1)
+    """A prioritized repair runs only when the parts of the merge have at most this many agents
+    each: a larger part's turn is a MILP of its own that does not finish. Measured:
+    docs/measurements.md#guided-turns."""
 
 
 class SolverConfig(_Section):
@@ -114,8 +172,6 @@ class PartsConfig(_Section):
     merge_reserve: float = Field(default=0.1, ge=0, lt=1)
     """Share of the time left that the parts' first solves leave for merging parts that
     collide. Measured: docs/dropped.md#parts-and-merges."""
-    assembly_seconds: float = Field(default=60.0, gt=0)
-    """Time limit of the solve that assembles the parts' plans in one model, s."""
     plan_first_agents: int | None = Field(default=10, ge=1)
     """When the largest part has this many agents, the parts look for a plan of the whole team
     before their proofs (null: never). Measured: docs/measurements.md#a-first-plan-before-the-proof."""
@@ -160,9 +216,6 @@ class ContinuousConfig(_Section):
 
     two_step: bool = True
     """Run step 2 (fix step 1's decisions, minimize the mission's effort norm)."""
-    landing_limit: float = Field(default=1e-5, gt=0)
-    """A step-2 point that breaks a predicate by at most this much is landed on the fixed
-    decisions (an LP) instead of falling back to step 1's plan."""
     near_sides: float | None = Field(default=0.2, ge=0)
     """The continuous model starts with the kept sides of the lazy requirements step 1 left
     out that step 1's plan meets with at most this much to spare (in the units of the map),
@@ -172,16 +225,6 @@ class ContinuousConfig(_Section):
 
 class DiagnosisConfig(_Section):
     """Finding a minimal conflict of an infeasible mission (a deletion filter)."""
-
-    seconds: float = Field(default=120.0, gt=0)
-    """Time limit of the whole diagnosis, s (within what the run has left); each of its
-    feasibility solves may take a quarter of it."""
-
-    @property
-    def probe_seconds(self) -> float:
-        """Time limit of one feasibility solve of the diagnosis, s: a quarter of
-        :attr:`seconds`."""
-        return self.seconds / 4
 
     degrade: bool = False
     """When the mission is infeasible, plan as many tasks as possible instead (by priority, else

@@ -8,8 +8,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from stlplan.planner.encoding.deferred import Requirement
-from stlplan.planner.first_plan.guide import CLEARANCE
 from stlplan.planner.first_plan.guide_stops import HalfPlanes
+from stlplan.planner.tolerances import ROOM
 
 
 def half_planes(
@@ -21,7 +21,7 @@ def half_planes(
     reads = frozenset(req.binding.values()) - {agent}
     for i, alt in enumerate(alts):
         for s, t in enumerate(req.steps):
-            c[i, s] = alt.bound + req.tightening(alt, t) + margin + CLEARANCE
+            c[i, s] = alt.bound + req.tightening(alt, t) + margin + ROOM
         for term in alt.terms:
             who = req.binding[term.role]
             if who == agent:

@@ -77,7 +77,7 @@ def assemble(
     held = hold_plans(full, parts, HOLD)
     with signals.finishing():  # the plan is found: a stop request lets this solve end
         session = HighsSession(full.model, config, clock, "step1")
-        solved = session.solve(budget.seconds(config.parts.assembly_seconds))
+        solved = session.solve(budget)
     release(held)
     objective = solved.results.incumbent_objective
     return None if objective is None else float(objective)

@@ -12,7 +12,7 @@ landed: the nearest plan meeting every enforced predicate, found by an LP
 (:func:`stlplan.planner.encoding.continuous.landing_model`). HiGHS's active-set QP solver does
 this routinely on step 2's ``l2`` effort: rows whose right-hand sides differ by ``EPSILON`` from a
 degenerate vertex make it claim optimality and then fail its own check by about ``1e-6`` ("Solve
-error"). A point that lands within ``continuous.landing_limit`` of where it was (``sum |u - u_QP|``),
+error"). A point that lands within ``tolerances.HOLD`` of where it was (``sum |u - u_QP|``),
 or whose ``sum u^2`` is within the relative gap of that at HiGHS's point (step 2's ``l2``
 effort: HiGHS's point is its optimum up to those tolerances, so the landed plan is within the
 gap of the optimum too), counts as step 2 done (the message says so); one that moves further
@@ -45,6 +45,7 @@ from stlplan.planner.encoding.ledger import Enforced
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock, Phase
+from stlplan.planner.tolerances import HOLD
 
 INFEASIBLE = {
     TerminationCondition.provenInfeasible.name,
@@ -253,7 +254,7 @@ def _landed(
     if target is None or moved is None:
         return Finish(failed)
     kept = config.continuous.two_step and effort_kept(pm, target, config.solver.gap)
-    if moved <= config.continuous.landing_limit or kept:
+    if moved <= HOLD or kept:
         return Finish(
             note=f"HiGHS's solve ended {ended}; its point landed {moved:.1g} away by an LP"
         )

@@ -27,9 +27,9 @@ nothing but a held problem and are never recorded. Requirements added on the way
 model: the full problem has them.
 
 The knobs are the ``repair`` section of :class:`stlplan.planner.config.PlannerConfig`: a turn
-solves one agent's plan around held ones (``tolerances.HOLD`` of room each), at most
-``repair.solves_per_turn`` times, adding every step of a violated requirement's family,
-to the loose ``repair.gap``.
+solves one agent's plan around held ones (``tolerances.HOLD`` of room each), again after adding
+every step of the families of the requirements its plan violates, while its time lasts, to the
+loose ``repair.gap``.
 """
 
 from __future__ import annotations
@@ -229,9 +229,9 @@ def solve_free(
     outside: Around | None = None,
 ) -> list[str]:
     """One solve of a turn: the agents ``free`` solved again, every other agent held near its
-    loaded plan, at most ``repair.solves_per_turn`` times, each time adding the requirements the
-    plan violates among ``free`` and ``done`` (every step of their families),
-    and those it violates with the agents ``outside``.
+    loaded plan, again while ``budget`` lasts, each time adding the requirements the plan
+    violates among ``free`` and ``done`` (every step of their families), and those it violates
+    with the agents ``outside``.
 
     Parameters
     ----------
@@ -257,7 +257,7 @@ def solve_free(
     others = (a.name for a in pm.problem.agents if a.name not in free)
     held = hold_agents(pm, others, HOLD)
     try:
-        for _ in range(repair.solves_per_turn):
+        while True:
             solved = session.solve(budget)
             if solved.stopped or not has_solution(solved.results):
                 _log.debug("turn of %s: %.1f s, %s", sorted(free), solved.seconds, session.verdict)

@@ -34,8 +34,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from stlplan.mission.problem import Problem
-from stlplan.planner.config import BudgetConfig, PartsConfig, PlannerConfig
-from stlplan.planner.config_repair import RepairConfig
+from stlplan.planner.config import BudgetConfig, PartsConfig, PlannerConfig, RepairConfig
 from stlplan.planner.core.repairs import HeldRepair, InTurnRepair, Repair
 
 Planned = tuple[tuple[Repair, float], ...]

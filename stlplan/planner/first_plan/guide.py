@@ -36,6 +36,7 @@ from stlplan.planner.encoding.alphas import in_position
 from stlplan.planner.encoding.deferred import Requirement
 from stlplan.planner.first_plan.guide_stops import Grid, HalfPlanes, reached, stopped
 from stlplan.planner.first_plan.witness import witness
+from stlplan.planner.tolerances import ROOM
 
 CELLS_PER_MOVE = 3
 """Grid spacing: the longest move along an axis is this many cells."""
@@ -43,8 +44,6 @@ REACH_MOVES = 12
 """How far the path may stray from the reference along an axis, in longest moves."""
 MOVE_COST = 0.1
 """Cost of a move per unit of length, against 1 per unit of distance from the reference."""
-CLEARANCE = 1e-3
-"""How far past ``c(t) + r`` the path keeps each half-plane (room for the plan to move)."""
 
 
 def single_integrator(agent: AgentModel) -> bool:
@@ -83,7 +82,7 @@ def readable_planes(
     if not requirements:
         return []
     where = in_position(requirements, agent, fixed, 2)
-    c = where.c + margin + CLEARANCE
+    c = where.c + margin + ROOM  # room for the plan to move
     ends = np.append(where.firsts, len(where.alternatives))
     out = []
     for r, req in enumerate(requirements):

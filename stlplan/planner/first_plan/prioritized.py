@@ -54,12 +54,9 @@ from stlplan.planner.first_plan.guide import guide_path, single_integrator, task
 from stlplan.planner.first_plan.overlay import States, overlay_context
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.outcome import Plan
-from stlplan.planner.tolerances import FEASIBILITY, HOLD
+from stlplan.planner.tolerances import FEASIBILITY, HOLD, ROOM
 
 _log = logging.getLogger(__name__)
-
-HELD_ROOM = 10.0
-"""A requirement the turns' plans meet by less than this many holds goes into the held solve."""
 
 
 class Turn:
@@ -103,7 +100,7 @@ class Turn:
         if self.guided and not exact:
             return None
         ctx, added = self._context(fixed), set[int]()
-        for _ in range(self.config.repair.solves_per_turn):
+        while True:
             if start is not None:
                 self.session.start_from(start)
             if not self._solved(budget, fallback=start is None):
@@ -116,14 +113,16 @@ class Turn:
                 [lazy[mine[i]] for i in found], states, least_margin(self.pm), FEASIBILITY
             ):
                 return {a: states[a] for a in self.agents}
+            new = set(families(lazy, [mine[i] for i in found])) & set(mine) - added
+            if not own and not new:
+                _log.debug("prioritized: a turn's plan breaks requirements its model holds")
+                return None
             add_requirements(self.pm, families(self._own_lazy(), own))
-            for n in set(families(lazy, [mine[i] for i in found])) & set(mine) - added:
+            for n in new:
                 lazy[n].encode(ctx.bound(lazy[n].binding))
-                added.add(n)
+            added |= new
             if budget.expired():
                 return None
-        _log.debug("prioritized: a turn used its %d solves", self.config.repair.solves_per_turn)
-        return None
 
     def _guides(
         self, fixed: States, mine: Sequence[Requirement]
@@ -186,7 +185,7 @@ class Turn:
             spare = values[firsts + np.asarray(sides, dtype=int)] - margin
             pending = np.flatnonzero(spare < self.config.repair.guide_near).tolist()
         held: set[int] = set()
-        for _ in range(self.config.repair.solves_per_turn):
+        while True:
             for n in pending:
                 wanted[n].encode_side(ctx, sides[n])
             held.update(pending)
@@ -198,7 +197,7 @@ class Turn:
             pending = [n for n in violated(wanted, found, margin, FEASIBILITY) if n not in held]
             if not pending:
                 break
-        if pending or pending_violations(self.pm) or violated(mine, found, margin, FEASIBILITY):
+        if pending_violations(self.pm) or violated(mine, found, margin, FEASIBILITY):
             _log.debug("prioritized: a guided plan breaks a requirement")
             return None
         return {a: found[a] for a in self.agents}
@@ -381,7 +380,7 @@ def held_plan(
     # a requirement the turns' plans meet with less to spare than the holds allow to move
     # (both agents of a pair) would be broken by the held solve: it goes in with them
     assert pm.deferral is not None
-    close = -HELD_ROOM * HOLD
+    close = -ROOM
     add_requirements(pm, violated(pm.deferral.lazy, trajectory_states(pm), least_margin(pm), close))
     held = hold_agents(pm, [a.name for a in pm.problem.agents], HOLD)
     try:
