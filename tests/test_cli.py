@@ -14,10 +14,6 @@ from stlplan.cli import app
 from stlplan.outputs.plots import ffmpeg
 from tests.helpers.paths import MISSIONS, PAIR, ROOT
 
-# The module's tests share module fixtures: `make test` (--dist loadgroup) runs them on one
-# worker, which builds each fixture once.
-pytestmark = pytest.mark.xdist_group("cli")
-
 runner = CliRunner()
 
 

@@ -12,10 +12,6 @@ from typer.testing import CliRunner
 from stlplan.cli import app
 from tests.helpers.paths import PAIR
 
-# The module's tests share module fixtures: `make test` (--dist loadgroup) runs them on one
-# worker, which builds each fixture once.
-pytestmark = pytest.mark.xdist_group("cli_replan")
-
 runner = CliRunner()
 
 

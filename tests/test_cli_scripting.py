@@ -16,10 +16,6 @@ from stlplan import __version__, api
 from stlplan.cli import app
 from tests.helpers.paths import MISSIONS, PAIR, ROOT
 
-# The module's tests share module fixtures: `make test` (--dist loadgroup) runs them on one
-# worker, which builds each fixture once.
-pytestmark = pytest.mark.xdist_group("cli_scripting")
-
 COMMANDS = ["validate", "check", "schema", "example", "export-rtamt", "solve", "sweep"]
 
 

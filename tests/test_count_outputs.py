@@ -27,10 +27,6 @@ from stlplan.outputs.viewer import hover_texts, viewer_figure, write_viewer
 from tests.helpers.browser import Page
 from tests.helpers.maps import make_problem, walk
 
-# The module's tests share module fixtures: `make test` (--dist loadgroup) runs them on one
-# worker, which builds each fixture once.
-pytestmark = pytest.mark.xdist_group("count_outputs")
-
 PATHS = {
     "a": [(7.5, 6.5)] * 7,
     "b": [(1, 1), (3, 3), (7, 7), (5, 5), (3, 3), (7, 7), (7, 7)],

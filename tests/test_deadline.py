@@ -24,10 +24,6 @@ from stlplan.result import PlanResult, PlanStatus, Trajectory
 from stlplan.shifted import rejoining, shifted_trajectory
 from tests.helpers.paths import PAIR, ROOT
 
-# The module's tests share module fixtures: `make test` (--dist loadgroup) runs them on one
-# worker, which builds each fixture once.
-pytestmark = pytest.mark.xdist_group("deadline")
-
 SLACK = 1.0
 """How far past its deadline a test lets an answer come on a loaded machine (a hang is what it
 catches; the benchmark measures the real lateness)."""

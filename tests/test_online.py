@@ -16,10 +16,6 @@ from stlplan.planner.overrides import Overrides
 from stlplan.result import Trajectory
 from tests.helpers.paths import PAIR, ROOT
 
-# The module's tests share module fixtures: `make test` (--dist loadgroup) runs them on one
-# worker, which builds each fixture once.
-pytestmark = pytest.mark.xdist_group("online")
-
 
 def _execute(loop: OnlinePlanner, drift: float = 0.0, seed: int = 0) -> Trajectory:
     problem, rng = loop.problem, np.random.default_rng(seed)

@@ -21,10 +21,6 @@ from tests.helpers.dynamics import single_integrator
 from tests.helpers.missions import mission
 from tests.helpers.paths import PAIR
 
-# The module's tests share module fixtures: `make test` (--dist loadgroup) runs them on one
-# worker, which builds each fixture once.
-pytestmark = pytest.mark.xdist_group("recovery")
-
 STEP = 4
 APART = 0.03
 

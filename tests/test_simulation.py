@@ -13,10 +13,6 @@ from stlplan.simulation.run import disturbances, execute, judge
 from stlplan.simulation.settings import Event, Simulated
 from tests.helpers.paths import PAIR
 
-# The module's tests share module fixtures: `make test` (--dist loadgroup) runs them on one
-# worker, which builds each fixture once.
-pytestmark = pytest.mark.xdist_group("simulation")
-
 SETTINGS = Overrides(threads=1, time_limit=60)
 
 

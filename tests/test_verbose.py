@@ -14,10 +14,6 @@ from typer.testing import CliRunner
 from stlplan.cli import app
 from tests.helpers.paths import MISSIONS
 
-# The module's tests share module fixtures: `make test` (--dist loadgroup) runs them on one
-# worker, which builds each fixture once.
-pytestmark = pytest.mark.xdist_group("verbose")
-
 WAREHOUSE = MISSIONS / "warehouse.yaml"
 
 

@@ -28,10 +28,6 @@ from tests.helpers.browser import Page
 from tests.helpers.paths import FARM, MISSIONS
 from tests.helpers.plans import make_report, make_trajectory
 
-# The module's tests share module fixtures: `make test` (--dist loadgroup) runs them on one
-# worker, which builds each fixture once.
-pytestmark = pytest.mark.xdist_group("viewer")
-
 MOST_BYTES = 2_000_000
 """What a page may weigh (docs/viewer.md)."""
 
