@@ -23,8 +23,12 @@ farm: $(STAMP)  ## Solve the shipped farm mission (Case I) into out/farm
 	$(BIN)/stlplan solve missions/farm.yaml --out $(OUT)
 
 TEST_WORKERS ?= 2
+# loadfile: a test module runs on one worker, which builds its module fixtures (a solved mission,
+# the browser) once; with tests of a module on both workers, both built them.
+# PYTHONDONTWRITEBYTECODE emptied: the workers and the stlplan processes the tests start keep the
+# compiled modules and pytest's rewritten test modules instead of compiling them again each time.
 test: $(STAMP)  ## Run the test suite (without the slow solves) on TEST_WORKERS processes (2), listing the 15 slowest tests
-	$(BIN)/pytest -q -m "not slow" -n $(TEST_WORKERS) --durations=15
+	PYTHONDONTWRITEBYTECODE= $(BIN)/pytest -q -m "not slow" -n $(TEST_WORKERS) --dist loadfile --durations=15
 
 test-slow: $(STAMP)  ## Run only the slow tests (full farm solves, the STL suite against its reference)
 	$(BIN)/pytest -q -m slow

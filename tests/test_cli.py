@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 from pathlib import Path
 
 import pytest
@@ -19,6 +20,26 @@ runner = CliRunner()
 def _run(*args: str) -> tuple[int, str]:
     result = runner.invoke(app, list(args))
     return result.exit_code, result.output + (result.stderr if result.stderr_bytes else "")
+
+
+@pytest.fixture(scope="module")
+def pair_plan(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """The pair mission solved once by ``stlplan solve --no-animation`` (the tests only read
+    it): its folder and what the command printed on stdout."""
+    out = tmp_path_factory.mktemp("pair") / "plan"
+    found = runner.invoke(app, ["solve", str(PAIR), "--out", str(out), "--no-animation"])
+    assert found.exit_code == 0, found.output
+    return out, found.stdout
+
+
+@pytest.fixture(scope="module")
+def reach_avoid_plan(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """reach-avoid solved once by ``stlplan solve -q`` with its animation, a folder the tests
+    copy before they solve into it again."""
+    out = tmp_path_factory.mktemp("reach-avoid") / "out"
+    code, output = _run("solve", str(MISSIONS / "reach-avoid.yaml"), "--out", str(out), "-q")
+    assert code == 0, output
+    return out
 
 
 def test_validate_every_shipped_mission() -> None:
@@ -71,10 +92,10 @@ def test_solve_writes_every_output_and_check_accepts_it(tmp_path: Path) -> None:
     assert code == 0, output
 
 
-def test_check_exits_1_on_a_violating_trajectory(tmp_path: Path) -> None:
-    out = tmp_path / "plan"
-    code, _ = _run("solve", str(PAIR), "--out", str(out), "-q", "--no-animation")
-    assert code == 0
+def test_check_exits_1_on_a_violating_trajectory(
+    pair_plan: tuple[Path, str], tmp_path: Path
+) -> None:
+    out, _ = pair_plan
     rows = (out / "trajectory.csv").read_text().splitlines()
     header, body = rows[0], rows[1:]
     # Freeze every agent at its initial state: no input, position never changes.
@@ -133,12 +154,9 @@ def test_an_empty_output_directory_is_refused(tmp_path: Path) -> None:
     assert "expected a directory name" in found.output
 
 
-def test_a_rerun_leaves_only_its_own_outputs(tmp_path: Path) -> None:
+def test_a_rerun_leaves_only_its_own_outputs(reach_avoid_plan: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
-    first = CliRunner().invoke(
-        app, ["solve", str(MISSIONS / "reach-avoid.yaml"), "--out", str(out), "-q"]
-    )
-    assert first.exit_code == 0, first.output
+    shutil.copytree(reach_avoid_plan, out)
     assert (out / "trajectory.csv").exists() and (out / "plan.png").exists()
     (out / "notes.txt").write_text("mine", encoding="utf-8")
     # the same mission, infeasible: the goal is out of reach in time
@@ -155,13 +173,14 @@ def test_a_rerun_leaves_only_its_own_outputs(tmp_path: Path) -> None:
     assert summary["status"] == "infeasible"
 
 
-def test_no_animation_writes_none_and_removes_an_earlier_one(tmp_path: Path) -> None:
+def test_no_animation_writes_none_and_removes_an_earlier_one(
+    reach_avoid_plan: Path, tmp_path: Path
+) -> None:
     from PIL import Image
 
     out = tmp_path / "out"
     mission = str(MISSIONS / "reach-avoid.yaml")
-    code, output = _run("solve", mission, "--out", str(out), "-q", "--threads", "1")
-    assert code == 0, output
+    shutil.copytree(reach_avoid_plan, out)
     with Image.open(out / "plan.gif") as gif:
         assert gif.n_frames == 12 * 3 + 1  # horizon 12, three frames per step, the last step
     code, output = _run("solve", mission, "--out", str(out), "-q", "--no-animation")
@@ -209,15 +228,13 @@ def test_the_readme_lists_every_exit_code() -> None:
     assert used | {143} == listed
 
 
-def test_a_solve_prints_its_verdict_once_and_where_the_outputs_are(tmp_path: Path) -> None:
-    out = tmp_path / "plan"
-    found = runner.invoke(
-        app, ["solve", str(MISSIONS / "sync-pair.yaml"), "--out", str(out), "--no-animation"]
-    )
-    assert found.exit_code == 0, found.output
-    lines = found.stdout.splitlines()
+def test_a_solve_prints_its_verdict_once_and_where_the_outputs_are(
+    pair_plan: tuple[Path, str],
+) -> None:
+    out, stdout = pair_plan
+    lines = stdout.splitlines()
     message = json.loads((out / "summary.json").read_text())["message"]
-    assert found.stdout.count(message) == 1  # on the status line only
+    assert stdout.count(message) == 1  # on the status line only
     assert [line for line in lines if line.startswith("satisfied")] == [
         next(line for line in lines if line.startswith("satisfied: every task"))
     ]

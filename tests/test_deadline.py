@@ -17,6 +17,7 @@ from stlplan.mission.loader import load_problem
 from stlplan.mission.past import replanned
 from stlplan.monitor.verdicts import check
 from stlplan.online import OnlinePlanner
+from stlplan.outputs.trajio import write_trajectory_csv
 from stlplan.pipeline import plan
 from stlplan.planner.overrides import Overrides
 from stlplan.result import PlanResult, PlanStatus, Trajectory
@@ -193,10 +194,11 @@ def _stlplan(*args: str) -> subprocess.CompletedProcess[str]:
 
 @pytest.fixture(scope="module")
 def planned(tmp_path_factory: pytest.TempPathFactory, first: PlanResult) -> Path:
-    out = tmp_path_factory.mktemp("pair")
-    done = _stlplan("solve", str(PAIR), "--out", str(out), "-q", "--no-animation", "--no-html")
-    assert done.returncode == 0, done.stderr
-    return out / "trajectory.csv"
+    """The first plan's trajectory.csv, written as ``stlplan solve`` writes it."""
+    assert first.trajectory is not None
+    path = tmp_path_factory.mktemp("pair") / "trajectory.csv"
+    write_trajectory_csv(load_problem(PAIR), first.trajectory, path)
+    return path
 
 
 def test_the_command_answers_by_its_deadline_and_writes_the_two_files(

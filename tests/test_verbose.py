@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
+import pytest
 from typer.testing import CliRunner
 
 from stlplan.cli import app
@@ -22,21 +24,30 @@ def _solve(out: Path, *extra: str) -> str:
     return result.output
 
 
-def test_the_internal_events_go_to_the_summary_and_verbose(tmp_path: Path) -> None:
-    plain = _solve(tmp_path / "plain")
-    summary = json.loads((tmp_path / "plain" / "summary.json").read_text())
+@pytest.fixture(scope="module")
+def plain(tmp_path_factory: pytest.TempPathFactory) -> tuple[str, dict[str, Any]]:
+    """The warehouse solved once without --verbose (the tests only read it): what the command
+    printed and its summary.json."""
+    out = tmp_path_factory.mktemp("plain") / "out"
+    printed = _solve(out)
+    return printed, json.loads((out / "summary.json").read_text())
+
+
+def test_the_internal_events_go_to_the_summary_and_verbose(
+    tmp_path: Path, plain: tuple[str, dict[str, Any]]
+) -> None:
+    plain_output, summary = plain
     assert summary["rounds"] > 1 and summary["requirements_added"] > 0
     assert any("lazy rounds" in event for event in summary["events"])
-    assert "lazy rounds" not in plain and "infeasible" not in plain
-    assert plain.splitlines()[0].startswith("status     optimal: optimal plan;")
+    assert "lazy rounds" not in plain_output and "infeasible" not in plain_output
+    assert plain_output.splitlines()[0].startswith("status     optimal: optimal plan;")
     verbose = _solve(tmp_path / "verbose", "--verbose")
     events = [line for line in verbose.splitlines() if line.startswith("run ")]
     assert events and "lazy rounds" in events[0]
 
 
-def test_the_summary_logs_every_lazy_round(tmp_path: Path) -> None:
-    _solve(tmp_path / "out")
-    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+def test_the_summary_logs_every_lazy_round(plain: tuple[str, dict[str, Any]]) -> None:
+    _, summary = plain
     log = summary["round_log"]
     assert len(log) == summary["rounds"] > 1
     assert [r["round"] for r in log] == list(range(1, len(log) + 1))
