@@ -178,7 +178,8 @@ def _prober(
     confirmations: list[Confirmation],
     plans: dict[int, PlanResult] | None = None,
 ) -> Callable[[Problem], PlanStatus]:
-    """A feasibility solve of a sub-mission within a quarter of the time ``run`` has left now, its confirmations recorded as a diagnosis probe's (and its result in ``plans``,
+    """A feasibility solve of a sub-mission within a quarter of the time ``run`` has left now,
+    its confirmations recorded as a diagnosis probe's (and its result in ``plans``,
     by the sub-mission's ``id``, when it has a plan); a stop request raises
     :class:`_DiagnosisStopped`."""
     from stlplan.planner.solve import plan as solve_plan

@@ -4,9 +4,9 @@ A task's roles must be declared, used and fillable by some agent; its Pattern mu
 least one group without enumerating too many, and a synchronous window must fit the horizon. A
 constraint binds each role of its formula once (``for_each`` or pinned). Every formula may name
 only defined regions, steps within the horizon and state components its agents have
-(:mod:`stlplan.mission.atom_checks`). Each check
-raises :class:`MissionError` or :class:`FormulaError` naming the field path; the whole-mission
-checks that run before these are in :mod:`stlplan.mission.checks`.
+(:mod:`stlplan.mission.atom_checks`). Each check raises :class:`MissionError` or
+:class:`FormulaError` naming the field path; the whole-mission checks that run before these are
+in :mod:`stlplan.mission.checks`.
 """
 
 from __future__ import annotations
