@@ -27,6 +27,7 @@ from stlplan.planner.solve import plan
 from stlplan.result import PlanStatus
 from tests.helpers.configs import paper_model
 from tests.helpers.missions import detour_for_free, mission, swap_problem
+from tests.helpers.paths import MISSIONS
 from tests.helpers.solving import accepted, by_parts, up_front_optimum
 
 
@@ -316,3 +317,39 @@ def test_a_merge_of_the_whole_team_reuses_the_whole_teams_requirements() -> None
     assert own is not None
     keys = [requirement_key(r) for r in own.lazy]
     assert keys == [requirement_key(r) for r in full.deferral.lazy]
+
+
+def test_a_tightened_part_whose_plan_collides_with_another_parts_gets_its_plan_back() -> None:
+    # warehouse: the forklift's plan to a 30% gap keeps clear of the drone's, its optimum does
+    # not; tightening used to keep the optimum after the crossing check, and the assembled
+    # plan broke the separation (the monitor rejected it when the continuous stage ran out)
+    from stlplan import api
+    from stlplan.planner.core.parts import build_part, tighten
+    from stlplan.planner.core.watch import trajectory_states
+
+    problem = api.validate(MISSIONS / "warehouse.yaml")
+    quick = {"solver.gap": 0.3, "solver.deterministic": True, "solver.threads": 1}
+    loose = PlannerConfig.from_mission(problem.mission, quick)
+    exact = loose.with_overrides({"solver.gap": 1e-4})
+    clock, budget = Clock(0.0, None), Budget.of_seconds(60)
+    full = build_model(problem, exact.with_overrides({"model.floors": False}))
+
+    def solved() -> list[Part]:
+        parts = [build_part(problem, names, loose, clock, budget) for names in agent_parts(problem)]
+        for part in parts:
+            part.step1 = part.solver.run(budget)
+        assert crossing_requirements(full, parts) == []
+        return parts
+
+    alone = solved()
+    tighten(alone, exact, budget)
+    assert crossing_requirements(full, alone)  # the optimum of one part collides
+    parts = solved()
+    forklift = next(p for p in parts if p.agents == ("forklift",))
+    assert forklift.step1 is not None and forklift.step1.bound is not None
+    before, states = forklift.step1, trajectory_states(forklift.pm)["forklift"].copy()
+    tighten(parts, exact, budget, together=lambda: not crossing_requirements(full, parts))
+    assert crossing_requirements(full, parts) == []
+    assert (trajectory_states(forklift.pm)["forklift"] == states).all()
+    assert forklift.step1.objective == before.objective
+    assert forklift.step1.bound is not None and forklift.step1.bound < before.bound - 1e-3

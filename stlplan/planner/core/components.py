@@ -28,13 +28,16 @@ objective is the sum ``F = sum_c F_c``, while ``U = sum_c U_c`` bounds the full 
 solved again with an absolute gap while ``(U - F) / |F|`` exceeds the gap, so the result is the
 full problem's optimum to the same tolerance as one solve (with ``solver.first_plan`` neither
 this nor a merged part's own solve after a repair that found a plan: a plan is all that is
-asked for). Finally the parts' requirements are encoded in one model of the full problem, its
-states held near the parts' plans, and one small solve sets every indicator (its objective, a
-point of the full problem, is the one reported); step 2 runs on that model as usual
-(:mod:`stlplan.planner.core.assembly`). The run records ``U`` whenever every part has a bound (at
-the end of each round of a part, from the least bound of each part's rounds so far), and the
-assembled plan's objective, as the whole problem's figures (:mod:`stlplan.planner.run.convergence`);
-a part's own figures are not the whole's, unless it is a merge of every part.
+asked for). A part whose new plan breaks a requirement with another part's plan gets its plan
+from before back, with the new bound, and the tightening ends (short of the gap, then). Finally
+the parts' requirements
+are encoded in one model of the full problem, its states held near the parts' plans, and one
+small solve sets every indicator (its objective, a point of the full problem, is the one
+reported); step 2 runs on that model as usual (:mod:`stlplan.planner.core.assembly`). The run
+records ``U`` whenever every part has a bound (at the end of each round of a part, from the
+least bound of each part's rounds so far), and the assembled plan's objective, as the whole
+problem's figures (:mod:`stlplan.planner.run.convergence`); a part's own figures are not the
+whole's, unless it is a merge of every part.
 
 With the first-plan heuristics (the policy's hooks, :mod:`stlplan.planner.core.hooks`), when the
 largest part has ``parts.plan_first_agents`` agents or more, all of the above is first done for a
@@ -182,7 +185,8 @@ class Parts:
         if not done.status.has_plan:
             return better(early, (full, done), config.solver.gap)
         if not (signals.requested() or config.solver.first_plan):
-            tighten(parts, config, budget)
+            together = functools.partial(_together, full, parts)
+            tighten(parts, config, budget, together=together)
         if len(parts) == 1:  # merged into one part of the whole team: its model is a full one
             whole = dataclasses.replace(parts[0].pm, problem=problem)
             return better(early, (whole, done), config.solver.gap)
@@ -262,6 +266,11 @@ def solve_apart(
         if signals.requested():  # the parts' plans collide: no plan of the full problem
             return parts, dataclasses.replace(done, status=PlanStatus.INTERRUPTED_NO_PLAN)
         parts = merged_parts(problem, parts, crossing, config, clock, budget, full.deferral)
+
+
+def _together(full: PlanModel, parts: Sequence[Part]) -> bool:
+    """Whether the parts' plans break no requirement between them (a tightened part's may)."""
+    return not crossing_requirements(full, parts)
 
 
 def _whole(

@@ -6,15 +6,17 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
 from stlplan.mission.problem import Problem
+from stlplan.planner.backend.values import plan_of
 from stlplan.planner.config import PlannerConfig
 from stlplan.planner.core.lazy import LazySolver
 from stlplan.planner.core.policy import RepairPolicy
 from stlplan.planner.core.team_split import sub_problem
+from stlplan.planner.core.watch import load_plan
 from stlplan.planner.encoding.deferred import Deferral, requirement_key
 from stlplan.planner.encoding.model import PlanModel, add_requirements, build_model
 from stlplan.planner.run import outcome
@@ -104,11 +106,19 @@ def totals(parts: Sequence[Part]) -> tuple[float | None, float | None]:
 
 
 def tighten(
-    parts: Sequence[Part], config: PlannerConfig, budget: Budget, plan: float | None = None
+    parts: Sequence[Part],
+    config: PlannerConfig,
+    budget: Budget,
+    plan: float | None = None,
+    together: Callable[[], bool] | None = None,
 ) -> None:
     """Solve parts again with absolute gaps until their sum (or ``plan``, a plan of the parts
     together) meets the gap (:func:`stlplan.planner.run.outcome.tightening`), while at least one
-    least solve of ``budget`` is left."""
+    least solve of ``budget`` is left.
+
+    With ``together`` (whether the plans the parts hold now still make a plan of the whole: no
+    requirement between them broken), a part whose new plan fails it gets its plan from before
+    back, with the tighter of the two bounds, and the tightening ends."""
     for _ in range(len(parts)):
         if budget.expired():
             return
@@ -117,10 +127,26 @@ def tighten(
             return
         worst, abs_gap = chosen
         part = parts[worst]
+        before = part.step1, plan_of(part.pm.model, part.pm.model.step1, part.pm.added)
         reached = part.solver.clock.reached
         reached.solving(part.agents, len(part.merged_from))
         with reached.within("tightening"):
             part.step1 = part.solver.run(budget, abs_gap=abs_gap)
+        if together is not None and not together():
+            _restore(part, *before, config.solver.gap)
+            return
+
+
+def _restore(part: Part, step1: Outcome | None, kept: Plan, gap: float) -> None:
+    """Load ``kept`` back into ``part`` with ``step1``, its result, bounded by the part's
+    latest result too."""
+    load_plan(part.pm, kept.values, kept.added)
+    latest, part.step1 = part.step1, step1
+    if step1 is None or latest is None:
+        return
+    bound = outcome.lowest(step1.bound, latest.bound)
+    found = outcome.relative_gap(step1.objective, bound)
+    part.step1 = outcome.capped(step1, bound, found is not None and found <= gap)
 
 
 def followed(parts: list[Part], clock: Clock) -> list[Part]:
