@@ -34,7 +34,7 @@ from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.encoding.readout import plan_result
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock, ProgressCallback
-from stlplan.planner.run.outcome import Outcome, Plan, gap_words
+from stlplan.planner.run.outcome import Outcome, Plan, gap_words, unfinished
 from stlplan.planner.run.reached import Reached
 from stlplan.planner.strategy import build_strategy
 from stlplan.planner.tolerances import ROUND_OFF
@@ -197,10 +197,21 @@ def _candidates(pm: PlanModel) -> dict[str, Any]:
     }
 
 
+def unfinished_words(config: PlannerConfig) -> str:
+    """Why a run whose continuous stage ran out of time with a plan that needed it has none
+    (:func:`stlplan.planner.core.finish.out_of_time`)."""
+    return (
+        f"no plan within the time limit of {config.solver.time_limit:g} s: step 1's plan was"
+        " found but not finished in time (it meets its decisions only within HiGHS's"
+        " tolerances): give it more time (--time-limit)"
+    )
+
+
 def _readout(run: _Run) -> PlanResult:
     """The plan of the run's model as a result, with how the run ended and what it did."""
     assert run.pm is not None and run.step1 is not None and run.size is not None
     step1, clock, config = run.step1, run.clock, run.config
+    step1 = unfinished(step1) if run.ended.unfinished else step1
     found: dict[str, Any] = {
         "rounds": len(clock.round_log),
         "requirements_added": step1.added,
@@ -217,6 +228,8 @@ def _readout(run: _Run) -> PlanResult:
     if not step1.status.has_plan:
         clock.report("done")
         message = step1_message(step1, config, clock)
+        if run.ended.unfinished and step1.status is PlanStatus.NO_PLAN:
+            message = unfinished_words(config)
         return PlanResult(
             step1.status, message, bound=step1.bound, model_size=run.size,
             build_seconds=build, solve_seconds=solve, **found,

@@ -12,6 +12,7 @@ import numpy as np
 from highspy import Highs, HighsCallbackEvent, cb
 
 from stlplan.planner.run.clock import Clock, Phase
+from stlplan.planner.run.convergence import known
 
 SolverEvent = HighsCallbackEvent
 """What HiGHS reports during a search: its figures (``data_out``) and a way to stop it."""
@@ -59,7 +60,7 @@ def report_progress(highs: Highs, clock: Clock, phase: Phase) -> None:
         if improving or now - last[0] >= 0.5:
             last[0] = now
             out = event.data_out
-            found = abs(out.mip_primal_bound) < 1e30
+            found = known(out.mip_primal_bound)
             incumbent = out.objective_function_value if found else None
             clock.report(phase, incumbent, out.mip_dual_bound, out.mip_gap if found else None)
         if clock.error is not None:

@@ -17,7 +17,8 @@ or whose ``sum u^2`` is within the relative gap of that at HiGHS's point (step 2
 effort: HiGHS's point is its optimum up to those tolerances, so the landed plan is within the
 gap of the optimum too), counts as step 2 done (the message says so); one that moves further
 lands as a reported fallback.
-Only when the landing fails too is the step-1 plan kept, and the monitor judges it like any other.
+Only when the landing fails too is the step-1 plan kept, and the monitor judges it like any other;
+out of time, it is kept only when it meets the enforced predicates (:func:`out_of_time`).
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ from stlplan.planner.core.kept_sides import KeptSides
 from stlplan.planner.core.watch import trajectory_states
 from stlplan.planner.encoding.continuous import (
     add_predicate_rows,
+    broken_predicates,
     continuous_model,
     copy_plan,
     landing_model,
@@ -70,6 +72,18 @@ class Finish:
     """What the plan is when it failed."""
     note: str = ""
     """How it succeeded, when not plainly (a landed point)."""
+    unfinished: bool = False
+    """Out of time, with step 1's plan breaking a predicate it enforces: no plan
+    (:func:`out_of_time`)."""
+
+
+def out_of_time(pm: PlanModel, enforced: list[Enforced]) -> Finish:
+    """The stage out of time, step 1's plan loaded in ``pm``: that plan is kept when it meets
+    the ``enforced`` predicates to HiGHS's tolerance; otherwise there is no plan (it met its
+    decisions only within the integrality tolerance, and the stage that would have set it
+    onto its predicates did not run)."""
+    broken = broken_predicates(pm, enforced, trajectory_states(pm))
+    return Finish(OUT_OF_TIME, unfinished=broken > 0)
 
 
 def fix_decisions(pm: PlanModel) -> None:
@@ -203,7 +217,7 @@ def finish(pm: PlanModel, config: PlannerConfig, clock: Clock, budget: Budget) -
     with clock.building():
         small = continuous_model(pm, rows.enforced, "effort" if phase == "step2" else "polish")
     if budget.expired():
-        return Finish(OUT_OF_TIME)
+        return out_of_time(pm, enforced)
     session = HighsSession(small, config, clock, phase, mip=False)
     solved, met = rows.solve(session, clock, budget)
     ended = solved.results.termination_condition.name
@@ -211,7 +225,7 @@ def finish(pm: PlanModel, config: PlannerConfig, clock: Clock, budget: Budget) -
         copy_plan(small, pm)
         return Finish()
     if ended == TerminationCondition.convergenceCriteriaSatisfied.name:
-        return Finish(OUT_OF_TIME)
+        return out_of_time(pm, enforced)
     if ended in INFEASIBLE:
         return Finish(f"the continuous solve ended {ended}", True)
     return _landed(pm, rows, session, ended, config, clock, phase, budget)
@@ -232,7 +246,7 @@ def _enforced_in_time(
         return Finish(f"the LP finding the enforced predicates ended {ended}", ended in INFEASIBLE)
     # building and loading the continuous model takes about as long as loading step 1's did
     if budget.remaining() < budget.min_solve + time.perf_counter() - tick:
-        return Finish(OUT_OF_TIME)
+        return out_of_time(pm, enforced)
     return enforced
 
 

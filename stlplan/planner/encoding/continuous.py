@@ -143,6 +143,22 @@ def add_predicate_rows(model: ConcreteModel, enforced: Sequence[Enforced], pm: P
             model.predicates.add(slack >= 0)
 
 
+def broken_predicates(
+    pm: PlanModel, enforced: Sequence[Enforced], states: Mapping[str, np.ndarray]
+) -> int:
+    """How many of the ``enforced`` predicates the trajectory ``states`` (agent name to an
+    (H+1, n) array) breaks: ``alpha(x(k)) - r`` below ``-FEASIBILITY``, with the margin the
+    continuous rows hold (raised as step 1 raised it). A step-1 plan can, its binaries met only
+    within HiGHS's integrality tolerance (a big-M row relaxed by ``M 1e-6``)."""
+    margin = _fixed_margin(pm)
+    read = {(a, k, i): float(x[k, i]) for a, x in states.items() for k, i in np.ndindex(x.shape)}
+    slacks = (
+        alpha(node, k, binding, read) - margin - pm.problem.tightening(node, k)
+        for node, k, binding in _unique(enforced)
+    )
+    return sum(1 for slack in slacks if slack < -FEASIBILITY)
+
+
 def _row_margin(model: ConcreteModel, pm: PlanModel) -> Any:
     """The margin ``r`` of the predicate rows: the polish's variable, else step 1's margin."""
     return model.r if model.component("r") is not None else _fixed_margin(pm)

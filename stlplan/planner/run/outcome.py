@@ -160,6 +160,14 @@ def bounded(outcome: Outcome, ceiling: float | None) -> Outcome:
     return dataclasses.replace(outcome, bound=ceiling, gap=relative_gap(outcome.objective, ceiling))
 
 
+def unfinished(step1: Outcome) -> Outcome:
+    """Step 1's result when its plan breaks a predicate it enforces and the continuous stage
+    that would have mended it ran out of time: no plan (the stop request's, when there was one)."""
+    interrupted = step1.status is PlanStatus.INTERRUPTED
+    status = PlanStatus.INTERRUPTED_NO_PLAN if interrupted else PlanStatus.NO_PLAN
+    return dataclasses.replace(step1, status=status, objective=None, gap=None)
+
+
 def cut_short(ended: Outcome, stopped: bool, has_plan: bool, trial: bool) -> Outcome | None:
     """The loop ended without a plan meeting every requirement: the outcome when nothing more
     is tried (a stop request, no plan at all, a trial), or None when the last round's plan is
