@@ -12,7 +12,7 @@ import numpy as np
 from highspy import Highs, HighsCallbackEvent, cb
 
 from stlplan.planner.run.clock import Clock, Phase
-from stlplan.planner.run.convergence import known
+from stlplan.planner.run.convergence import THIN_SECONDS, known
 
 SolverEvent = HighsCallbackEvent
 """What HiGHS reports during a search: its figures (``data_out``) and a way to stop it."""
@@ -57,7 +57,7 @@ def report_progress(highs: Highs, clock: Clock, phase: Phase) -> None:
     def on_event(event: HighsCallbackEvent) -> None:
         now = time.perf_counter()
         improving = event.callback_type == cb.HighsCallbackType.kCallbackMipImprovingSolution
-        if improving or now - last[0] >= 0.5:
+        if improving or now - last[0] >= THIN_SECONDS:  # as the convergence record's points
             last[0] = now
             out = event.data_out
             found = known(out.mip_primal_bound)

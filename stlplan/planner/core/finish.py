@@ -47,7 +47,7 @@ from stlplan.planner.encoding.ledger import Enforced
 from stlplan.planner.encoding.model import PlanModel
 from stlplan.planner.run.budget import Budget
 from stlplan.planner.run.clock import Clock, Phase
-from stlplan.planner.tolerances import HOLD
+from stlplan.planner.tolerances import HOLD, ROUND_OFF
 
 INFEASIBLE = {
     TerminationCondition.provenInfeasible.name,
@@ -100,7 +100,7 @@ def fix_decisions(pm: PlanModel) -> None:
     for enc in pm.synchronous:
         enc.rho_s.setlb(max(0.0, round(float(enc.rho_s.value), 6) - 1e-6))
     if not isinstance(pm.margin, float):
-        pm.margin.setlb(float(pm.margin.value) - 1e-9)
+        pm.margin.setlb(float(pm.margin.value) - ROUND_OFF)
 
 
 def enforced_predicates(
@@ -180,7 +180,7 @@ def effort_kept(pm: PlanModel, target: dict[Any, float], gap: float) -> bool:
         return False
     at_target = sum(u * u for u in target.values())
     landed = sum(float(pm.model.u[key].value) ** 2 for key in target)
-    return landed - at_target <= gap * max(at_target, 1e-9)
+    return landed - at_target <= gap * max(at_target, ROUND_OFF)
 
 
 def _land(

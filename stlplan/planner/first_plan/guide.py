@@ -36,7 +36,7 @@ from stlplan.planner.encoding.alphas import in_position
 from stlplan.planner.encoding.deferred import Requirement
 from stlplan.planner.first_plan.guide_stops import Grid, HalfPlanes, reached, stopped
 from stlplan.planner.first_plan.witness import witness
-from stlplan.planner.tolerances import ROOM
+from stlplan.planner.tolerances import ROOM, ROUND_OFF
 
 CELLS_PER_MOVE = 3
 """Grid spacing: the longest move along an axis is this many cells."""
@@ -198,7 +198,7 @@ def task_planes(
             for term in w.predicate.terms:
                 a[0, term.component] += term.coef
             wanted = w.predicate.bound + margin + problem.tightening(w.predicate, w.step)
-            c = min(wanted, float(a[0] @ reference[w.step, :2])) - 1e-9
+            c = min(wanted, float(a[0] @ reference[w.step, :2])) - ROUND_OFF
             out.append(HalfPlanes(a, np.array([[c]]), w.step, 0))
     return out
 

@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from stlplan.planner.tolerances import ROUND_OFF
+
 BATCH_CELLS = 16
 """Requirements whose window has at most this many cells along each axis are examined
 together."""
@@ -59,8 +61,8 @@ class Grid:
         """The cell offsets (M, 2) of the moves from step ``t`` within the input bounds, and
         their displacements (M, 2)."""
         along = self.reference[t + 1] - self.reference[t]
-        first = np.ceil((self.low - along) / self.h - 1e-9).astype(int)
-        last = np.floor((self.high - along) / self.h + 1e-9).astype(int)
+        first = np.ceil((self.low - along) / self.h - ROUND_OFF).astype(int)
+        last = np.floor((self.high - along) / self.h + ROUND_OFF).astype(int)
         cells = np.array([(i, j) for i in range(first[0], last[0] + 1)
                           for j in range(first[1], last[1] + 1)], dtype=int).reshape(-1, 2)  # fmt: skip
         return cells, along + cells * self.h

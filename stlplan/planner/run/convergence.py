@@ -62,7 +62,8 @@ from stlplan.planner.tolerances import ROUND_OFF
 from stlplan.result import ConvergencePoint
 
 THIN_SECONDS = 0.5
-"""Least time between two points that record a tighter bound alone."""
+"""Least time between two points that record a tighter bound alone (and between two progress
+reports of HiGHS's search without a new incumbent)."""
 
 LARGEST = 1e30
 """HiGHS's figures at or beyond this size are infinite (no incumbent or bound yet)."""

@@ -107,7 +107,7 @@ def relative_gap(objective: float | None, bound: float | None) -> float | None:
     """``(bound - objective) / |objective|`` (HiGHS's relative gap, for a maximization)."""
     if objective is None or bound is None:
         return None
-    return max(0.0, bound - objective) / max(abs(objective), 1e-9)
+    return max(0.0, bound - objective) / max(abs(objective), ROUND_OFF)
 
 
 def lowest(bound: float | None, ceiling: float | None) -> float | None:
@@ -272,9 +272,9 @@ def tightening(
     slacks = [(s.bound or 0.0) - (s.objective or 0.0) for s in steps if s is not None]
     worst = max(range(len(slacks)), key=slacks.__getitem__)
     allowed = gap * abs(reached) - (objective - reached) - (sum(slacks) - slacks[worst])
-    if plan is not None and allowed <= 1e-9:
+    if plan is not None and allowed <= ROUND_OFF:
         return None
-    return worst, max(allowed, 1e-9)
+    return worst, max(allowed, ROUND_OFF)
 
 
 def assembled(
