@@ -42,14 +42,16 @@ def test_a_predicate_met_short_of_its_margin_by_more_than_the_tolerance_is_broke
     assert broken_predicates(pm, [(west_edge, 3, {"p": "a"})], states) == broken
 
 
-@pytest.mark.parametrize("run", [0, 1])
-def test_a_plan_the_continuous_stage_had_no_time_to_finish_is_no_plan_when_it_needs_it(
-    run: int,
+@pytest.mark.parametrize(("limit", "first_plan"), [(1.0, False), (1.0, False), (1.5, True)])
+def test_a_plan_no_stage_had_the_time_to_finish_is_no_plan_when_it_needs_it(
+    limit: float, first_plan: bool
 ) -> None:
-    # at 1 s the continuous stage of many-targets has no time, and step 1's incumbent often sits
-    # on a target's edge with the margin at 0 (its binaries met within 1e-6): the monitor
-    # rejected that plan as an error; now the run has no plan, and says why
-    _, result = api.plan(MISSIONS / "stl" / "many-targets.yaml", Overrides(time_limit=1.0))
+    # many-targets: step 1's incumbent often sits on a target's edge with the margin at 0 (its
+    # binaries met within 1e-6). At 1 s the continuous stage has no time; with a first plan
+    # only at 1.5 s, it finds the decisions admit no plan and the strict retry has no time.
+    # The monitor rejected the plan kept, an error; now the run has no plan, and says why
+    mission = MISSIONS / "stl" / "many-targets.yaml"
+    _, result = api.plan(mission, Overrides(time_limit=limit, first_plan=first_plan))
     assert result.status in (PlanStatus.NO_PLAN, PlanStatus.FEASIBLE, PlanStatus.OPTIMAL)
     if result.status is PlanStatus.NO_PLAN:
         assert result.trajectory is None

@@ -118,10 +118,11 @@ def _continuous(run: _Run) -> None:
 def _strict_retry(run: _Run) -> None:
     """When step 1's decisions, taken exactly, admit no plan, its plan met them only within
     HiGHS's integrality tolerance (a binary at ``1e-6`` from 0 or 1 relaxes a big-M row by
-    ``M 1e-6``, more than ``EPSILON``): step 1 and the continuous stage again, with
-    an integrality tolerance of round-off. When that runs out of time without a plan, the first one is
-    kept (its continuous stage failed: the step-1 plan stands, for the monitor to judge); a
-    strict verdict of infeasibility stands."""
+    ``M 1e-6``, more than ``EPSILON``): step 1 and the continuous stage again, with an
+    integrality tolerance of round-off. When that runs out of time without a plan, the first
+    one stands for the monitor to judge if it meets the predicates its decisions enforce, and
+    otherwise the run has no plan (:attr:`Finish.broken`); a strict verdict of infeasibility
+    stands."""
     tolerance = run.config.solver.highs_options.get("mip_feasibility_tolerance")
     if not run.ended.infeasible or tolerance == ROUND_OFF:
         return
@@ -134,7 +135,9 @@ def _strict_retry(run: _Run) -> None:
     out_of_time = (PlanStatus.NO_PLAN, PlanStatus.INTERRUPTED_NO_PLAN)
     if run.step1 is None or run.step1.status in out_of_time:
         run.pm, run.step1, run.plan = first.pm, first.step1, first.plan
-        run.size, run.ended = first.size, first.ended
+        run.size = first.size
+        # a first plan the continuous stage found broken was the retry's to finish
+        run.ended = dataclasses.replace(first.ended, unfinished=first.ended.broken)
         _step_one_ended(run)
 
 

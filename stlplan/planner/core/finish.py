@@ -72,9 +72,18 @@ class Finish:
     """What the plan is when it failed."""
     note: str = ""
     """How it succeeded, when not plainly (a landed point)."""
+    broken: bool = False
+    """It failed with step 1's plan breaking a predicate its decisions enforce (or with
+    decisions that admit no plan): that plan met them only within HiGHS's integrality
+    tolerance, and may be written only as this stage (or a strict retry) finishes it."""
     unfinished: bool = False
-    """Out of time, with step 1's plan breaking a predicate it enforces: no plan
-    (:func:`out_of_time`)."""
+    """The time ran out before a ``broken`` plan was finished: no plan (:func:`out_of_time`)."""
+
+
+def _broken(pm: PlanModel, enforced: list[Enforced]) -> bool:
+    """Whether step 1's plan, loaded in ``pm``, breaks an ``enforced`` predicate beyond HiGHS's
+    feasibility tolerance."""
+    return broken_predicates(pm, enforced, trajectory_states(pm)) > 0
 
 
 def out_of_time(pm: PlanModel, enforced: list[Enforced]) -> Finish:
@@ -82,8 +91,8 @@ def out_of_time(pm: PlanModel, enforced: list[Enforced]) -> Finish:
     the ``enforced`` predicates to HiGHS's tolerance; otherwise there is no plan (it met its
     decisions only within the integrality tolerance, and the stage that would have set it
     onto its predicates did not run)."""
-    broken = broken_predicates(pm, enforced, trajectory_states(pm))
-    return Finish(OUT_OF_TIME, unfinished=broken > 0)
+    broken = _broken(pm, enforced)
+    return Finish(OUT_OF_TIME, broken=broken, unfinished=broken)
 
 
 def fix_decisions(pm: PlanModel) -> None:
@@ -227,7 +236,7 @@ def finish(pm: PlanModel, config: PlannerConfig, clock: Clock, budget: Budget) -
     if ended == TerminationCondition.convergenceCriteriaSatisfied.name:
         return out_of_time(pm, enforced)
     if ended in INFEASIBLE:
-        return Finish(f"the continuous solve ended {ended}", True)
+        return Finish(f"the continuous solve ended {ended}", True, broken=_broken(pm, enforced))
     return _landed(pm, rows, session, ended, config, clock, phase, budget)
 
 
@@ -243,7 +252,9 @@ def _enforced_in_time(
     for v, val in snapshot:
         v.set_value(val, skip_validation=True)
     if enforced is None:
-        return Finish(f"the LP finding the enforced predicates ended {ended}", ended in INFEASIBLE)
+        infeasible = ended in INFEASIBLE  # the decisions admit no plan
+        failed = f"the LP finding the enforced predicates ended {ended}"
+        return Finish(failed, infeasible, broken=infeasible)
     # building and loading the continuous model takes about as long as loading step 1's did
     if budget.remaining() < budget.min_solve + time.perf_counter() - tick:
         return out_of_time(pm, enforced)
