@@ -56,6 +56,14 @@ class Degraded:
     dropped: tuple[Dropped, ...]
 
 
+@dataclass(frozen=True)
+class Undecided:
+    """The tasks a degraded plan was to drop when the time ran out before a verdict on the
+    mission without them."""
+
+    dropped: tuple[str, ...]
+
+
 def drop_costs(problem: Problem) -> dict[str, int]:
     """The cost of dropping each task: ``(n + 1) ** rank`` of its priority among the distinct
     priorities (rank 0 the lowest), so one task outweighs every task of lower priorities."""
@@ -105,10 +113,13 @@ def _solved_conflict(problem: Problem, feasibility: Feasibility, seconds: float)
     return Conflict(tasks, items=names, after=after)
 
 
-def degrade(problem: Problem, feasibility: Feasibility, seconds: float) -> Degraded | None:
+def degrade(
+    problem: Problem, feasibility: Feasibility, seconds: float
+) -> Degraded | Undecided | None:
     """The infeasible ``problem`` with the cheapest set of tasks dropped that makes it feasible,
-    within ``seconds`` (None when no set of tasks will do: a conflict of constraints alone, or a
-    feasibility solve without a verdict)."""
+    within ``seconds``: :class:`Undecided` when the time ran out before a verdict on the set
+    tried, None when no set of tasks will do (a conflict of constraints alone, or a
+    feasibility solve that failed)."""
     started, costs = time.monotonic(), drop_costs(problem)
     conflicts = _cheap_conflicts(problem)
     while True:
@@ -123,6 +134,8 @@ def degrade(problem: Problem, feasibility: Feasibility, seconds: float) -> Degra
             status = feasibility(kept) if left > 0 else PlanStatus.NO_PLAN
         if status.has_plan:
             return Degraded(kept, tuple(_why(task, conflicts) for task in sorted(hit)))
+        if status is PlanStatus.NO_PLAN:
+            return Undecided(tuple(sorted(hit)))
         if status is not PlanStatus.INFEASIBLE:
             return None
         conflicts.append(_solved_conflict(kept, feasibility, left))

@@ -17,7 +17,7 @@ from typing import Any
 from stlplan.analysis.diagnose import cheap_diagnosis, cheap_reasons, diagnose
 from stlplan.analysis.recovery import restored_later, with_recoveries
 from stlplan.analysis.size import check_size
-from stlplan.degraded import degrade
+from stlplan.degraded import Undecided, degrade
 from stlplan.mission.loader import check_enumerable, load_problem
 from stlplan.mission.problem import Problem
 from stlplan.native_output import discard_highs_banner
@@ -264,6 +264,21 @@ def _smaller_margins(
     return problem, dataclasses.replace(result, confirmations=tuple(confirmations))
 
 
+def _undecided(
+    result: PlanResult, found: Undecided, config: PlannerConfig, confirmations: list[Confirmation]
+) -> PlanResult:
+    """An infeasible mission whose degraded plan the time did not allow: no plan within the
+    time limit, the verdict on the mission as it is and the tasks a plan was to drop said."""
+    names = ", ".join(found.dropped)
+    message = (
+        f"{result.message}; with {names} dropped, no plan found within the time limit of "
+        f"{config.solver.time_limit:g} s: give it more time (--time-limit)"
+    )
+    return dataclasses.replace(
+        result, status=PlanStatus.NO_PLAN, message=message, confirmations=tuple(confirmations)
+    )
+
+
 def _degraded(problem: Problem, result: PlanResult, how: _Solving) -> tuple[Problem, PlanResult]:
     """The infeasible mission planned without the fewest tasks (by priority) it must drop
     (:mod:`stlplan.degraded`), within the run's budget; the mission as it was, with a
@@ -280,6 +295,8 @@ def _degraded(problem: Problem, result: PlanResult, how: _Solving) -> tuple[Prob
         found = None
     if found is None:  # (a cheap diagnosis stands as it is)
         return problem, result if result.diagnosis else _diagnosed(problem, config, result, run)
+    if isinstance(found, Undecided):
+        return problem, _undecided(result, found, config, confirmations)
     probe = probed.get(id(found.problem))
     if probe is not None and config.solver.first_plan:  # the probe's plan is a first plan
         planned = probe

@@ -7,7 +7,14 @@ from typing import Any
 
 import pytest
 
-from stlplan.degraded import Conflict, cheapest_hitting_set, drop_costs
+from stlplan.degraded import (
+    Conflict,
+    Degraded,
+    Undecided,
+    cheapest_hitting_set,
+    degrade,
+    drop_costs,
+)
 from stlplan.pipeline import plan
 from stlplan.planner.overrides import Overrides
 from stlplan.result import PlanStatus
@@ -108,3 +115,42 @@ def test_a_priority_must_be_an_integer(tmp_path: Path, priority: Any) -> None:
     path.write_text(bad, encoding="utf-8")
     with pytest.raises(MissionError, match="priority"):
         validate(path)
+
+
+def test_a_drop_with_no_verdict_in_time_is_undecided_not_infeasible() -> None:
+    # the cheap reason names `far`; the mission without it is probed, and the probe runs out
+    # of time: the run has no plan in time, where it said "infeasible" (a replan of the farm
+    # at 1 s with ir2 lost: crop_B dropped at 3 s)
+    agents = [
+        {"name": n, "dynamics": "si", "capabilities": ["X"], "initial_state": [0, 0]}
+        for n in ("a", "b")
+    ]
+    tasks = {
+        "far": {"formula": "F[0,2] in(p, Far)", "count": 2, "roles": {"p": "X"}},
+        "near": {"formula": "F[0,2] in(p, East)", "roles": {"p": "X"}},
+    }
+    regions = {**REGIONS, "Far": {"box": [[4.5, 5], [4.5, 5]]}}
+    problem = mission(horizon=2, agents=agents, regions=regions, tasks=tasks, separation=None)
+    probed: list[list[str]] = []
+
+    def out_of_time(kept: Any) -> PlanStatus:
+        probed.append([t.name for t in kept.tasks])
+        return PlanStatus.NO_PLAN
+
+    assert degrade(problem, out_of_time, 10.0) == Undecided(("far",))
+    assert probed == [["near"]]
+    assert degrade(problem, lambda kept: PlanStatus.ERROR, 10.0) is None
+    found = degrade(problem, lambda kept: PlanStatus.FEASIBLE, 10.0)
+    assert isinstance(found, Degraded) and [d.task for d in found.dropped] == ["far"]
+
+
+def test_a_run_whose_drop_had_no_verdict_in_time_has_no_plan_and_says_so(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import stlplan.pipeline
+
+    problem = _one_agent(west=_at("West", priority=1), east=_at("East"))
+    monkeypatch.setattr(stlplan.pipeline, "degrade", lambda *args: Undecided(("east",)))
+    _, result = plan(problem, DEGRADE)
+    assert result.status is PlanStatus.NO_PLAN and result.trajectory is None
+    assert "with east dropped, no plan found within the time limit of 60 s" in result.message
