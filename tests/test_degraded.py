@@ -39,6 +39,20 @@ def _one_agent(horizon: int = 2, **tasks: dict[str, Any]) -> Any:
     return mission(horizon=horizon, agents=agents, regions=REGIONS, tasks=tasks)
 
 
+def _far_and_near() -> Any:
+    # two agents; `far` needs both at a region neither can reach by step 2, `near` one
+    agents = [
+        {"name": n, "dynamics": "si", "capabilities": ["X"], "initial_state": [0, 0]}
+        for n in ("a", "b")
+    ]
+    tasks = {
+        "far": {"formula": "F[0,2] in(p, Far)", "count": 2, "roles": {"p": "X"}},
+        "near": {"formula": "F[0,2] in(p, East)", "roles": {"p": "X"}},
+    }
+    regions = {**REGIONS, "Far": {"box": [[4.5, 5], [4.5, 5]]}}
+    return mission(horizon=2, agents=agents, regions=regions, tasks=tasks, separation=None)
+
+
 def test_one_of_two_places_at_once_is_dropped_the_lower_priority_first() -> None:
     problem = _one_agent(west=_at("West", priority=1), east=_at("East"))
     planned, result = plan(problem, DEGRADE)
@@ -63,16 +77,7 @@ def test_among_equal_priorities_the_fewest_tasks_are_dropped() -> None:
 
 
 def test_a_task_too_few_agents_can_serve_is_named_with_the_cheap_reason() -> None:
-    agents = [
-        {"name": n, "dynamics": "si", "capabilities": ["X"], "initial_state": [0, 0]}
-        for n in ("a", "b")
-    ]
-    tasks = {
-        "far": {"formula": "F[0,2] in(p, Far)", "count": 2, "roles": {"p": "X"}},
-        "near": {"formula": "F[0,2] in(p, East)", "roles": {"p": "X"}},
-    }
-    regions = {**REGIONS, "Far": {"box": [[4.5, 5], [4.5, 5]]}}
-    problem = mission(horizon=2, agents=agents, regions=regions, tasks=tasks, separation=None)
+    problem = _far_and_near()
     _, result = plan(problem, DEGRADE)
     assert result.status is PlanStatus.DEGRADED
     assert [d.task for d in result.dropped] == ["far"]
@@ -121,16 +126,7 @@ def test_a_drop_with_no_verdict_in_time_is_undecided_not_infeasible() -> None:
     # the cheap reason names `far`; the mission without it is probed, and the probe runs out
     # of time: the run has no plan in time, where it said "infeasible" (a replan of the farm
     # at 1 s with ir2 lost: crop_B dropped at 3 s)
-    agents = [
-        {"name": n, "dynamics": "si", "capabilities": ["X"], "initial_state": [0, 0]}
-        for n in ("a", "b")
-    ]
-    tasks = {
-        "far": {"formula": "F[0,2] in(p, Far)", "count": 2, "roles": {"p": "X"}},
-        "near": {"formula": "F[0,2] in(p, East)", "roles": {"p": "X"}},
-    }
-    regions = {**REGIONS, "Far": {"box": [[4.5, 5], [4.5, 5]]}}
-    problem = mission(horizon=2, agents=agents, regions=regions, tasks=tasks, separation=None)
+    problem = _far_and_near()
     probed: list[list[str]] = []
 
     def out_of_time(kept: Any) -> PlanStatus:
