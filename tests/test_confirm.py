@@ -12,6 +12,7 @@ import pytest
 from stlplan import api
 from stlplan.api import Overrides
 from stlplan.planner.backend.confirm import attempts, has_plan, option, verdict
+from stlplan.result import PlanStatus
 from tests.helpers.confirming import solve_confirmed
 from tests.helpers.paths import DATA, MISSIONS
 
@@ -142,3 +143,21 @@ def test_a_false_verdict_in_a_lazy_round_is_overturned_and_the_loop_goes_on(
     assert first.checks[0].verdict == "Infeasible" and first.checks[1].verdict != "Infeasible"
     assert any("overturned" in event for event in result.events)
     assert result.objective == pytest.approx(reference.objective, abs=1e-6)
+
+
+def test_a_solve_error_on_a_nearly_infeasible_model_is_solved_again_strictly(
+    tmp_path: Path,
+) -> None:
+    # many-targets' robot has visited T1 and T2 by step 9; T4 closed from then on leaves its
+    # visit impossible. HiGHS's fourth lazy round "optimum" broke its own rows by 2e-6 (a
+    # binary 1.3e-7 from 1): "Solve error", and the run ended in an error. Solved again with
+    # the integrality tolerance at round-off, HiGHS says infeasible, and the checks confirm it
+    past = [(5, 5), (4, 4.5), (3.5, 3.5), (2.5, 3.5), (2.5, 2.5), (3.5, 2.5), (4.5, 2.5),
+            (5.5, 2.5), (6.5, 2.5), (7.5, 2.5)]  # fmt: skip
+    executed = tmp_path / "executed.csv"
+    rows = [f"robot,{k},{x},{y}" for k, (x, y) in enumerate(past)]
+    executed.write_text("\n".join(["agent,k,x0,x1", *rows]) + "\n", encoding="utf-8")
+    mission = MISSIONS / "stl" / "many-targets.yaml"
+    _, result = api.replan(mission, executed, 9, closed=["T4"], overrides=Overrides(time_limit=20))
+    assert result.status is PlanStatus.INFEASIBLE, result.message
+    assert result.confirmations and all(c.outcome == "confirmed" for c in result.confirmations)

@@ -35,6 +35,7 @@ from stlplan.planner.config import PlannerConfig
 from stlplan.planner.run.budget import Budget, least_solve
 from stlplan.planner.run.clock import Clock, Phase
 from stlplan.planner.run.outcome import Plan, of_solve
+from stlplan.planner.tolerances import ROUND_OFF
 from stlplan.result import PlanStatus
 from stlplan.runtime import signals
 
@@ -288,6 +289,11 @@ class HighsSession:
         tick = time.perf_counter()
         self._nodes = self._iterations = None
         results = self.solve_once(budget.remaining())
+        if self.mip and results.termination_condition == TerminationCondition.error:
+            # HiGHS's "solve error": its optimum fails its own check by more than its feasibility
+            # tolerance, binaries accepted within the integrality tolerance (a nearly infeasible
+            # model); solved again with that tolerance at round-off, HiGHS decides it
+            results = self.solve_once(budget.remaining(), {"mip_feasibility_tolerance": ROUND_OFF})
         infeasible = results.termination_condition in (
             TerminationCondition.provenInfeasible,
             TerminationCondition.infeasibleOrUnbounded,
