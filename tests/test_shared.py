@@ -13,6 +13,7 @@ from stlplan.planner.overrides import Overrides
 from stlplan.replanning import replan
 from stlplan.result import PlanStatus, Trajectory
 from tests.helpers.missions import mission
+from tests.helpers.paths import DATA, MISSIONS
 
 HOLD = "G[1,4] in(p, Hold)"
 
@@ -81,3 +82,16 @@ def test_an_agent_lost_makes_the_conflict_and_the_replan_drops_a_task_without_a_
     assert result.report is not None
     failed = {v.name for v in result.report.verdicts if not v.satisfied}
     assert failed <= {d.task for d in result.dropped}
+
+
+def test_a_pin_that_takes_none_of_the_second_tasks_agents_is_no_conflict_of_the_two() -> None:
+    # Case I replanned at step 6 with uv2 lost and Obs closed: crop_B's two elements left both
+    # need uv3 (crop_B is short of agents on its own), and crop_A1 only uv1 can serve; the pair
+    # analysis blamed crop_A1, had no agent to name, and raised IndexError (a replan by a
+    # deadline crashed)
+    from stlplan.api import load_problem, read_trajectory_csv
+
+    problem = load_problem(MISSIONS / "farm.yaml")
+    past = read_trajectory_csv(problem, DATA / "farm-executed-0-6.csv", through=6)
+    reasons = cheap_reasons(replanned(problem, past, 6, ["uv2"], ["Obs"]))
+    assert not [r for r in reasons if r.others == ("crop_B",)]

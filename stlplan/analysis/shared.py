@@ -141,6 +141,8 @@ def _conflict(
         for agent in serving & taken
         if not able(problem, second, boxes, second.binding((agent,)), (pin, agent))
     }
+    if not lost:  # the pin takes none of the second's agents: no conflict of the two
+        return None
     # the first task takes its agents from those the second can keep first
     from_lost = max(0, first.count - len(taken - lost))
     left = len(serving) - from_lost
