@@ -30,14 +30,13 @@ full problem's optimum to the same tolerance as one solve (with ``solver.first_p
 this nor a merged part's own solve after a repair that found a plan: a plan is all that is
 asked for). A part whose new plan breaks a requirement with another part's plan gets its plan
 from before back, with the new bound, and the tightening ends (short of the gap, then). Finally
-the parts' requirements
-are encoded in one model of the full problem, its states held near the parts' plans, and one
-small solve sets every indicator (its objective, a point of the full problem, is the one
-reported); step 2 runs on that model as usual (:mod:`stlplan.planner.core.assembly`). The run
-records ``U`` whenever every part has a bound (at the end of each round of a part, from the
-least bound of each part's rounds so far), and the assembled plan's objective, as the whole
-problem's figures (:mod:`stlplan.planner.run.convergence`); a part's own figures are not the
-whole's, unless it is a merge of every part.
+the parts' requirements are encoded in one model of the full problem, its states held near the
+parts' plans, and one small solve sets every indicator (its objective, a point of the full
+problem, is the one reported); step 2 runs on that model as usual
+(:mod:`stlplan.planner.core.assembly`). The run records ``U`` whenever every part has a bound (at
+the end of each round of a part, from the least bound of each part's rounds so far), and the
+assembled plan's objective, as the whole problem's figures (:mod:`stlplan.planner.run.convergence`);
+a part's own figures are not the whole's, unless it is a merge of every part.
 
 With the first-plan heuristics (the policy's hooks, :mod:`stlplan.planner.core.hooks`), when the
 largest part has ``parts.plan_first_agents`` agents or more, all of the above is first done for a
