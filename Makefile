@@ -6,7 +6,7 @@ STAMP  := $(VENV)/.installed
 OUT    ?= out/farm
 
 .DEFAULT_GOAL := help
-.PHONY: help install farm test test-slow fuzz smoke bench bench-quick bench-replan bench-simulate bench-profile bench-scale bench-tasks lint format schema crowd clean
+.PHONY: help install farm test test-heavy test-slow fuzz smoke bench bench-quick bench-replan bench-simulate bench-profile bench-scale bench-tasks lint format schema crowd clean
 
 help:  ## List the targets
 	@grep -E '^[a-zA-Z_-]+:.*?## ' $(MAKEFILE_LIST) | awk 'BEGIN {FS = ":.*?## "}; {printf "  %-15s %s\n", $$1, $$2}'
@@ -27,8 +27,12 @@ TEST_WORKERS ?= 2
 # the browser) once; with tests of a module on both workers, both built them.
 # PYTHONDONTWRITEBYTECODE emptied: the workers and the stlplan processes the tests start keep the
 # compiled modules and pytest's rewritten test modules instead of compiling them again each time.
-test: $(STAMP)  ## Run the test suite (without the slow solves) on TEST_WORKERS processes (2), listing the 15 slowest tests
-	PYTHONDONTWRITEBYTECODE= $(BIN)/pytest -q -m "not slow" -n $(TEST_WORKERS) --dist loadfile --durations=15
+PYTEST_PARALLEL = PYTHONDONTWRITEBYTECODE= $(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadfile --durations=15
+test: $(STAMP)  ## Run the test suite (without the heavy tests and the slow solves) on TEST_WORKERS processes (2), listing the 15 slowest tests
+	$(PYTEST_PARALLEL) -m "not slow and not heavy"
+
+test-heavy: $(STAMP)  ## Run only the heavy tests (several seconds each: benches, sweeps, closed loops, crowds), as CI does after make test
+	$(PYTEST_PARALLEL) -m heavy
 
 test-slow: $(STAMP)  ## Run only the slow tests (full farm solves, the STL suite against its reference)
 	$(BIN)/pytest -q -m slow

@@ -278,6 +278,7 @@ def test_a_failing_ffmpeg_is_an_os_error_and_leaves_nothing(
         movie.write_mp4(tmp_path / "plan.mp4")
 
 
+@pytest.mark.heavy
 def test_a_solve_writes_the_mp4_only_with_ffmpeg(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

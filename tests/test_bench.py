@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from stlplan import bench, bench_report
 
 
@@ -111,6 +113,7 @@ def test_a_solve_row_records_step_1_objective_and_the_bound_it_ended_with() -> N
     assert bound - objective <= bench_report.GAP * max(1.0, abs(objective)) + 1e-6
 
 
+@pytest.mark.heavy
 def test_a_deterministic_row_names_its_decisions_alike_run_after_run() -> None:
     job = bench.Job("stl/either-or", 0, "deterministic", 60.0)
     first, second = (bench.solve_job(job, seed=0, threads=2) for _ in range(2))

@@ -6,6 +6,8 @@ import json
 import time
 from pathlib import Path
 
+import pytest
+
 from stlplan import api
 from stlplan.api import Overrides
 from stlplan.result import PlanStatus
@@ -21,6 +23,7 @@ def _long_mission(tmp_path: Path, horizon: int) -> Path:
     return path
 
 
+@pytest.mark.heavy
 def test_a_small_time_limit_bounds_a_long_horizon_run(tmp_path: Path) -> None:
     mission = _long_mission(tmp_path, 600)
     limit = 4.0

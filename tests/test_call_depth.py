@@ -44,6 +44,7 @@ def test_case_i_reaches_its_first_solve_within_the_frame_budget(
     assert len(frames) <= MOST_FRAMES, "\n".join(reversed(frames))
 
 
+@pytest.mark.heavy
 def test_a_crowds_first_turn_is_within_its_frame_budget(monkeypatch: pytest.MonkeyPatch) -> None:
     # the parts' solves run; the first solve of a turn stands in for the solve
     solve = session.HighsSession.solve

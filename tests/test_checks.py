@@ -288,6 +288,7 @@ def _variants(text: str) -> list[str]:
     return out
 
 
+@pytest.mark.heavy
 def test_mutations_of_the_base_never_raise_a_bare_exception(tmp_path: Path) -> None:
     """Delete any one line, or replace any number: the result loads or raises StlplanError."""
     target = tmp_path / "mutant.yaml"

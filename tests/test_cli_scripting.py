@@ -139,6 +139,7 @@ def test_a_violating_trajectory_with_json_exits_1_with_the_verdicts(
     assert verdicts["meet"]["satisfied"] is False and verdicts["meet"]["rho_s"] < 0
 
 
+@pytest.mark.heavy
 def test_quiet_prints_exactly_one_line(solved: tuple[Path, dict[str, object]]) -> None:
     out, _ = solved
     checked = _process("check", str(PAIR), str(out / "trajectory.csv"), "--quiet")

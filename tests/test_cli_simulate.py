@@ -69,6 +69,7 @@ def test_json_prints_one_document_of_runs_and_the_fraction_satisfied(tmp_path: P
     assert (out / "table.md").read_text().startswith("| run | status |")
 
 
+@pytest.mark.heavy
 def test_resume_skips_the_runs_on_record(tmp_path: Path) -> None:
     out = tmp_path / "sim"
     args = ["--disturbance", "0.02", "--replan", "on-deviation", "--out", str(out), *QUICK]
@@ -86,6 +87,7 @@ def test_resume_skips_the_runs_on_record(tmp_path: Path) -> None:
     assert code == 2 and "disturbance 0.02 recorded, 0.03 now" in stderr
 
 
+@pytest.mark.heavy
 def test_plot_draws_the_fraction_satisfied_against_the_disturbance(tmp_path: Path) -> None:
     for w, policy in (("0", "never"), ("0.1", "never"), ("0.1", "every")):
         out = tmp_path / f"{policy}-{w}"

@@ -116,6 +116,7 @@ def test_the_strategy_line_follows_the_configuration() -> None:
     assert "agents" not in quiet
 
 
+@pytest.mark.heavy
 def test_the_summary_records_the_configuration_and_strategy(tmp_path: Path) -> None:
     overrides = Overrides(time_limit=60, config={"repair.crowd_agents": 4})
     api.solve(PAIR, tmp_path / "out", overrides, animation=False)

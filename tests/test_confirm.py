@@ -145,6 +145,7 @@ def test_a_false_verdict_in_a_lazy_round_is_overturned_and_the_loop_goes_on(
     assert result.objective == pytest.approx(reference.objective, abs=1e-6)
 
 
+@pytest.mark.heavy
 def test_a_solve_error_on_a_nearly_infeasible_model_is_solved_again_strictly(
     tmp_path: Path,
 ) -> None:

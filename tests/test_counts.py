@@ -275,6 +275,7 @@ def _entries_cost(ways: list[float], total: int, margin: float) -> float:
     return best
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("encoding", ENCODINGS)
 @settings(max_examples=examples(4, 20), deadline=None)
 @given(xs=st.lists(st.floats(0.0, 1.5).map(lambda x: round(x, 2)), min_size=2, max_size=2))
@@ -309,6 +310,7 @@ def test_a_replan_counts_the_visits_already_made() -> None:
     assert future == pytest.approx(4 * margin, abs=1e-4)
 
 
+@pytest.mark.heavy
 def test_a_closed_loop_run_replans_on_its_visits_and_is_judged_on_them() -> None:
     """Executed under a disturbance of 0.02 with a replan every step, plans robust to it (the
     margin kept where a step's disturbance cannot use it up), the run keeps its three visits

@@ -147,6 +147,7 @@ def test_with_time_enough_a_new_plan_comes_back(first: PlanResult) -> None:
         assert np.allclose(got, executed.states[agent.name][3])
 
 
+@pytest.mark.heavy
 def test_a_closed_goal_gives_a_degraded_plan_by_the_deadline(first: PlanResult) -> None:
     assert first.trajectory is not None
     deadline = Deadline.starting(60.0)
@@ -201,6 +202,7 @@ def planned(tmp_path_factory: pytest.TempPathFactory, first: PlanResult) -> Path
     return path
 
 
+@pytest.mark.heavy
 def test_the_command_answers_by_its_deadline_and_writes_the_two_files(
     planned: Path, tmp_path: Path
 ) -> None:

@@ -48,6 +48,7 @@ def _in_process(script: str, mission: str, hash_seed: int) -> str:
     return done.stderr
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("mission", ["farm.yaml", "farm-case2.yaml"])
 def test_the_model_does_not_follow_string_hashing(mission: str) -> None:
     """Effort floors once came in the order of a set of agent names, and their LPs warm-started

@@ -39,6 +39,7 @@ def _decisions(result: PlanResult) -> list[tuple[Any, ...]]:
     return [tuple(str(r[k]) for k in keys) for r in result.round_log]
 
 
+@pytest.mark.heavy
 def test_a_loaded_machine_changes_no_decision_of_a_deterministic_run(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

@@ -22,6 +22,7 @@ from stlplan.verify import plan_objective, reported
 from tests.helpers.paths import DATA, MISSIONS
 
 
+@pytest.mark.heavy
 def test_stepping_stones_summary_reports_the_monitors_margin(tmp_path: Path) -> None:
     out = tmp_path / "plan"
     args = [

@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pytest
 import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -398,12 +399,14 @@ def test_the_base_mission_loads(tmp_path: Path) -> None:
     assert [len(t.groups) for t in problem.tasks] == [1, 1]
 
 
+@pytest.mark.heavy
 @FUZZ
 @given(mission_texts())
 def test_mutated_mission_loads_or_raises_stlplan_error(tmp_path_factory: Any, text: str) -> None:
     _load_or_error(text, tmp_path_factory.mktemp("fuzz"))
 
 
+@pytest.mark.heavy
 @FUZZ
 @given(mutated(mission_texts()))
 def test_mutated_mission_text_loads_or_raises_stlplan_error(

@@ -199,6 +199,7 @@ def test_the_agents_in_a_turns_way_are_freed_one_at_a_time() -> None:
     assert calls[1 + len(grown)] == {"a"}  # the second turns: the repair went on
 
 
+@pytest.mark.heavy
 def test_a_turn_out_of_time_frees_no_more_agents() -> None:
     # b's solve spends its share and still runs into c and a: more agents free would be slower
     pm, session = _first_round(crossing_problem())
@@ -225,6 +226,7 @@ def test_the_agents_named_by_a_later_solve_come_first() -> None:
     assert in_the_way(pm, {"b", "c"}, [[bc]]) == ["b", "c"]
 
 
+@pytest.mark.heavy
 def test_a_formation_takes_its_turns_together() -> None:
     # Case I: each UV agent's turn is followed by that of the IR agent its crop_B element pairs
     # it with in the round's plan (the UV agents come first in the team's order)

@@ -167,6 +167,7 @@ def test_resume_runs_interrupted_records_again(tmp_path: Path) -> None:
     assert [s.run for s in pending(specs, tmp_path, resume=True)] == [1, 2]
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("workers", [1, 2])
 def test_interrupted_sweep_keeps_finished_runs_stops_workers_and_resumes(
     tmp_path: Path, workers: int

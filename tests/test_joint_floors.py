@@ -89,6 +89,7 @@ def test_one_agent_serving_two_far_tasks_tightens_the_relaxation(
 
 
 # two MILPs proven to 1e-7 per example: 6 by default, more with STLPLAN_HYPOTHESIS=explore
+@pytest.mark.heavy
 @settings(
     max_examples=examples(6, explore=60),
     deadline=None,
@@ -150,6 +151,7 @@ def grid_points(n: int) -> st.SearchStrategy[list[tuple[float, float]]]:
     return st.lists(point.map(lambda t: (float(t[0]), float(t[1]))), min_size=n, max_size=n)
 
 
+@pytest.mark.heavy
 @settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     starts=grid_points(4),
@@ -203,6 +205,7 @@ def test_shares_bound_a_fractional_choice_of_formations(monkeypatch: pytest.Monk
 
 
 # two MILPs proven to 1e-7 per example: 4 by default, more with STLPLAN_HYPOTHESIS=explore
+@pytest.mark.heavy
 @settings(
     max_examples=examples(4, explore=40),
     deadline=None,

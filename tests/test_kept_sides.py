@@ -38,6 +38,7 @@ def _effort(result: Any) -> float:
     return sum(float(np.abs(u).sum()) for u in result.trajectory.inputs.values())
 
 
+@pytest.mark.heavy
 def test_sides_broken_by_a_continuous_plan_are_added_until_none_is(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

@@ -25,6 +25,7 @@ sys.stderr.write(f"{result.status.value} {again.status.value}")
 """
 
 
+@pytest.mark.heavy
 def test_the_python_api_prints_nothing_on_stdout(tmp_path: Path) -> None:
     """A fresh process: HiGHS prints its banner once per process, at the first solver made."""
     mission = str(MISSIONS / "sync-pair.yaml")

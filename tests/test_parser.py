@@ -169,6 +169,7 @@ def _compound(inner: st.SearchStrategy[Formula]) -> st.SearchStrategy[Formula]:
 FORMULAS = st.recursive(LITERALS, _compound, max_leaves=10)
 
 
+@pytest.mark.heavy
 @settings(max_examples=300, deadline=None)
 @given(FORMULAS)
 def test_round_trip(tree: Formula) -> None:

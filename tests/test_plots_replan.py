@@ -236,6 +236,7 @@ def test_a_viewer_without_a_past_has_no_replan_marks(farm: Problem) -> None:
 
 
 # ------------------------------------------------------------------------------ the plan folder
+@pytest.mark.heavy
 def test_write_plan_draws_every_file_of_a_replan(replan, tmp_path: Path) -> None:
     problem, trajectory, report = replan
     record = Replan(K, (f"{LOST} lost", f"{CLOSED} closed"), 0.0, 1.0)

@@ -192,6 +192,7 @@ def test_single_integrators_turns_are_solved_on_the_sides_of_a_guide_path(
     assert f"gap {result.gap:.2%}" in result.message  # the message speaks of the same plan
 
 
+@pytest.mark.heavy
 def test_turns_without_the_guide_solve_their_disjunctions(
     small_crowd: Any, monkeypatch: pytest.MonkeyPatch
 ) -> None:

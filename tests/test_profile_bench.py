@@ -22,6 +22,7 @@ def test_a_detour_around_the_other_agent_binds_their_separation() -> None:
     assert found["separation segment"] == found["constraint step"] == 0
 
 
+@pytest.mark.heavy
 def test_with_a_maximized_margin_binding_is_measured_from_the_plans_margin() -> None:
     used, result = plan(initial_problem("stl/narrow-passage", 0, 0))
     config = PlannerConfig.model_validate(dict(result.config))
@@ -42,6 +43,7 @@ def test_a_state_with_no_value_is_an_error() -> None:
         profile_bench.step1_states(problem, {})
 
 
+@pytest.mark.heavy
 def test_each_state_is_a_row_and_each_case_a_line_of_the_table(tmp_path: Path) -> None:
     profile_bench.main(
         ["--cases", "stl/narrow-passage", "--runs", "1", "--threads", "1",

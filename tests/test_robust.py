@@ -59,6 +59,7 @@ def test_a_robust_plan_keeps_the_margin_it_was_asked_for() -> None:
     assert robust.objective < nominal.objective  # the price of robustness
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("corner", list(itertools.product((-1.0, 1.0), repeat=2)) + ["alternate"])
 def test_replanned_every_step_a_robust_plan_survives_the_worst_corners(corner) -> None:  # type: ignore[no-untyped-def]
     problem = _crossing()

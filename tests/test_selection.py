@@ -100,6 +100,7 @@ TASKS = st.one_of(
 )
 
 
+@pytest.mark.heavy
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     speeds=st.lists(st.sampled_from([0.5, 1.0, 1.5]), min_size=5, max_size=5),
@@ -119,6 +120,7 @@ def test_random_teams_get_the_same_optimum_from_both_encodings(
     assert_same_optimum(*both(problem))
 
 
+@pytest.mark.heavy
 @settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     speeds=st.lists(st.sampled_from([0.5, 1.0, 1.5]), min_size=5, max_size=5),

@@ -53,6 +53,7 @@ def test_one_step_and_two_step_share_decisions_and_step_two_lowers_effort() -> N
     assert two.effort <= one.effort + 1e-6
 
 
+@pytest.mark.heavy
 def test_warehouse_plan_stays_clear_of_the_wall_between_steps() -> None:
     # The sampled plan keeps every step 0.2 from the L-shaped wall yet drives through it between
     # steps; with the default safety between steps the whole path keeps the margin.

@@ -19,6 +19,7 @@ def _records(folder: Path) -> list[dict[str, object]]:
     return [json.loads(line) for line in lines if line.strip()]
 
 
+@pytest.mark.heavy
 def test_each_row_counts_its_simulations_records(tmp_path: Path) -> None:
     sim_bench.main(
         ["--mission", MISSION, "--runs", "2", "--disturbance", "0.05", "--lose", "north@3",

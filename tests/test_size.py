@@ -62,6 +62,7 @@ def test_the_shipped_crowds_fit_a_minute(agents: int) -> None:
     assert up_front.entries > 10 * size.entries
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize(
     ("mission", "lazy"),
     [("farm.yaml", True), ("farm.yaml", False), ("crowd/crowd-16.yaml", True),

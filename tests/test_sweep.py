@@ -40,6 +40,7 @@ def test_drawn_states_are_at_rest() -> None:
         assert agent.initial_state[2:] == [0.0, 0.0]
 
 
+@pytest.mark.heavy
 def test_sweep_records_every_run_and_resumes(tmp_path: Path) -> None:
     out = tmp_path / "sweep"
     rows = api.sweep([PAIR], runs=2, out=out, workers=1, overrides=Overrides(seed=1))
@@ -65,6 +66,7 @@ def test_sweep_records_every_run_and_resumes(tmp_path: Path) -> None:
     assert len(read_records(out)) == 3
 
 
+@pytest.mark.heavy
 def test_sweep_on_a_local_dask_cluster_matches_local_runs(tmp_path: Path) -> None:
     distributed = pytest.importorskip(
         "distributed", reason="Dask is an optional extra: pip install 'stlplan[dask]'"

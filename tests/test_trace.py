@@ -102,6 +102,7 @@ def test_the_last_credited_plan_is_the_plan_step_1_ends_with(
         assert sum(found[-1]["parts"].values()) == 2
 
 
+@pytest.mark.heavy
 def test_the_summary_and_verbose_show_the_trace(tmp_path: Path) -> None:
     args = ["solve", str(MISSIONS / "warehouse.yaml"), "--out", str(tmp_path), "--no-animation"]
     out = CliRunner().invoke(app, [*args, "--no-html", "--verbose"])

@@ -33,6 +33,7 @@ def plain(tmp_path_factory: pytest.TempPathFactory) -> tuple[str, dict[str, Any]
     return printed, json.loads((out / "summary.json").read_text())
 
 
+@pytest.mark.heavy
 def test_the_internal_events_go_to_the_summary_and_verbose(
     tmp_path: Path, plain: tuple[str, dict[str, Any]]
 ) -> None:

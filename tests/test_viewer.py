@@ -237,6 +237,7 @@ def test_the_page_draws_every_agent_and_the_slider_moves_them(page: Page, sync_p
     assert page.fills_drawn() == fills  # the rest of the figure is still drawn
 
 
+@pytest.mark.heavy
 def test_play_runs_to_the_last_step(page: Page, sync_pair) -> None:
     problem, result, _ = sync_pair
     page.page.get_by_text("▶ play").click()
