@@ -11,6 +11,7 @@ from typing import Any
 import pytest
 import yaml
 
+import stlplan.planner.solve  # noqa: F401  (imported here: the timing below is the diagnosis's, not Pyomo's import)
 from stlplan import api
 from stlplan.analysis.initial import initial_reasons, step0_part
 from stlplan.formula.parser import parse
@@ -36,6 +37,12 @@ def _start_too_close(data: dict[str, Any]) -> None:
     data["separation"] = 0.05
 
 
+def _start_too_close_for_the_margin(data: dict[str, Any]) -> None:
+    data["agents"][1]["initial_state"] = [0.6, 0.5, 0, 0]  # 0.1 apart: 0.05 to spare, not 0.1
+    data["separation"] = 0.05
+    data["objective"] = {"margin": {"minimum": 0.1}}
+
+
 def _goal_off_the_map(data: dict[str, Any]) -> None:
     data["regions"]["Goal"] = {"box": [[7, 8], [1, 3]]}
 
@@ -58,6 +65,15 @@ CASES = {
         _start_too_close,
         ("separation",),
         ("agents 'a1' and 'a2'", "0.02 apart at step 0", "separation 0.05"),
+    ),
+    "start_too_close_for_the_margin": (
+        _start_too_close_for_the_margin,
+        ("separation",),
+        (
+            "agents 'a1' and 'a2'",
+            "0.1 apart at step 0",
+            "separation 0.05 with the required margin 0.1",
+        ),
     ),
     "goal_off_the_map": (
         _goal_off_the_map,

@@ -9,7 +9,8 @@ branch has one; a ``count`` is one, a ``visits`` none), and its robustness at th
 * a constraint's step-0 part broken by the agents bound to it (an agent that starts inside a
   region it must always avoid);
 * an ordinary task whose step-0 part fewer than ``count`` elements meet;
-* two agents that start closer than the separation (infinity norm of their positions);
+* two agents that start closer than the separation and the required margin (infinity norm of
+  their positions);
 * a region a task or constraint must reach (:func:`stlplan.analysis.reach.needs`) in which no
   point lies as far inside as the required margin (the radius of the largest disc inside it).
 
@@ -152,18 +153,21 @@ def _task_reasons(problem: Problem) -> Iterator[Reason]:
 def _separation_reasons(problem: Problem) -> Iterator[Reason]:
     if problem.separation is None or problem.past is not None:
         return  # (a replan's pair its past left too close recovers: stlplan.analysis.recovery)
-    agents = problem.agents
+    agents, margin = problem.agents, _margin(problem)
+    needed = (
+        f" with the required margin {margin:g} (objective.margin.minimum)" if margin > 0 else ""
+    )
     for i, first in enumerate(agents):
         for second in agents[i + 1 :]:
             z1 = first.initial_state[list(first.position)]
             z2 = second.initial_state[list(second.position)]
             gap = float(np.max(np.abs(z1 - z2)))
-            if gap < problem.separation - TOLERANCE:
+            if gap < problem.separation + max(margin, 0.0) - TOLERANCE:
                 yield Reason(
                     "separation",
                     f"agents '{first.name}' and '{second.name}' start {gap:g} apart at step 0 "
                     f"(infinity norm of their initial positions), closer than the separation "
-                    f"{problem.separation:g}",
+                    f"{problem.separation:g}{needed}",
                 )
 
 
