@@ -162,7 +162,7 @@ def _separation_reasons(problem: Problem) -> Iterator[Reason]:
             z1 = first.initial_state[list(first.position)]
             z2 = second.initial_state[list(second.position)]
             gap = float(np.max(np.abs(z1 - z2)))
-            if gap < problem.separation + max(margin, 0.0) - TOLERANCE:
+            if gap < problem.separation + margin - TOLERANCE:
                 yield Reason(
                     "separation",
                     f"agents '{first.name}' and '{second.name}' start {gap:g} apart at step 0 "
