@@ -104,6 +104,7 @@ def plot_trajectory(
     from stlplan.outputs.plots import plot_plan
 
     traj = read_trajectory_csv(problem, Path(trajectory))
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
     plot_plan(problem, traj, report, out, title=f"{problem.mission.name}: {Path(trajectory).name}")
 
 
@@ -318,15 +319,22 @@ def sweep(
     """
     from stlplan.sweep import report
     from stlplan.sweep.identity import claim
-    from stlplan.sweep.runner import execute, pending, read_records, workers_and_settings
+    from stlplan.sweep.runner import (
+        check_scheduler,
+        execute,
+        pending,
+        read_records,
+        workers_and_settings,
+    )
 
     workers, overrides = workers_and_settings(
         workers, scheduler, runs * len(missions), overrides or Overrides()
     )
     out = Path(out)
-    prepare_directory(out)
-    specs = _sweep_specs(missions, runs, seed, overrides)
+    specs = _sweep_specs(missions, runs, seed, overrides)  # every mission checked first
     todo = pending(specs, out, resume)
+    check_scheduler(scheduler)
+    prepare_directory(out)
     claim(out, specs, resume)
     if on_start is not None:
         on_start(len(todo))

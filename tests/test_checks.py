@@ -181,6 +181,17 @@ CATALOGUE: dict[str, tuple[type[StlplanError], tuple[str, ...]]] = {
         MissionError,
         ("line 15,", "regions.true", "as a boolean", "quote it"),
     ),
+    "disturbance_negative": (
+        MissionError,
+        ("line 25,", "execution.disturbance", "expected a value >= 0", "-0.1"),
+    ),
+    "separation_negative": (MissionError, ("line 25,", "separation", "expected a value >= 0")),
+    "threads_too_many": (MissionError, ("line 25,", "solver.threads", "<= 256", "100000")),
+    "region_name_with_space": (
+        MissionError,
+        ("line 15,", "regions.O bs", "a name a formula can use", "found 'O bs'"),
+    ),
+    "null_task_name": (MissionError, ("line 16,", "tasks", "a key YAML reads as null")),
     "beta_huge": (MissionError, ("line 25,", "objective.beta", "between -1e6 and 1e6")),
     "bounds_huge": (
         MissionError,

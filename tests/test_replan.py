@@ -143,6 +143,7 @@ def test_the_replans_verdicts_are_the_missions_on_the_whole_trajectory(seed: int
         (2, {"lost": ["a", "a"]}, "--lost a: the agent is lost twice"),
         (2, {"lost": ["a", "b"]}, "--lost names every agent"),
         (2, {"closed": ["Nowhere"]}, "--closed Nowhere: no such region; regions: R, C"),
+        (2, {"closed": ["C", "C"]}, "--closed C: the region is closed twice"),
     ],
 )
 def test_bad_events_are_refused(step: int, events: dict[str, list[str]], expected: str) -> None:

@@ -103,17 +103,33 @@ TrajectoryArg = Annotated[
         show_default=False,
     ),
 ]
+
+
+def _png_file(value: Path | None) -> Path | None:
+    """The map's file must be a file name whose folder is a folder (or does not exist yet)."""
+    if value is None:
+        return None
+    if value.is_dir():
+        raise typer.BadParameter(f"{value} is a folder; expected a PNG file name")
+    folder = next((p for p in value.parents if p.exists()), None)
+    if folder is not None and not folder.is_dir():
+        raise typer.BadParameter(f"{folder} is a file, so {value} cannot be created")
+    return value
+
+
 PlotOption = Annotated[
     Path | None,
     typer.Option(
-        help="Also draw the map of the trajectory to this PNG (crossings in red).", metavar="PNG"
+        help="Also draw the map of the trajectory to this PNG (crossings in red).",
+        metavar="PNG",
+        callback=_png_file,
     ),
 ]
 ToleranceOption = Annotated[
     float,
     typer.Option(
         help="How far each number of the trajectory may be off: T max(1, |v|) in the dynamics "
-        "and bounds, and a requirement holds at robustness >= -T (1e-3 accepts a CSV rounded to "
+        "and bounds, and a requirement holds at robustness >= 5e-7 - T (1e-3 accepts a CSV rounded to "
         "3 decimals).",
         min=0.0,
         metavar="T",
@@ -159,10 +175,25 @@ def check(
         raise typer.Exit(EXIT_VIOLATED)
 
 
+def _schema_file(value: str) -> str:
+    """The schema's file must be named, and not be a folder."""
+    if not value.strip():
+        raise typer.BadParameter("expected a file name, found an empty string")
+    if value != "-" and Path(value).is_dir():
+        raise typer.BadParameter(f"{value} is a folder; expected a file name, e.g. "
+                                 f"{Path(value) / SCHEMA_PATH.name}")  # fmt: skip
+    return value
+
+
 @handled
 def schema(
     out: Annotated[
-        str, typer.Option(help="Where to write the JSON Schema ('-': stdout).", metavar="PATH")
+        str,
+        typer.Option(
+            help="Where to write the JSON Schema ('-': stdout).",
+            metavar="PATH",
+            callback=_schema_file,
+        ),
     ] = str(SCHEMA_PATH),
     as_json: JsonOption = False,
     quiet: QuietOption = False,
@@ -200,7 +231,7 @@ def example(
         typer.Argument(
             help="A shipped mission (NAME, or FOLDER/NAME as under missions/); without it, "
             "list them.",
-            metavar="NAME",
+            metavar="[NAME]",
         ),
     ] = None,
     out: Annotated[

@@ -26,7 +26,7 @@ from stlplan.cli.shell import (
     handled,
     solver_output,
 )
-from stlplan.mission.schema import MAX_SEED
+from stlplan.mission.schema import MAX_MAGNITUDE, MAX_SEED, MAX_THREADS
 from stlplan.result import PlanResult, PlanStatus
 from stlplan.runtime import signals
 from stlplan.words import counted
@@ -100,8 +100,9 @@ def exit_code(result: PlanResult) -> int:
 TimeLimitOption = Annotated[
     float | None,
     typer.Option(
-        help="Seconds for the whole run, at least 0.001 (default: the mission's).",
+        help="Seconds for the whole run, 0.001 to 1e6 (default: the mission's).",
         min=0.001,
+        max=MAX_MAGNITUDE,
         metavar="SECONDS",
     ),
 ]
@@ -117,9 +118,10 @@ GapOption = Annotated[
 ThreadsOption = Annotated[
     int | None,
     typer.Option(
-        help="Threads, at least 1: HiGHS's, and independent parts solved at the same time "
-        "(default: the mission's or HiGHS').",
+        help=f"Threads, 1 to {MAX_THREADS}: HiGHS's, and independent parts solved at the same "
+        "time (default: the mission's or HiGHS').",
         min=1,
+        max=MAX_THREADS,
         metavar="N",
     ),
 ]
@@ -307,7 +309,12 @@ SchedulerOption = Annotated[
 ]
 SolveTimeOption = Annotated[
     float | None,
-    typer.Option(help="Seconds per solve (default: the mission's).", min=0.001, metavar="SECONDS"),
+    typer.Option(
+        help="Seconds per solve, 0.001 to 1e6 (default: the mission's).",
+        min=0.001,
+        max=MAX_MAGNITUDE,
+        metavar="SECONDS",
+    ),
 ]
 ResumeOption = Annotated[
     bool, typer.Option("--resume", help="Skip runs already in OUT/runs.jsonl.")
@@ -346,8 +353,12 @@ def sweep(
 
     output = Output(as_json, quiet)
     where = where_runs(workers, scheduler)
-    if output.full:
-        output.err.print(f"sweep runs {where}")
+
+    def started(total: int) -> None:  # every check passed: the runs begin
+        if output.full:
+            output.err.print(f"sweep runs {where}")
+        bar.start(total)
+
     with (
         solver_output(discard=not output.full),
         SweepProgress(output.err, enabled=output.full) as bar,
@@ -361,7 +372,7 @@ def sweep(
             scheduler,
             resume,
             on_record=bar.advance,
-            on_start=bar.start,
+            on_start=started,
             overrides=api.Overrides(time_limit=time_limit, threads=threads),
         )
     folder = Path(out)

@@ -21,7 +21,6 @@ from stlplan.cli.planning import (
     exit_code,
     where_runs,
 )
-from stlplan.cli.replanning import DeadlineOption
 from stlplan.cli.shell import EXITS_COMMON, JsonOption, Output, QuietOption, handled, solver_output
 from stlplan.sweep.progress import SweepProgress
 from stlplan.words import counted
@@ -48,6 +47,15 @@ class Replanning(str, Enum):
     never = "never"
 
 
+DeadlineOption = Annotated[
+    str | None,
+    typer.Option(
+        help="Each replan answers within this many seconds of wall time: a new plan, else a "
+        "degraded plan, else the current plan shifted on from its step.",
+        metavar="SECONDS",
+        show_default=False,
+    ),
+]
 RunsOption = Annotated[int, typer.Option(help="Runs, at least 1.", metavar="N")]
 SeedOption = Annotated[
     int,
@@ -153,15 +161,19 @@ def simulate(
     simulated.check(problem)  # bad input before any line is printed
     check_runs(runs)
     where = where_runs(workers, scheduler)
-    if output.full:
-        output.err.print(f"simulation runs {where}")
+
+    def started(total: int) -> None:  # every check passed: the runs begin
+        if output.full:
+            output.err.print(f"simulation runs {where}")
+        bar.start(total)
+
     with (
         solver_output(discard=not output.full),
         SweepProgress(output.err, enabled=output.full, label="simulate") as bar,
     ):
         done = api.simulate(
             mission, simulated, runs, seed, out, workers, scheduler, resume, overrides,
-            on_record=bar.advance, on_start=bar.start,
+            on_record=bar.advance, on_start=started,
         )  # fmt: skip
     _finish(output, done, where)
 

@@ -48,7 +48,7 @@ def replanned(
         a.name: np.asarray(executed.states[a.name][: step + 1], float) for a in problem.agents
     }
     _check_states(problem, states)
-    past = Past(step, states, frozenset(lost), tuple(dict.fromkeys(closed)))
+    past = Past(step, states, frozenset(lost), tuple(closed))
     agents = tuple(replace(a, initial_state=states[a.name][0].copy()) for a in problem.agents)
     constraints = problem.constraints + tuple(_closures(problem, past))
     return replace(problem, agents=agents, constraints=constraints, past=past, _by_name={})
@@ -78,6 +78,9 @@ def _check_events(problem: Problem, step: int, lost: Sequence[str], closed: Sequ
         if region not in problem.regions:
             known = ", ".join(problem.regions)
             raise EventError(f"--closed {region}: no such region; regions: {known}")
+    twice = sorted({r for r in closed if list(closed).count(r) > 1})
+    if twice:
+        raise EventError(f"--closed {twice[0]}: the region is closed twice; name each region once")
 
 
 def _check_states(problem: Problem, states: Mapping[str, np.ndarray]) -> None:

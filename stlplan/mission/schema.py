@@ -28,6 +28,8 @@ MAGNITUDE_TEXT = "1e6"
 """``MAX_MAGNITUDE`` as messages write it."""
 MAX_SEED = 2**31 - 1
 """Largest random seed HiGHS takes."""
+MAX_THREADS = 256
+"""Most threads a run may ask for (HiGHS aborts the process when asked for 100,000)."""
 
 
 def _integral(value: Any) -> Any:
@@ -50,8 +52,13 @@ Positive = Annotated[float, Strict(), Field(gt=0, le=MAX_MAGNITUDE)]
 """A :data:`Number` > 0."""
 Fraction = Annotated[float, Strict(), Field(ge=0, lt=1)]
 """A number in [0, 1)."""
+Threads = Annotated[StrictInt, Field(ge=1, le=MAX_THREADS), BeforeValidator(_integral)]
+"""A number of threads: 1 to :data:`MAX_THREADS`."""
 Bounds = tuple[Number, Number]
 NonEmptyNames = Annotated[list[str], Field(min_length=1)]
+FORMULA_NAME = r"^[A-Za-z_][A-Za-z0-9_]*$"
+"""What a formula can name (a region): letters, digits and '_', not starting with a digit."""
+RegionName = Annotated[str, Field(pattern=FORMULA_NAME)]
 
 
 class _Strict(BaseModel):
@@ -201,7 +208,7 @@ class SolverOptions(_Strict):
     """Wall-clock limit of the whole run (building, solving, step 2, diagnosis), seconds."""
     gap: Fraction = 1e-4
     """Relative optimality gap at which HiGHS stops (0 <= gap < 1)."""
-    threads: Integer | None = Field(default=None, ge=1)
+    threads: Threads | None = None
     """Threads HiGHS may use (default: HiGHS decides)."""
     seed: Integer = Field(default=0, ge=0, le=MAX_SEED)
     """HiGHS random seed (0 .. 2147483647)."""
@@ -223,7 +230,7 @@ class Safety(_Strict):
 class Execution(_Strict):
     """How the plan will be executed: the disturbance it must withstand."""
 
-    disturbance: Number = Field(default=0.0, ge=0)
+    disturbance: NonNegative = 0.0
     """W: a bound on an additive disturbance of every state component at every step; plans keep
     margins that one step of it cannot break (0: plans as tight as the tasks allow)."""
 
@@ -248,13 +255,15 @@ class Mission(_Strict):
     """Named dynamics models agents refer to."""
     agents: list[Agent] = Field(min_length=1)
     """The team."""
-    regions: dict[str, Region] = {}
+    regions: dict[RegionName, Region] = Field(
+        default={}, json_schema_extra={"additionalProperties": False}
+    )
     """Named regions of the map."""
     tasks: dict[str, Task] = {}
     """Global tasks <phi, c, Pattern>, some synchronous."""
     constraints: dict[str, Constraint] = {}
     """Bottom-up STL constraints on named agents or every agent (e.g. obstacle avoidance)."""
-    separation: Number | None = Field(default=None, ge=0)
+    separation: NonNegative | None = None
     """Minimum pairwise distance between agents' positions (infinity norm), at every step."""
     objective: Objective = Objective()
     """What the plan optimizes."""

@@ -98,6 +98,8 @@ _PATTERNS = {
     schema.Agent.model_fields["name"].metadata[0].pattern: (
         "a name of letters, digits, '_' and '-', starting with a letter or '_'"
     ),
+    schema.FORMULA_NAME: "a name a formula can use: letters, digits and '_', starting with a "
+    "letter or '_'",
 }
 _UNIONS = {
     frozenset({"str", "list[str]", "PinnedRole"}): (
@@ -126,11 +128,17 @@ class _Issue:
         current = data
         loc = tuple(error["loc"])
         for i, key in enumerate(loc):
+            if key == "[key]" and self.kind != "string_type":  # a name of the wrong form
+                self.found = list(self.path)[-1]
+                continue
             if key == "[key]":  # a mapping key of the wrong type, such as a number
                 self.kind, self.found = "key_type", list(self.path)[-1]
                 self.path = (*self.path[:-1], describe_value(self.found))
                 continue
             missing = self.kind == "missing" and i == len(loc) - 1
+            if isinstance(key, str) and isinstance(current, dict) and key not in current:
+                # a key YAML read as null, a number or a boolean, named as text by pydantic
+                key = next((k for k in current if not isinstance(k, str) and str(k) == key), key)
             if (
                 isinstance(key, str)
                 and not missing
@@ -214,6 +222,10 @@ def _describe(issue: _Issue) -> tuple[FieldPath, str]:
         return path[:-1], f"missing required field '{path[-1]}'"
     if kind == "value_error":
         return path, str(ctx.get("error", issue.msg))
+    if kind == "key_type" and issue.found is None:
+        return path[
+            :-1
+        ], "a key YAML reads as null ('~', 'null' or nothing before ':'); expected a name"
     if kind == "key_type":
         return path, (
             f"the name {path[-1]} is read by YAML as a {_yaml_kind(issue.found)}; expected a "

@@ -20,7 +20,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from stlplan.errors import StlplanError
-from stlplan.mission.schema import Mission
+from stlplan.mission.schema import MAX_THREADS, Mission
 
 Encoding = Literal["log", "standard"]
 """How a disjunction is encoded: a logarithmic SOS1 (``log``) or one binary per entry."""
@@ -102,7 +102,7 @@ class SolverConfig(_Section):
     diagnosis of an infeasible mission share it (:class:`stlplan.planner.run.budget.Budget`)."""
     gap: float = Field(default=1e-4, ge=0)
     """Relative optimality gap at which step 1 stops."""
-    threads: int | None = Field(default=None, ge=1)
+    threads: int | None = Field(default=None, ge=1, le=MAX_THREADS)
     """Threads HiGHS may use (None: HiGHS decides)."""
     seed: int = Field(default=0, ge=0)
     """HiGHS's random seed."""

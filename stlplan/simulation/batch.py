@@ -93,19 +93,23 @@ def simulate(
         ``workers`` with ``scheduler``; runs on record in ``out`` without ``resume``, or another
         simulation there with it.
     """
-    from stlplan.sweep.identity import claim
-    from stlplan.sweep.runner import execute, pending, workers_and_settings
+    from stlplan.sweep.identity import check_claim, claim
+    from stlplan.sweep.runner import check_scheduler, execute, pending, workers_and_settings
 
     problem = load_problem(mission)
     simulated.check(problem)
     check_runs(runs)
     workers, overrides = workers_and_settings(workers, scheduler, runs, overrides or Overrides())
     overrides = _robust(problem, overrides)
+    check_scheduler(scheduler)
     folder = Path(out)
     created = not folder.exists()
     prepare_directory(folder)
     specs = _specs(Path(mission), runs, seed, overrides, simulated)
     todo = pending(specs, folder, resume, what="simulation")
+    check_claim(folder, specs, resume, what="simulation")
+    if on_start is not None:  # every check passed; the first plan comes next
+        on_start(len(todo))
     first = _first(problem, overrides) if todo else None
     if first is not None and first.trajectory is None:  # nothing to execute: nothing written
         if created:
@@ -114,8 +118,6 @@ def simulate(
         return Simulation((), first, folder)
     claim(folder, specs, resume, what="simulation")
     todo = [dataclasses.replace(s, first=first) for s in todo]
-    if on_start is not None:
-        on_start(len(todo))
     execute(todo, folder, workers, scheduler, on_record, work=simulate_one)
     records = _mine(folder, specs)
     _write(folder, problem, records, simulated, first if any(s.run == 0 for s in todo) else None)

@@ -41,18 +41,23 @@ def _plain(value: Any) -> Any:
 def claim(out: Path, specs: Sequence[Any], resume: bool, what: str = "sweep") -> None:
     """Record the identity of the ``what`` (sweep, simulation) in ``out/WHAT.json``; with
     ``resume``, first refuse a different one."""
-    wanted = identity(specs)
+    check_claim(out, specs, resume, what)
+    text = json.dumps(identity(specs), indent=2, sort_keys=True) + "\n"
+    (out / f"{what}.json").write_text(text, encoding="utf-8")
+
+
+def check_claim(out: Path, specs: Sequence[Any], resume: bool, what: str = "sweep") -> None:
+    """With ``resume``, refuse a ``what`` that differs from the one recorded in ``out``."""
     path = out / f"{what}.json"
     if resume and path.exists():
         recorded = json.loads(path.read_text(encoding="utf-8"))
-        changes = differences(recorded, wanted)
+        changes = differences(recorded, identity(specs))
         if changes:
             raise UsageError(
                 f"--resume continues the {what} recorded in {out}, and this one differs: "
                 + "; ".join(changes)
                 + ". Run it with the recorded settings, or choose another --out"
             )
-    path.write_text(json.dumps(wanted, indent=2, sort_keys=True) + "\n", encoding="utf-8")
 
 
 def differences(recorded: dict[str, Any], wanted: dict[str, Any]) -> list[str]:

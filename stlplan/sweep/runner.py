@@ -214,22 +214,36 @@ def _local(
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _dask(
-    specs: Sequence[Spec], scheduler: str, work: Work
-) -> Generator[dict[str, Any], None, None]:
+def connect(scheduler: str) -> Any:
+    """A Dask client of ``scheduler``; :class:`UsageError` when Dask is missing or the address
+    is malformed or cannot be reached."""
     try:
         from distributed import Client
-        from distributed import as_completed as dask_completed
     except ImportError:
         raise UsageError(
             "--scheduler runs the sweep on a Dask cluster, and Dask is not installed: "
             "pip install 'stlplan[dask]'"
         ) from None
-
     try:
-        client = Client(scheduler, timeout="20s")
+        return Client(scheduler, timeout="20s")
+    except ValueError as exc:  # an address Dask cannot parse
+        raise UsageError(f"--scheduler {scheduler}: {exc}; expected tcp://HOST:PORT") from None
     except OSError as exc:
         raise UsageError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+
+
+def check_scheduler(scheduler: str | None) -> None:
+    """Connect to ``scheduler`` once, before anything is written (see :func:`connect`)."""
+    if scheduler:
+        connect(scheduler).close()
+
+
+def _dask(
+    specs: Sequence[Spec], scheduler: str, work: Work
+) -> Generator[dict[str, Any], None, None]:
+    client = connect(scheduler)  # Dask is there: it says how to install it when it is not
+    from distributed import as_completed as dask_completed
+
     with client:
         futures = client.map(work, list(specs), pure=False)
         for future in dask_completed(futures):
