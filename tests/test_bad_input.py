@@ -36,8 +36,8 @@ Each mistake gets a non-zero exit code of its category (2 usage, including click
  30  trajectory_open_quote        3     file, line, shortened cell, the open quote hint
  31  out_under_a_file             2     path, cannot create the output directory
  32  out_is_a_file                2     path, cannot create the output directory
- 33  time_limit_zero              2     --time-limit, >= 0.001
- 34  gap_negative                 2     --gap, >= 0
+ 33  time_limit_zero              2     --time-limit, seconds from 0.001 to 1e6
+ 34  gap_negative                 2     --gap, 0 <= G < 1
  35  threads_zero                 2     --threads, >= 1
  36  encoding_unknown             2     --encoding, 'log' or 'standard'
  37  unknown_command              2     "No such command"
@@ -368,12 +368,12 @@ CASES: dict[str, tuple[Case, int, tuple[str, ...]]] = {
     "time_limit_zero": (
         lambda t: ["solve", str(PAIR), "--out", str(t / "o"), "--time-limit", "0"],
         2,
-        ("--time-limit", "greater than or equal to 0.001"),
+        ("--time-limit", "expected seconds from 0.001 to 1e6, found 0"),
     ),
     "gap_negative": (
         lambda t: ["solve", str(PAIR), "--out", str(t / "o"), "--gap", "-1"],
         2,
-        ("--gap", "greater than or equal to 0"),
+        ("--gap", "expected a relative gap 0 <= G < 1, found -1"),
     ),
     "threads_zero": (
         lambda t: ["solve", str(PAIR), "--out", str(t / "o"), "--threads", "0"],

@@ -121,6 +121,7 @@ def test_syntax_error_has_line_column_and_caret(text: str, line: int, column: in
         ("in(x, A)", "reserved"),
         # other tools' spellings are refused with stlplan's
         ("next in(p, A)", "F[1,1] phi"),
+        ("X[0,12] in(p, A)", "if X means 'next'"),
         ("historically[0:2] in(p, A)", "past-time"),
         ("p.x[0] > 1", "'<=' or '>='"),
         ("in(p, A) xor in(p, B)", "(a & !b) | (!a & b)"),

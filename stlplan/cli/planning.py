@@ -78,8 +78,15 @@ def _directory(value: str) -> str:
 
 def _gap(value: float | None) -> float | None:
     """A relative gap of 1 or more would call any plan optimal."""
-    if value is not None and value >= 1:
+    if value is not None and not 0 <= value < 1:  # NaN fails it too
         raise typer.BadParameter(f"expected a relative gap 0 <= G < 1, found {value:g}")
+    return value
+
+
+def _seconds(value: float | None) -> float | None:
+    """A time limit: a finite number of seconds from 0.001 to 1e6."""
+    if value is not None and not 0.001 <= value <= MAX_MAGNITUDE:  # NaN fails it too
+        raise typer.BadParameter(f"expected seconds from 0.001 to 1e6, found {value:g}")
     return value
 
 
@@ -101,8 +108,7 @@ TimeLimitOption = Annotated[
     float | None,
     typer.Option(
         help="Seconds for the whole run, 0.001 to 1e6 (default: the mission's).",
-        min=0.001,
-        max=MAX_MAGNITUDE,
+        callback=_seconds,
         metavar="SECONDS",
     ),
 ]
@@ -110,7 +116,6 @@ GapOption = Annotated[
     float | None,
     typer.Option(
         help="Relative optimality gap, 0 <= GAP < 1 (default: the mission's).",
-        min=0.0,
         metavar="GAP",
         callback=_gap,
     ),
@@ -311,8 +316,7 @@ SolveTimeOption = Annotated[
     float | None,
     typer.Option(
         help="Seconds per solve, 0.001 to 1e6 (default: the mission's).",
-        min=0.001,
-        max=MAX_MAGNITUDE,
+        callback=_seconds,
         metavar="SECONDS",
     ),
 ]

@@ -213,6 +213,7 @@ def _syntax_message(text: str, exc: UnexpectedInput) -> str:
 _PAST = "stlplan has no past-time operators; state the requirement forward with G, F, U or U*"
 _SPELLINGS = {
     "next": "stlplan has no 'next': write F[1,1] phi",
+    "X": "if X means 'next': stlplan has none; write F[1,1] phi",
     "prev": _PAST,
     "previously": _PAST,
     "historically": _PAST,
