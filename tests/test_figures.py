@@ -69,6 +69,10 @@ def test_a_failed_continuous_solve_says_why_and_what_it_costs(
     assert result.status.has_plan and result.report is not None
     assert result.fallback is not None
     assert "maxTimeLimit" in result.fallback.reason and "maxTimeLimit" in result.message
+    assert (
+        "failed (the continuous solve ended maxTimeLimit): the plan written is the step-1 plan"
+        in (result.message)
+    )
     solver = result.solver
     assert solver is not None and solver.margin is not None and solver.objective is not None
     assert result.margin == result.report.spatial_robustness

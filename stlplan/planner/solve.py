@@ -254,7 +254,7 @@ def _finished(
     """The message with how the continuous stage ended, and its fallback when it failed."""
     if ended.failed is not None:
         step = "step 2" if config.continuous.two_step else "polish"
-        message += f"; the continuous re-solve failed ({ended.failed}), {ended.kept} is kept"
+        message += f"; {step} failed ({ended.failed}): the plan written is {ended.kept}"
         return message, Fallback(step, ended.failed, ended.kept)
     if config.continuous.two_step:
         message += f"; step 2 minimized the {problem.mission.objective.effort} effort"

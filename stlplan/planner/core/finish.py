@@ -283,4 +283,6 @@ def _landed(
         return Finish(
             note=f"HiGHS's solve ended {ended}; its point landed {moved:.1g} away by an LP"
         )
-    return Finish(failed, kept=f"its point moved {moved:.3g} onto the enforced predicates (an LP)")
+    return Finish(
+        failed, kept=f"step 1's plan moved {moved:.3g} onto the enforced predicates (an LP)"
+    )
