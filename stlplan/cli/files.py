@@ -13,6 +13,7 @@ from rich.markup import escape
 from stlplan import api
 from stlplan.cli.shell import EXIT_VIOLATED, EXITS_COMMON, JsonOption, Output, QuietOption, handled
 from stlplan.errors import UsageError
+from stlplan.formula.boundary import HOLDS_AT
 from stlplan.mission.groups import count_groups
 from stlplan.mission.problem import Problem, TaskModel
 from stlplan.words import counted
@@ -129,8 +130,8 @@ ToleranceOption = Annotated[
     float,
     typer.Option(
         help="How far each number of the trajectory may be off: T max(1, |v|) in the dynamics "
-        "and bounds, and a requirement holds at robustness >= 5e-7 - T (1e-3 accepts a CSV rounded to "
-        "3 decimals).",
+        f"and bounds, and a requirement holds at robustness >= {HOLDS_AT:g} - T (1e-3 accepts a "
+        "CSV rounded to 3 decimals).",
         min=0.0,
         metavar="T",
     ),

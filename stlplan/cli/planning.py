@@ -26,7 +26,7 @@ from stlplan.cli.shell import (
     handled,
     solver_output,
 )
-from stlplan.mission.schema import MAX_MAGNITUDE, MAX_SEED, MAX_THREADS
+from stlplan.mission.schema import MAGNITUDE_TEXT, MAX_MAGNITUDE, MAX_SEED, MAX_THREADS
 from stlplan.result import PlanResult, PlanStatus
 from stlplan.runtime import signals
 from stlplan.words import counted
@@ -86,7 +86,9 @@ def _gap(value: float | None) -> float | None:
 def _seconds(value: float | None) -> float | None:
     """A time limit: a finite number of seconds from 0.001 to 1e6."""
     if value is not None and not 0.001 <= value <= MAX_MAGNITUDE:  # NaN fails it too
-        raise typer.BadParameter(f"expected seconds from 0.001 to 1e6, found {value:g}")
+        raise typer.BadParameter(
+            f"expected seconds from 0.001 to {MAGNITUDE_TEXT}, found {value:g}"
+        )
     return value
 
 

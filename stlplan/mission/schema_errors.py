@@ -223,9 +223,8 @@ def _describe(issue: _Issue) -> tuple[FieldPath, str]:
     if kind == "value_error":
         return path, str(ctx.get("error", issue.msg))
     if kind == "key_type" and issue.found is None:
-        return path[
-            :-1
-        ], "a key YAML reads as null ('~', 'null' or nothing before ':'); expected a name"
+        null = "a key YAML reads as null ('~', 'null' or nothing before ':'); expected a name"
+        return path[:-1], null
     if kind == "key_type":
         return path, (
             f"the name {path[-1]} is read by YAML as a {_yaml_kind(issue.found)}; expected a "
